@@ -1,0 +1,33 @@
+// Deep Zoom (DZI), the tile convention of OpenSeadragon and Seadragon: level 0 is 1×1 pixel and
+// each level doubles the previous one, rounding up; tiles are TileSize pixels plus Overlap pixels
+// shared with each neighbour. Our pyramid halves the same way, so DZI level L is stored level
+// levels-1-L and a tile is a plain rectangle of one stored level, never resampled.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "tiles/manifest.h"
+#include "tiles/raster.h"
+
+namespace zoomwarp::api {
+
+struct DziLayout {
+  int tile_size = 254;  // 254 + 2 × 1 overlap = 256-pixel interior tiles
+  int overlap = 1;
+};
+
+// The .dzi XML descriptor; `format` is the tile extension it advertises.
+std::string dzi_descriptor(const tiles::Manifest& m, const DziLayout& layout, std::string_view format);
+
+struct DziTile {
+  int store_level = 0;  // pyramid level to read
+  tiles::Rect rect;     // pixels of that level
+};
+
+// The pixels of tile (col, row) at DZI level `level`, or nullopt if there is no such tile.
+std::optional<DziTile> dzi_tile(const tiles::Manifest& m, const DziLayout& layout, int level,
+                                int col, int row);
+
+}  // namespace zoomwarp::api

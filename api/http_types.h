@@ -1,0 +1,38 @@
+// The api layer's view of HTTP: plain structs, no Beast. The server fills a Request from the wire
+// and writes a Response back, so routes can be tested and reused without sockets.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace zoomwarp::api {
+
+struct Request {
+  std::string method;         // "GET", "HEAD", "POST", ...
+  std::string path;           // raw (still percent-encoded) path, without the query
+  std::string query;          // raw query string, without '?'
+  std::string host;           // Host header: IIIF ids are absolute URLs
+  std::string forwarded_proto;  // X-Forwarded-Proto, when behind a proxy
+  std::string if_none_match;
+  std::string accept;
+  std::string body;           // small bodies (JSON)
+  std::string body_file;      // uploads: a file the server streamed the body into
+};
+
+struct Response {
+  int status = 200;
+  std::string content_type;
+  std::shared_ptr<const std::string> body;
+  std::vector<std::pair<std::string, std::string>> headers;  // besides Content-Type
+  std::string route;  // a stable label for metrics and logs, e.g. "dzi_tile"
+  std::string cache;  // "hit", "miss" or "" where no response cache is involved
+
+  void set_header(std::string name, std::string value) {
+    headers.emplace_back(std::move(name), std::move(value));
+  }
+};
+
+}  // namespace zoomwarp::api

@@ -1,0 +1,316 @@
+#include "api/router.h"
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "api/errors.h"
+#include "api/http_caching.h"
+#include "api/url.h"
+#include "tiles/image_id.h"
+#include "tiles/raster_ops.h"
+
+namespace zoomwarp::api {
+
+namespace {
+
+using nlohmann::json;
+
+Response json_response(int status, const json& body) {
+  Response r;
+  r.status = status;
+  r.content_type = "application/json";
+  r.body = std::make_shared<const std::string>(body.dump(2) + "\n");
+  return r;
+}
+
+Response body_response(std::string content_type, std::string body) {
+  Response r;
+  r.content_type = std::move(content_type);
+  r.body = std::make_shared<const std::string>(std::move(body));
+  return r;
+}
+
+std::shared_ptr<const tiles::ImageEntry> find_image(const tiles::Store& store, const std::string& id) {
+  if (!tiles::is_valid_image_id(id))
+    throw ApiError(400, "invalid_id",
+                   "image ids are 1-128 characters from A-Z a-z 0-9 . _ - and start with a letter or digit");
+  auto entry = store.find(id);
+  if (!entry) throw ApiError(404, "image_not_found", "no image with id '" + id + "'");
+  return entry;
+}
+
+json image_json(const tiles::Manifest& m) {
+  return {{"id", m.id},
+          {"width", m.width},
+          {"height", m.height},
+          {"levels", m.levels},
+          {"tile_size", m.tile_size},
+          {"version", m.version},
+          {"status", "ready"},
+          {"channels", m.channels},
+          {"created", http_date(m.created_ms)},
+          {"source", {{"format", m.source_format}, {"bits", m.source_bits}, {"bytes", m.source_bytes}}},
+          {"links",
+           {{"self", "/v1/images/" + m.id},
+            {"dzi", "/dzi/" + m.id + ".dzi"},
+            {"iiif", "/iiif/3/" + m.id + "/info.json"}}}};
+}
+
+// FNV-1a over a file: the default id of an upload is a digest of its bytes.
+std::string content_id(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::uint64_t h = 1469598103934665603ULL;
+  char buf[1 << 16];
+  while (in.read(buf, sizeof buf) || in.gcount() > 0) {
+    for (std::streamsize i = 0; i < in.gcount(); ++i) h = (h ^ static_cast<unsigned char>(buf[i])) * 1099511628211ULL;
+    if (!in) break;
+  }
+  static const char* d = "0123456789abcdef";
+  std::string s = "img-";
+  for (int i = 15; i >= 0; --i) s.push_back(d[(h >> (4 * i)) & 15]);
+  return s;
+}
+
+Response method_not_allowed(const std::string& allow) {
+  Response r = error_response(405, "method_not_allowed", "allowed methods: " + allow);
+  r.set_header("Allow", allow);
+  return r;
+}
+
+bool host_is_sane(std::string_view h) {
+  if (h.empty() || h.size() > 255) return false;
+  for (char c : h)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == ':' || c == '[' || c == ']'))
+      return false;
+  return true;
+}
+
+tiles::Raster apply_quality(tiles::Raster r, IiifQuality q) {
+  switch (q) {
+    case IiifQuality::kGray: return tiles::to_grey(r);
+    case IiifQuality::kBitonal: return tiles::to_bitonal(r);
+    default: return r;
+  }
+}
+
+}  // namespace
+
+Router::Router(tiles::Store& store, tiles::PyramidReader& reader, RouterConfig config)
+    : store_(store), reader_(reader), config_(std::move(config)), cache_(config_.response_cache_bytes) {}
+
+bool Router::is_upload(std::string_view method, std::string_view path) {
+  return method == "POST" && (path == "/v1/images" || path == "/v1/images/");
+}
+
+std::optional<Response> Router::try_answer_now(const Request& req) { return dispatch(req, false); }
+
+Response Router::handle(const Request& req) { return *dispatch(req, true); }
+
+std::string Router::base_url(const Request& req) const {
+  if (!config_.public_url.empty()) return config_.public_url;
+  const std::string scheme = req.forwarded_proto == "https" ? "https" : "http";
+  return scheme + "://" + (host_is_sane(req.host) ? req.host : std::string("localhost"));
+}
+
+template <class Compute>
+std::optional<Response> Router::image_response(const Request& req, const std::string& id,
+                                               const std::string& route, const std::string& key_extra,
+                                               bool may_compute, Compute compute) {
+  auto entry = find_image(store_, id);
+  const tiles::Manifest& m = entry->manifest;
+  const std::string key = req.path + "|" + key_extra;
+  const std::string etag = make_etag(m.version, key);
+  auto with_validators = [&](Response r) {
+    r.route = route;
+    r.set_header("ETag", etag);
+    r.set_header("Last-Modified", http_date(m.created_ms));
+    r.set_header("Cache-Control", "public, max-age=" + std::to_string(config_.cache_max_age));
+    return r;
+  };
+  if (!req.if_none_match.empty() && etag_matches(req.if_none_match, etag)) {
+    Response r;
+    r.status = 304;
+    return with_validators(std::move(r));
+  }
+  const std::string cache_key = m.version + "|" + key;
+  if (auto hit = cache_.get(cache_key)) {
+    Response r = *hit;
+    r.cache = "hit";
+    return r;
+  }
+  if (!may_compute) return std::nullopt;
+  Response r = with_validators(compute(*entry));
+  cache_.put(cache_key, std::make_shared<const Response>(r), r.body->size());
+  r.cache = "miss";
+  return r;
+}
+
+std::optional<Response> Router::dispatch(const Request& req, bool may_compute) {
+  try {
+    auto segments = split_path(req.path);
+    if (!segments) throw ApiError(400, "invalid_path", "the path is not well-formed");
+    const auto& s = *segments;
+    const std::string method = req.method == "HEAD" ? "GET" : req.method;
+    const bool get = method == "GET";
+
+    if (s.size() >= 2 && s[0] == "v1" && s[1] == "images") {
+      if (s.size() == 2 || (s.size() == 3 && s[2].empty())) {
+        if (get) return list_images();
+        if (method == "POST") return may_compute ? std::optional(upload_image(req)) : std::nullopt;
+        return method_not_allowed("GET, HEAD, POST");
+      }
+      if (s.size() == 3) {
+        if (get) return describe_image(s[2]);
+        if (method == "DELETE") return delete_image(s[2]);
+        return method_not_allowed("GET, HEAD, DELETE");
+      }
+    }
+
+    if (s.size() >= 2 && s[0] == "dzi") {
+      if (!get) return method_not_allowed("GET, HEAD");
+      if (s.size() == 2 && s[1].ends_with(".dzi")) {
+        const std::string id = s[1].substr(0, s[1].size() - 4);
+        return image_response(req, id, "dzi_descriptor", "", true, [&](const tiles::ImageEntry& e) {
+          return body_response("application/xml",
+                               dzi_descriptor(e.manifest, config_.dzi, e.manifest.has_alpha() ? "png" : "jpg"));
+        });
+      }
+      if (s.size() == 4 && s[1].ends_with("_files")) {
+        const std::string id = s[1].substr(0, s[1].size() - 6);
+        const std::size_t underscore = s[3].find('_'), dot = s[3].rfind('.');
+        auto level = parse_small_uint(s[2]);
+        auto col = underscore == std::string::npos ? std::nullopt : parse_small_uint(s[3].substr(0, underscore));
+        auto row = underscore == std::string::npos || dot == std::string::npos || dot < underscore
+                       ? std::nullopt
+                       : parse_small_uint(s[3].substr(underscore + 1, dot - underscore - 1));
+        if (!level || !col || !row)
+          throw ApiError(400, "invalid_tile", "tile paths are /dzi/{id}_files/{level}/{col}_{row}.{jpg|png|webp}");
+        auto format = tiles::format_from_extension(s[3].substr(dot + 1));
+        if (!format) throw ApiError(400, "invalid_format", "tile format must be jpg, png or webp");
+        auto entry = find_image(store_, id);
+        auto tile = dzi_tile(entry->manifest, config_.dzi, *level, *col, *row);
+        if (!tile)
+          throw ApiError(404, "tile_not_found",
+                         "no tile " + std::to_string(*col) + "_" + std::to_string(*row) + " at level " +
+                             std::to_string(*level) + " (levels 0-" + std::to_string(entry->manifest.levels - 1) + ")");
+        return image_response(req, id, "dzi_tile", "", may_compute, [&](const tiles::ImageEntry& e) {
+          tiles::Raster pixels = reader_.read_level(e, tile->store_level, tile->rect);
+          return body_response(std::string(tiles::mime_type(*format)),
+                               tiles::encode_image(pixels, *format, config_.encode));
+        });
+      }
+    }
+
+    if (s.size() >= 3 && s[0] == "iiif" && s[1] == "3") {
+      if (!get) return method_not_allowed("GET, HEAD");
+      const std::string& id = s[2];
+      if (s.size() == 3) {  // base URI: redirect to the image information (§2.1)
+        find_image(store_, id);
+        Response r;
+        r.status = 303;
+        r.route = "iiif_base";
+        r.set_header("Location", req.path + "/info.json");
+        return r;
+      }
+      if (s.size() == 4 && s[3] == "info.json") {
+        const std::string base = base_url(req);
+        const bool ld = req.accept.find("application/ld+json") != std::string::npos;
+        return image_response(req, id, "iiif_info", base + (ld ? "|ld" : ""), true, [&](const tiles::ImageEntry& e) {
+          Response r = body_response(
+              ld ? "application/ld+json;profile=\"http://iiif.io/api/image/3/context.json\"" : "application/json",
+              iiif_info_json(e.manifest, base + "/iiif/3/" + e.manifest.id, config_.iiif));
+          r.set_header("Link", "<http://iiif.io/api/image/3/level2.json>;rel=\"profile\"");
+          return r;
+        });
+      }
+      if (s.size() == 7) {
+        auto entry = find_image(store_, id);
+        const IiifPlan plan = plan_iiif_request(s[3], s[4], s[5], s[6], entry->manifest.width,
+                                                entry->manifest.height, config_.iiif);
+        return image_response(req, id, "iiif_image", "", may_compute, [&](const tiles::ImageEntry& e) {
+          tiles::Raster pixels = reader_.read_scaled(e, plan.region, plan.width, plan.height);
+          if (plan.mirror) pixels = tiles::mirror_horizontally(pixels);
+          pixels = tiles::rotate_clockwise(pixels, plan.rotation);
+          pixels = apply_quality(std::move(pixels), plan.quality);
+          std::string body;
+          try {
+            body = tiles::encode_image(pixels, plan.format, config_.encode);
+          } catch (const std::invalid_argument& err) {
+            throw ApiError(400, "invalid_iiif_request", err.what());
+          }
+          Response r = body_response(std::string(tiles::mime_type(plan.format)), std::move(body));
+          r.set_header("Link", "<http://iiif.io/api/image/3/level2.json>;rel=\"profile\"");
+          return r;
+        });
+      }
+      throw ApiError(400, "invalid_iiif_request",
+                     "IIIF image requests are /iiif/3/{id}/{region}/{size}/{rotation}/{quality}.{format}");
+    }
+    throw ApiError(404, "not_found", "no such route; see /openapi.json");
+  } catch (const ApiError& e) {
+    Response r = error_response(e.status(), e.code(), e.what());
+    r.route = "error";
+    return r;
+  }
+}
+
+Response Router::list_images() const {
+  json images = json::array();
+  for (const auto& entry : store_.list()) images.push_back(image_json(entry->manifest));
+  Response r = json_response(200, {{"images", images}});
+  r.route = "images_list";
+  r.set_header("Cache-Control", "no-cache");
+  return r;
+}
+
+Response Router::describe_image(const std::string& id) const {
+  auto entry = find_image(store_, id);
+  Response r = json_response(200, image_json(entry->manifest));
+  r.route = "image_get";
+  r.set_header("ETag", make_etag(entry->manifest.version, "image"));
+  r.set_header("Cache-Control", "no-cache");
+  return r;
+}
+
+Response Router::delete_image(const std::string& id) {
+  auto entry = find_image(store_, id);
+  if (!store_.remove(id)) throw ApiError(404, "image_not_found", "no image with id '" + id + "'");
+  reader_.forget(*entry);
+  Response r;
+  r.status = 204;
+  r.route = "image_delete";
+  return r;
+}
+
+Response Router::upload_image(const Request& req) {
+  auto query = parse_query(req.query);
+  if (!query) throw ApiError(400, "invalid_query", "the query string is not well-formed");
+  std::string id;
+  for (const auto& [k, v] : *query) {
+    if (k == "id") id = v;
+    else throw ApiError(400, "invalid_query", "unknown parameter '" + k + "' (only id is accepted)");
+  }
+  if (req.body_file.empty()) throw ApiError(400, "empty_body", "send the image file as the request body");
+  if (id.empty()) id = content_id(req.body_file);
+  if (!tiles::is_valid_image_id(id))
+    throw ApiError(400, "invalid_id",
+                   "image ids are 1-128 characters from A-Z a-z 0-9 . _ - and start with a letter or digit");
+  try {
+    tiles::Manifest m = tiles::ingest_image(store_, req.body_file, id, config_.ingest);
+    Response r = json_response(201, image_json(m));
+    r.route = "image_upload";
+    r.set_header("Location", "/v1/images/" + m.id);
+    return r;
+  } catch (const tiles::IngestError& e) {
+    using Kind = tiles::IngestError::Kind;
+    switch (e.kind()) {
+      case Kind::kUnsupportedFormat: throw ApiError(415, "unsupported_format", e.what());
+      case Kind::kTooLarge: throw ApiError(413, "image_too_large", e.what());
+      case Kind::kCorrupt: throw ApiError(422, "corrupt_image", e.what());
+      case Kind::kIo: throw ApiError(500, "store_error", e.what());
+    }
+    throw;
+  }
+}
+
+}  // namespace zoomwarp::api

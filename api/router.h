@@ -1,0 +1,76 @@
+// The REST surface of the product: image management (/v1/images), Deep Zoom (/dzi) and
+// IIIF Image API 3.0 (/iiif/3). Operations endpoints (/healthz, /readyz, /metrics) belong to the
+// server. Every answer is a pure function of the published image version and the request, which
+// is what makes the ETags strong and the encoded-response cache safe.
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "api/deepzoom.h"
+#include "api/http_types.h"
+#include "api/iiif.h"
+#include "tiles/byte_lru_cache.h"
+#include "tiles/encode.h"
+#include "tiles/ingest.h"
+#include "tiles/pyramid_reader.h"
+#include "tiles/store.h"
+
+namespace zoomwarp::api {
+
+struct RouterConfig {
+  std::size_t response_cache_bytes = 256u << 20;  // encoded-response cache
+  tiles::EncodeOptions encode;
+  IiifLimits iiif;
+  DziLayout dzi;
+  tiles::IngestOptions ingest;
+  std::string public_url;  // e.g. "https://tiles.example.org"; empty: from Host / X-Forwarded-Proto
+  int cache_max_age = 60;  // Cache-Control max-age of image responses, seconds
+};
+
+class Router {
+ public:
+  Router(tiles::Store& store, tiles::PyramidReader& reader, RouterConfig config);
+
+  // Answers at once what needs no decoding or encoding: cached responses, 304s, descriptors,
+  // metadata, errors. Returns nullopt when the answer must be computed; then call handle(),
+  // preferably on a worker thread.
+  std::optional<Response> try_answer_now(const Request& req);
+
+  // Answers any request; may decode, resample, encode or ingest.
+  Response handle(const Request& req);
+
+  // Whether the request's body is an image upload that the server streams into a file
+  // (Request::body_file) instead of memory.
+  static bool is_upload(std::string_view method, std::string_view path);
+
+  tiles::ByteLruCache<Response>::Stats response_cache_stats() const { return cache_.stats(); }
+  const RouterConfig& config() const { return config_; }
+
+ private:
+  std::optional<Response> dispatch(const Request& req, bool may_compute);
+
+  // /v1/images
+  Response list_images() const;
+  Response describe_image(const std::string& id) const;
+  Response delete_image(const std::string& id);
+  Response upload_image(const Request& req);
+
+  // Image responses go through one path: resolve the id, check If-None-Match, look in the cache,
+  // and only then (if allowed) compute.
+  template <class Compute>
+  std::optional<Response> image_response(const Request& req, const std::string& id,
+                                         const std::string& route, const std::string& key_extra,
+                                         bool may_compute, Compute compute);
+
+  std::string base_url(const Request& req) const;
+
+  tiles::Store& store_;
+  tiles::PyramidReader& reader_;
+  RouterConfig config_;
+  tiles::ByteLruCache<Response> cache_;
+};
+
+}  // namespace zoomwarp::api

@@ -1,0 +1,13 @@
+// The subcommands of the zoomwarp executable. Each takes the arguments after its name and returns
+// the process exit code.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace zoomwarp::server {
+
+int serve_command(const std::vector<std::string>& args);
+int ingest_command(const std::vector<std::string>& args);
+
+}  // namespace zoomwarp::server

@@ -1,0 +1,125 @@
+#include "server/http_server.h"
+
+#include <boost/asio/executor_work_guard.hpp>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/asio/signal_set.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "server/listener.h"
+#include "server/log.h"
+#include "server/session.h"
+
+namespace zoomwarp::server {
+
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+using namespace std::chrono_literals;
+
+struct HttpServer::Impl {
+  Impl(HttpServerOptions options, tiles::Store& store, api::Router& router, WorkerPool& cpu,
+       WorkerPool& ingest, Metrics& metrics)
+      : state(std::move(options), store, router, cpu, ingest, metrics),
+        ioc(std::max(1, state.options.io_threads)),
+        signals(ioc, SIGINT, SIGTERM),
+        drain_timer(ioc),
+        gc_timer(ioc) {}
+
+  tcp::endpoint endpoint() {
+    boost::system::error_code ec;
+    auto address = net::ip::make_address(state.options.host, ec);
+    if (!ec) return {address, static_cast<unsigned short>(state.options.port)};
+    tcp::resolver resolver(ioc);
+    auto results = resolver.resolve(state.options.host, std::to_string(state.options.port), ec);
+    if (ec || results.empty()) throw std::runtime_error("cannot resolve host '" + state.options.host + "'");
+    return *results.begin();
+  }
+
+  void schedule_gc() {
+    gc_timer.expires_after(state.options.gc_interval);
+    gc_timer.async_wait([this](boost::system::error_code ec) {
+      if (ec || state.draining) return;
+      state.cpu.try_submit([this] {
+        int removed = state.store.collect_garbage(state.options.gc_grace);
+        if (removed > 0) log_event("info", "store garbage collected", {{"removed", removed}});
+      });
+      schedule_gc();
+    });
+  }
+
+  // SIGTERM: readiness fails at once; after drain_delay no new connections are taken, idle
+  // keep-alive connections close, and the process exits once in-flight requests are answered.
+  void begin_drain(int signal) {
+    if (state.draining.exchange(true)) return;
+    log_event("info", "draining", {{"signal", signal}, {"delay_s", state.options.drain_delay.count()}});
+    gc_timer.cancel();
+    drain_timer.expires_after(state.options.drain_delay);
+    drain_timer.async_wait([this](boost::system::error_code) {
+      listener->stop();
+      close_idle_sessions();
+      drain_deadline = std::chrono::steady_clock::now() + state.options.drain_timeout;
+      wait_for_sessions();
+    });
+  }
+
+  void close_idle_sessions() {
+    std::lock_guard lock(state.sessions_mu);
+    for (auto& [ptr, weak] : state.sessions)
+      if (auto s = weak.lock()) net::post(s->get_executor(), [s] { s->close_if_idle(); });
+  }
+
+  void wait_for_sessions() {
+    std::size_t open;
+    {
+      std::lock_guard lock(state.sessions_mu);
+      open = state.sessions.size();
+    }
+    if (open == 0 || std::chrono::steady_clock::now() > drain_deadline) {
+      log_event("info", "stopped", {{"open_connections", open}});
+      work.reset();
+      ioc.stop();
+      return;
+    }
+    close_idle_sessions();  // connections that finished a request since
+    drain_timer.expires_after(50ms);
+    drain_timer.async_wait([this](boost::system::error_code) { wait_for_sessions(); });
+  }
+
+  ServerState state;
+  net::io_context ioc;
+  net::signal_set signals;
+  net::steady_timer drain_timer, gc_timer;
+  std::chrono::steady_clock::time_point drain_deadline;
+  std::shared_ptr<Listener> listener;
+  std::optional<net::executor_work_guard<net::io_context::executor_type>> work;
+};
+
+HttpServer::HttpServer(HttpServerOptions options, tiles::Store& store, api::Router& router, WorkerPool& cpu,
+                       WorkerPool& ingest, Metrics& metrics)
+    : impl_(std::make_unique<Impl>(std::move(options), store, router, cpu, ingest, metrics)) {}
+
+HttpServer::~HttpServer() = default;
+
+int HttpServer::run() {
+  Impl& m = *impl_;
+  m.listener = std::make_shared<Listener>(m.ioc, m.endpoint(), m.state);
+  m.listener->run();
+  m.work.emplace(m.ioc.get_executor());
+  m.signals.async_wait([&m](boost::system::error_code ec, int signal) {
+    if (!ec) m.begin_drain(signal);
+  });
+  m.schedule_gc();
+  log_event("info", "listening",
+            {{"host", m.state.options.host}, {"port", m.listener->port()}, {"io_threads", m.state.options.io_threads},
+             {"store", m.state.store.root()}});
+  std::vector<std::thread> threads;
+  for (int i = 1; i < m.state.options.io_threads; ++i) threads.emplace_back([&m] { m.ioc.run(); });
+  m.ioc.run();
+  for (auto& t : threads) t.join();
+  return 0;
+}
+
+}  // namespace zoomwarp::server

@@ -1,0 +1,49 @@
+// The HTTP/1.1 server (Boost.Beast, keep-alive): a listener accepts connections, one session per
+// connection reads requests and writes responses on the I/O threads; anything that needs CPU
+// (rendering, encoding, ingest) goes to a bounded worker pool and comes back to the session.
+// SIGTERM/SIGINT drains: readiness fails, then no new connections, idle connections close,
+// in-flight requests finish, and run() returns 0.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "api/router.h"
+#include "server/metrics.h"
+#include "server/worker_pool.h"
+#include "tiles/store.h"
+
+namespace zoomwarp::server {
+
+struct HttpServerOptions {
+  std::string host = "127.0.0.1";
+  int port = 8080;  // 0 picks a free port (logged in the "listening" line)
+  int io_threads = 2;
+  std::uint64_t max_upload_bytes = 512ull << 20;
+  std::uint64_t max_body_bytes = 1ull << 20;  // non-upload bodies (JSON)
+  std::chrono::seconds idle_timeout{30};      // keep-alive connections and slow clients
+  std::chrono::seconds drain_delay{0};        // after SIGTERM: not ready, still serving
+  std::chrono::seconds drain_timeout{30};     // then at most this long for in-flight requests
+  std::chrono::seconds gc_interval{60};       // store garbage collection
+  std::chrono::seconds gc_grace{600};         // age of unreferenced versions before removal
+  bool log_requests = true;
+};
+
+class HttpServer {
+ public:
+  HttpServer(HttpServerOptions options, tiles::Store& store, api::Router& router, WorkerPool& cpu,
+             WorkerPool& ingest, Metrics& metrics);
+  ~HttpServer();
+
+  // Serves until a termination signal has been drained. Returns the process exit code.
+  // Throws std::runtime_error if it cannot listen.
+  int run();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace zoomwarp::server

@@ -1,0 +1,83 @@
+// `zoomwarp ingest FILE`: builds an image's pyramid into the store, with a progress bar on a
+// terminal. Exit codes: 0 done, 2 usage, 3 unsupported format, 4 over the limits, 5 corrupt
+// image, 1 anything else.
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+
+#include "server/commands.h"
+#include "server/settings.h"
+#include "tiles/image_id.h"
+#include "tiles/ingest.h"
+
+namespace zoomwarp::server {
+
+namespace {
+
+void draw_progress(const std::string& id, double fraction) {
+  constexpr int kWidth = 30;
+  const int filled = int(fraction * kWidth + 0.5);
+  std::fprintf(stderr, "\r%s [%s%s] %3d%%", id.c_str(), std::string(filled, '#').c_str(),
+               std::string(kWidth - filled, ' ').c_str(), int(fraction * 100 + 0.5));
+  std::fflush(stderr);
+}
+
+}  // namespace
+
+int ingest_command(const std::vector<std::string>& args) {
+  std::vector<OptionSpec> specs = {
+      {"id", "", "image id (default: from the file name)"},
+      {"quiet", "0", "print only the id, no progress", true},
+  };
+  for (auto& s : store_option_specs()) specs.push_back(s);
+  try {
+    Options o(specs, args);
+    if (o.help_requested()) {
+      std::printf("usage: zoomwarp ingest FILE [OPTIONS]\n\n"
+                  "Decodes FILE (JPEG, PNG, TIFF or WebP; 8 or 16 bit; grey, RGB or RGBA; EXIF\n"
+                  "orientation applied) and publishes its tile pyramid in the store. Re-ingesting an\n"
+                  "id replaces the image atomically, also while a server is serving it.\n\n%s",
+                  o.usage().c_str());
+      return 0;
+    }
+    if (o.positionals().size() != 1) throw std::invalid_argument("give exactly one image file (see --help)");
+    const std::string file = o.positionals()[0];
+    if (!std::filesystem::is_regular_file(file)) throw std::invalid_argument("no such file: " + file);
+    std::string id = o.str("id");
+    if (id.empty()) id = tiles::image_id_from_filename(file);
+    if (!tiles::is_valid_image_id(id))
+      throw std::invalid_argument("invalid image id '" + id +
+                                  "': use 1-128 characters from A-Z a-z 0-9 . _ - starting with a letter or digit");
+    const bool quiet = o.flag("quiet");
+    const bool bar = !quiet && ::isatty(STDERR_FILENO);
+
+    tiles::Store store(o.str("store"));
+    tiles::ProgressFn progress;
+    if (bar) progress = [&](double f) { draw_progress(id, f); };
+    tiles::Manifest m = tiles::ingest_image(store, file, id, ingest_options(o), progress);
+    if (bar) std::fputc('\n', stderr);
+    if (quiet) std::printf("%s\n", m.id.c_str());
+    else
+      std::printf("ingested %s: %dx%d, %d levels, version %s, in %s\n", m.id.c_str(), m.width, m.height,
+                  m.levels, m.version.c_str(), store.root().c_str());
+    return 0;
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "zoomwarp ingest: %s\n", e.what());
+    return 2;
+  } catch (const tiles::IngestError& e) {
+    std::fprintf(stderr, "\nzoomwarp ingest: %s\n", e.what());
+    switch (e.kind()) {
+      case tiles::IngestError::Kind::kUnsupportedFormat: return 3;
+      case tiles::IngestError::Kind::kTooLarge: return 4;
+      case tiles::IngestError::Kind::kCorrupt: return 5;
+      case tiles::IngestError::Kind::kIo: return 1;
+    }
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "zoomwarp ingest: %s\n", e.what());
+    return 1;
+  }
+}
+
+}  // namespace zoomwarp::server

@@ -1,0 +1,36 @@
+// zoomwarp: an image server for Interactive Content-Aware Zooming.
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "server/commands.h"
+
+namespace {
+constexpr const char* kUsage =
+    "usage: zoomwarp COMMAND [OPTIONS]\n"
+    "\n"
+    "commands:\n"
+    "  serve     run the HTTP server (tiles, IIIF, Deep Zoom, REST API)\n"
+    "  ingest    add an image file to the store as a tile pyramid\n"
+    "\n"
+    "'zoomwarp COMMAND --help' lists a command's options; each option --some-name can also be\n"
+    "set with the environment variable ZOOMWARP_SOME_NAME.\n";
+}
+
+int main(int argc, char** argv) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  if (args.empty() || args[0] == "-h" || args[0] == "--help" || args[0] == "help") {
+    std::fputs(kUsage, args.empty() ? stderr : stdout);
+    return args.empty() ? 2 : 0;
+  }
+  if (args[0] == "--version") {
+    std::puts("zoomwarp " ZOOMWARP_VERSION);
+    return 0;
+  }
+  const std::string command = args[0];
+  args.erase(args.begin());
+  if (command == "serve") return zoomwarp::server::serve_command(args);
+  if (command == "ingest") return zoomwarp::server::ingest_command(args);
+  std::fprintf(stderr, "zoomwarp: unknown command '%s'\n\n%s", command.c_str(), kUsage);
+  return 2;
+}

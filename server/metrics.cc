@@ -1,0 +1,60 @@
+#include "server/metrics.h"
+
+#include <sstream>
+
+namespace zoomwarp::server {
+
+void Metrics::observe_request(const std::string& route, int status, double seconds) {
+  std::lock_guard lock(mu_);
+  ++requests_[{route, status}];
+  Histogram& h = latency_[route];
+  for (std::size_t i = 0; i < kBuckets.size(); ++i)
+    if (seconds <= kBuckets[i]) ++h.buckets[i];
+  ++h.count;
+  h.sum += seconds;
+}
+
+void Metrics::add_sampler(Sampler s) {
+  std::lock_guard lock(mu_);
+  samplers_.push_back(std::move(s));
+}
+
+std::string Metrics::render() const {
+  std::ostringstream out;
+  std::vector<Sampler> samplers;
+  {
+    std::lock_guard lock(mu_);
+    out << "# HELP zoomwarp_http_requests_total HTTP requests answered, by route and status.\n"
+           "# TYPE zoomwarp_http_requests_total counter\n";
+    for (const auto& [key, n] : requests_)
+      out << "zoomwarp_http_requests_total{route=\"" << key.first << "\",status=\"" << key.second
+          << "\"} " << n << "\n";
+    out << "# HELP zoomwarp_http_request_duration_seconds Time from a complete request to its response.\n"
+           "# TYPE zoomwarp_http_request_duration_seconds histogram\n";
+    for (const auto& [route, h] : latency_) {
+      for (std::size_t i = 0; i < kBuckets.size(); ++i)
+        out << "zoomwarp_http_request_duration_seconds_bucket{route=\"" << route << "\",le=\""
+            << kBuckets[i] << "\"} " << h.buckets[i] << "\n";
+      out << "zoomwarp_http_request_duration_seconds_bucket{route=\"" << route << "\",le=\"+Inf\"} "
+          << h.count << "\n"
+          << "zoomwarp_http_request_duration_seconds_sum{route=\"" << route << "\"} " << h.sum << "\n"
+          << "zoomwarp_http_request_duration_seconds_count{route=\"" << route << "\"} " << h.count << "\n";
+    }
+    samplers = samplers_;
+  }
+  std::string last_name;
+  for (const auto& sampler : samplers) {
+    for (const Sample& s : sampler()) {
+      if (s.name != last_name) {
+        out << "# HELP " << s.name << " " << s.help << "\n# TYPE " << s.name << " " << s.type << "\n";
+        last_name = s.name;
+      }
+      out << s.name;
+      if (!s.labels.empty()) out << "{" << s.labels << "}";
+      out << " " << std::fixed << s.value << std::defaultfloat << "\n";
+    }
+  }
+  return out.str();
+}
+
+}  // namespace zoomwarp::server

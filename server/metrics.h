@@ -1,0 +1,44 @@
+// Prometheus metrics (text exposition format 0.0.4): request counts by route and status, latency
+// histograms by route, plus gauges the caller samples at scrape time (caches, queue, store).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <string>
+#include <utility>
+
+namespace zoomwarp::server {
+
+class Metrics {
+ public:
+  void observe_request(const std::string& route, int status, double seconds);
+
+  // A gauge or counter sampled at each scrape: name, help, type ("gauge"/"counter"), labels
+  // (e.g. R"(cache="response")" or ""), value.
+  struct Sample {
+    std::string name, help, type, labels;
+    double value;
+  };
+  using Sampler = std::function<std::vector<Sample>()>;
+  void add_sampler(Sampler s);
+
+  std::string render() const;
+
+ private:
+  static constexpr std::array<double, 14> kBuckets = {0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05,
+                                                      0.1,    0.25,  0.5,    1,     2.5,  5,    10};
+  struct Histogram {
+    std::array<std::uint64_t, kBuckets.size()> buckets{};
+    std::uint64_t count = 0;
+    double sum = 0;
+  };
+  mutable std::mutex mu_;
+  std::map<std::pair<std::string, int>, std::uint64_t> requests_;
+  std::map<std::string, Histogram> latency_;
+  std::vector<Sampler> samplers_;
+};
+
+}  // namespace zoomwarp::server

@@ -1,0 +1,38 @@
+#include "server/ops.h"
+
+#include "api/errors.h"
+
+namespace zoomwarp::server {
+
+namespace {
+api::Response text(int status, std::string content_type, std::string body, std::string route) {
+  api::Response r;
+  r.status = status;
+  r.content_type = std::move(content_type);
+  r.body = std::make_shared<const std::string>(std::move(body));
+  r.route = std::move(route);
+  r.set_header("Cache-Control", "no-store");
+  return r;
+}
+}  // namespace
+
+std::optional<api::Response> answer_ops(const api::Request& req, const OpsContext& ctx) {
+  if (req.path != "/healthz" && req.path != "/readyz" && req.path != "/metrics") return std::nullopt;
+  if (req.method != "GET" && req.method != "HEAD") {
+    api::Response r = api::error_response(405, "method_not_allowed", "allowed methods: GET, HEAD");
+    r.set_header("Allow", "GET, HEAD");
+    r.route = "ops";
+    return r;
+  }
+  if (req.path == "/healthz") return text(200, "application/json", "{\"status\":\"ok\"}\n", "healthz");
+  if (req.path == "/readyz") {
+    if (ctx.draining.load())
+      return text(503, "application/json", "{\"status\":\"draining\"}\n", "readyz");
+    if (!ctx.store.readable())
+      return text(503, "application/json", "{\"status\":\"store not readable\"}\n", "readyz");
+    return text(200, "application/json", "{\"status\":\"ready\"}\n", "readyz");
+  }
+  return text(200, "text/plain; version=0.0.4; charset=utf-8", ctx.metrics.render(), "metrics");
+}
+
+}  // namespace zoomwarp::server

@@ -1,0 +1,23 @@
+// Operations endpoints: /healthz (the process answers), /readyz (the store can be read and we
+// are not draining), /metrics (Prometheus). Answered on the I/O thread; they never queue.
+#pragma once
+
+#include <atomic>
+#include <optional>
+
+#include "api/http_types.h"
+#include "server/metrics.h"
+#include "tiles/store.h"
+
+namespace zoomwarp::server {
+
+struct OpsContext {
+  const tiles::Store& store;
+  const Metrics& metrics;
+  const std::atomic<bool>& draining;
+};
+
+// The answer if `req` is an operations endpoint, else nullopt.
+std::optional<api::Response> answer_ops(const api::Request& req, const OpsContext& ctx);
+
+}  // namespace zoomwarp::server

@@ -1,0 +1,129 @@
+// `zoomwarp serve`: wires the store, the pyramid reader, the router and the HTTP server together.
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "api/router.h"
+#include "server/commands.h"
+#include "server/http_server.h"
+#include "server/log.h"
+#include "server/metrics.h"
+#include "server/settings.h"
+#include "server/worker_pool.h"
+#include "tiles/pyramid_reader.h"
+#include "tiles/store.h"
+
+namespace zoomwarp::server {
+
+namespace {
+
+std::vector<OptionSpec> serve_specs() {
+  const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
+  std::vector<OptionSpec> specs = {
+      {"host", "127.0.0.1", "address to listen on (0.0.0.0 for all interfaces)"},
+      {"port", "8080", "TCP port; 0 picks a free one (see the 'listening' log line)"},
+      {"io-threads", std::to_string(cores), "threads doing network I/O and answering cached requests"},
+      {"workers", std::to_string(cores), "threads decoding, resampling and encoding"},
+      {"queue", "256", "requests that may wait for a worker before new ones get 503"},
+      {"ingest-workers", "1", "uploads ingested at the same time"},
+      {"ingest-queue", "4", "uploads that may wait to be ingested before new ones get 503"},
+      {"tile-cache", "256M", "decoded-tile cache size (bytes, K/M/G)"},
+      {"response-cache", "256M", "encoded-response cache size (bytes, K/M/G)"},
+      {"max-upload", "512M", "largest upload body (bytes, K/M/G)"},
+      {"iiif-max-width", "8192", "IIIF maxWidth: widest image returned"},
+      {"iiif-max-height", "8192", "IIIF maxHeight: tallest image returned"},
+      {"iiif-max-area", "16777216", "IIIF maxArea: most pixels in one image returned"},
+      {"jpeg-quality", "85", "JPEG quality, 1-100"},
+      {"webp-quality", "80", "WebP quality, 1-100"},
+      {"cache-max-age", "60", "Cache-Control max-age of image responses, seconds"},
+      {"public-url", "", "base URL clients see (for IIIF ids); default from the Host header"},
+      {"idle-timeout", "30", "seconds an idle keep-alive connection is kept"},
+      {"drain-delay", "0", "seconds between SIGTERM (readiness fails) and closing the listener"},
+      {"drain-timeout", "30", "seconds in-flight requests get to finish after the listener closed"},
+      {"gc-grace", "600", "seconds a superseded or deleted image version stays on disk"},
+      {"log-requests", "1", "one JSON log line per request (1/0)"},
+  };
+  for (auto& s : store_option_specs()) specs.push_back(s);
+  return specs;
+}
+
+}  // namespace
+
+int serve_command(const std::vector<std::string>& args) {
+  try {
+    Options o(serve_specs(), args);
+    if (o.help_requested()) {
+      std::printf("usage: zoomwarp serve [OPTIONS]\n\nServes the image store over HTTP.\n\n%s", o.usage().c_str());
+      return 0;
+    }
+    if (!o.positionals().empty()) throw std::invalid_argument("unexpected argument '" + o.positionals()[0] + "'");
+
+    HttpServerOptions http;
+    http.host = o.str("host");
+    http.port = int(o.integer("port", 0, 65535));
+    http.io_threads = int(o.integer("io-threads", 1, 256));
+    http.max_upload_bytes = o.bytes("max-upload", 1, 1ULL << 40);
+    http.idle_timeout = std::chrono::seconds(o.integer("idle-timeout", 1, 3600));
+    http.drain_delay = std::chrono::seconds(o.integer("drain-delay", 0, 3600));
+    http.drain_timeout = std::chrono::seconds(o.integer("drain-timeout", 0, 3600));
+    http.gc_grace = std::chrono::seconds(o.integer("gc-grace", 0, 30 * 86400));
+    http.log_requests = o.flag("log-requests");
+
+    api::RouterConfig rc;
+    rc.response_cache_bytes = o.bytes("response-cache", 0, 1ULL << 40);
+    rc.encode.jpeg_quality = int(o.integer("jpeg-quality", 1, 100));
+    rc.encode.webp_quality = int(o.integer("webp-quality", 1, 100));
+    rc.iiif.max_width = int(o.integer("iiif-max-width", 1, 65535));
+    rc.iiif.max_height = int(o.integer("iiif-max-height", 1, 65535));
+    rc.iiif.max_area = o.integer("iiif-max-area", 1, 1LL << 32);
+    rc.cache_max_age = int(o.integer("cache-max-age", 0, 365 * 86400));
+    rc.public_url = o.str("public-url");
+    while (!rc.public_url.empty() && rc.public_url.back() == '/') rc.public_url.pop_back();
+    rc.ingest = ingest_options(o);
+    const std::uint64_t tile_cache = o.bytes("tile-cache", 1ULL << 20, 1ULL << 40);
+    const int workers = int(o.integer("workers", 1, 256));
+    const auto queue = std::size_t(o.integer("queue", 1, 1 << 20));
+    const int ingest_workers = int(o.integer("ingest-workers", 1, 64));
+    const auto ingest_queue = std::size_t(o.integer("ingest-queue", 0, 1 << 10));
+
+    tiles::Store store(o.str("store"));
+    const int removed = store.collect_garbage(http.gc_grace);
+    tiles::PyramidReader reader(tile_cache);
+    api::Router router(store, reader, rc);
+    WorkerPool cpu(workers, queue);
+    WorkerPool ingest(ingest_workers, ingest_queue);
+    Metrics metrics;
+    metrics.add_sampler([&] {
+      using S = Metrics::Sample;
+      auto rs = router.response_cache_stats();
+      auto ts = reader.stats();
+      return std::vector<S>{
+          {"zoomwarp_cache_hits_total", "Cache hits.", "counter", R"(cache="response")", double(rs.hits)},
+          {"zoomwarp_cache_hits_total", "", "counter", R"(cache="tile")", double(ts.lookups - ts.tiles_read)},
+          {"zoomwarp_cache_misses_total", "Cache misses.", "counter", R"(cache="response")", double(rs.misses)},
+          {"zoomwarp_cache_misses_total", "", "counter", R"(cache="tile")", double(ts.tiles_read)},
+          {"zoomwarp_cache_bytes", "Bytes held by a cache.", "gauge", R"(cache="response")", double(rs.bytes)},
+          {"zoomwarp_cache_bytes", "", "gauge", R"(cache="tile")", double(ts.bytes_used)},
+          {"zoomwarp_cache_limit_bytes", "Byte limit of a cache.", "gauge", R"(cache="response")", double(rs.max_bytes)},
+          {"zoomwarp_cache_limit_bytes", "", "gauge", R"(cache="tile")", double(ts.bytes_limit)},
+          {"zoomwarp_queue_depth", "Jobs waiting for a worker.", "gauge", R"(pool="cpu")", double(cpu.queued())},
+          {"zoomwarp_queue_depth", "", "gauge", R"(pool="ingest")", double(ingest.queued())},
+          {"zoomwarp_workers_busy", "Workers running a job.", "gauge", R"(pool="cpu")", double(cpu.running())},
+          {"zoomwarp_workers_busy", "", "gauge", R"(pool="ingest")", double(ingest.running())},
+          {"zoomwarp_images", "Images published in the store.", "gauge", "", double(store.list().size())},
+      };
+    });
+    log_event("info", "starting", {{"store", store.root()}, {"workers", workers}, {"tile_cache", tile_cache},
+                                   {"response_cache", rc.response_cache_bytes}, {"gc_removed", removed}});
+    HttpServer server(http, store, router, cpu, ingest, metrics);
+    return server.run();
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "zoomwarp serve: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    log_event("error", "cannot serve", {{"error", e.what()}});
+    return 1;
+  }
+}
+
+}  // namespace zoomwarp::server

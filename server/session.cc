@@ -1,0 +1,250 @@
+#include "server/session.h"
+
+#include <boost/asio/dispatch.hpp>
+#include <boost/asio/post.hpp>
+#include <nlohmann/json.hpp>
+
+#include "api/errors.h"
+#include "server/log.h"
+#include "server/ops.h"
+
+namespace zoomwarp::server {
+
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace net = boost::asio;
+
+namespace {
+constexpr std::size_t kHeaderLimit = 16 * 1024;
+constexpr auto kUploadTimeout = std::chrono::minutes(10);
+constexpr auto kWriteTimeout = std::chrono::seconds(60);
+
+// Errors that mean the client went away or stalled: there is nobody to answer.
+bool client_gone(beast::error_code ec) {
+  return ec == beast::error::timeout || ec == net::error::eof || ec == http::error::end_of_stream ||
+         ec == http::error::partial_message || ec == net::error::connection_reset ||
+         ec == net::error::operation_aborted || ec == net::error::broken_pipe;
+}
+}  // namespace
+
+Session::Session(net::ip::tcp::socket&& socket, ServerState& state)
+    : stream_(std::move(socket)), state_(state) {
+  beast::error_code ec;
+  auto ep = stream_.socket().remote_endpoint(ec);
+  if (!ec) remote_ = ep.address().to_string() + ":" + std::to_string(ep.port());
+}
+
+Session::~Session() {
+  discard_upload();
+  std::lock_guard lock(state_.sessions_mu);
+  state_.sessions.erase(this);
+}
+
+void Session::start() {
+  {
+    std::lock_guard lock(state_.sessions_mu);
+    state_.sessions.emplace(this, weak_from_this());
+  }
+  net::dispatch(stream_.get_executor(), [self = shared_from_this()] { self->read_header(); });
+}
+
+void Session::close_if_idle() {
+  if (!idle_ || buffer_.size() > 0) return;
+  beast::error_code ec;
+  stream_.socket().shutdown(net::ip::tcp::socket::shutdown_both, ec);
+  stream_.close();
+}
+
+void Session::read_header() {
+  idle_ = true;
+  if (state_.draining.load() && buffer_.size() == 0) return;  // drained: let the connection go
+  header_parser_.emplace();
+  header_parser_->header_limit(kHeaderLimit);
+  stream_.expires_after(state_.options.idle_timeout);
+  http::async_read_header(stream_, buffer_, *header_parser_,
+                          [self = shared_from_this()](beast::error_code ec, std::size_t) { self->on_header(ec); });
+}
+
+void Session::on_header(beast::error_code ec) {
+  if (ec) {
+    if (client_gone(ec)) return;  // closed or timed out between requests: nothing to answer
+    idle_ = false;
+    started_ = std::chrono::steady_clock::now();
+    req_ = api::Request{};
+    target_.clear();
+    keep_alive_ = false;  // after a malformed message the stream cannot be trusted
+    if (ec == http::error::header_limit)
+      return send(api::error_response(431, "header_too_large", "request headers are over 16 KiB"));
+    return send(api::error_response(400, "bad_request", "malformed HTTP request: " + ec.message()));
+  }
+  idle_ = false;
+  started_ = std::chrono::steady_clock::now();
+  auto& h = header_parser_->get();
+  version_ = h.version();
+  keep_alive_ = h.keep_alive();
+  target_ = std::string(h.target());
+  req_ = api::Request{};
+  req_.method = std::string(h.method_string());
+  const std::size_t q = target_.find('?');
+  req_.path = target_.substr(0, q);
+  req_.query = q == std::string::npos ? "" : target_.substr(q + 1);
+  req_.host = std::string(h[http::field::host]);
+  req_.forwarded_proto = std::string(h["X-Forwarded-Proto"]);
+  req_.if_none_match = std::string(h[http::field::if_none_match]);
+  req_.accept = std::string(h[http::field::accept]);
+
+  if (api::Router::is_upload(req_.method, req_.path)) {
+    auto length = header_parser_->content_length();
+    if (length && *length > state_.options.max_upload_bytes) {
+      keep_alive_ = false;  // the body is not read, so the connection cannot be reused
+      return send(api::error_response(413, "upload_too_large",
+                                      "uploads are limited to " + std::to_string(state_.options.max_upload_bytes) + " bytes"));
+    }
+    try {
+      upload_dir_ = state_.store.make_staging_dir();
+    } catch (const std::exception& e) {
+      keep_alive_ = false;
+      return send(api::error_response(503, "store_unavailable", e.what()));
+    }
+    file_parser_.emplace(std::move(*header_parser_));
+    file_parser_->body_limit(state_.options.max_upload_bytes);
+    req_.body_file = upload_dir_ + "/upload";
+    file_parser_->get().body().open(req_.body_file.c_str(), beast::file_mode::write, ec);
+    if (ec) {
+      keep_alive_ = false;
+      return send(api::error_response(503, "store_unavailable", "cannot store the upload: " + ec.message()));
+    }
+    stream_.expires_after(kUploadTimeout);
+  } else {
+    string_parser_.emplace(std::move(*header_parser_));
+    string_parser_->body_limit(state_.options.max_body_bytes);
+  }
+  header_parser_.reset();
+
+  if (beast::iequals(h[http::field::expect], "100-continue")) {
+    continue_ = {http::status::continue_, version_};
+    return http::async_write(stream_, continue_, [self = shared_from_this()](beast::error_code ec, std::size_t) {
+      if (!ec) self->read_body();
+    });
+  }
+  read_body();
+}
+
+void Session::read_body() {
+  auto done = [self = shared_from_this()](beast::error_code ec, std::size_t) { self->on_body(ec); };
+  if (file_parser_) http::async_read(stream_, buffer_, *file_parser_, std::move(done));
+  else http::async_read(stream_, buffer_, *string_parser_, std::move(done));
+}
+
+void Session::on_body(beast::error_code ec) {
+  if (ec == http::error::body_limit) {
+    keep_alive_ = false;
+    return send(api::error_response(413, "body_too_large", "the request body is over the limit"));
+  }
+  if (client_gone(ec)) return;
+  if (ec) {
+    keep_alive_ = false;
+    return send(api::error_response(400, "bad_request", "malformed HTTP request: " + ec.message()));
+  }
+  if (file_parser_) {
+    file_parser_->get().body().close();
+    file_parser_.reset();
+  } else {
+    req_.body = std::move(string_parser_->get().body());
+    string_parser_.reset();
+  }
+  answer();
+}
+
+void Session::answer() {
+  stream_.expires_never();  // a slow computation is not the client's fault
+  if (req_.method == "OPTIONS") {  // CORS preflight
+    api::Response r;
+    r.status = 204;
+    r.route = "preflight";
+    r.set_header("Access-Control-Allow-Methods", "GET, HEAD, POST, PUT, PATCH, DELETE, OPTIONS");
+    r.set_header("Access-Control-Allow-Headers", "Content-Type, If-None-Match");
+    r.set_header("Access-Control-Max-Age", "86400");
+    return send(std::move(r));
+  }
+  try {
+    if (auto r = answer_ops(req_, OpsContext{state_.store, state_.metrics, state_.draining})) return send(std::move(*r));
+    if (auto r = state_.router.try_answer_now(req_)) return send(std::move(*r));
+  } catch (const std::exception& e) {
+    return send(api::error_response(500, "internal_error", e.what()));
+  }
+  WorkerPool& pool = api::Router::is_upload(req_.method, req_.path) ? state_.ingest : state_.cpu;
+  const bool queued = pool.try_submit([self = shared_from_this()] {
+    api::Response r;
+    try {
+      r = self->state_.router.handle(self->req_);
+    } catch (const std::exception& e) {
+      r = api::error_response(500, "internal_error", e.what());
+    }
+    net::post(self->stream_.get_executor(), [self, r = std::move(r)]() mutable { self->send(std::move(r)); });
+  });
+  if (!queued) {
+    api::Response r = api::error_response(503, "overloaded", "the server is busy; retry shortly");
+    r.set_header("Retry-After", "1");
+    r.route = "overloaded";
+    send(std::move(r));
+  }
+}
+
+void Session::send(api::Response r) {
+  current_ = std::move(r);
+  if (current_.route.empty()) current_.route = "error";
+  res_ = {};
+  res_.version(version_);
+  res_.result(current_.status);
+  res_.set(http::field::server, "zoomwarp");
+  if (!current_.content_type.empty()) res_.set(http::field::content_type, current_.content_type);
+  for (const auto& [name, value] : current_.headers) res_.set(name, value);
+  res_.set(http::field::access_control_allow_origin, "*");
+  res_.set(http::field::access_control_expose_headers, "ETag, Last-Modified, Location, Retry-After, Content-Length");
+  const bool bodiless_status = current_.status < 200 || current_.status == 204 || current_.status == 304;
+  const std::size_t size = current_.body ? current_.body->size() : 0;
+  if (!bodiless_status) res_.content_length(size);
+  const bool send_body = !bodiless_status && req_.method != "HEAD" && size > 0;
+  res_.body().data = send_body ? const_cast<char*>(current_.body->data()) : nullptr;
+  res_.body().size = send_body ? size : 0;
+  res_.body().more = false;
+  const bool keep = keep_alive_ && !state_.draining.load();
+  res_.keep_alive(keep);
+  stream_.expires_after(kWriteTimeout);
+  http::async_write(stream_, res_, [self = shared_from_this(), keep](beast::error_code ec, std::size_t) {
+    self->on_write(!keep, ec);
+  });
+}
+
+void Session::on_write(bool close, beast::error_code ec) {
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
+  state_.metrics.observe_request(current_.route, current_.status, seconds);
+  if (state_.options.log_requests) {
+    nlohmann::json fields = {{"method", req_.method},    {"target", target_},
+                             {"status", current_.status}, {"route", current_.route},
+                             {"bytes", current_.body ? current_.body->size() : 0},
+                             {"ms", std::round(seconds * 1e5) / 100}, {"remote", remote_}};
+    if (!current_.cache.empty()) fields["cache"] = current_.cache;
+    if (ec) fields["write_error"] = ec.message();
+    log_event("info", "request", fields);
+  }
+  discard_upload();
+  current_ = {};
+  if (ec) return;
+  if (close) {
+    beast::error_code ignored;
+    stream_.socket().shutdown(net::ip::tcp::socket::shutdown_send, ignored);
+    return;
+  }
+  read_header();
+}
+
+void Session::discard_upload() {
+  if (upload_dir_.empty()) return;
+  file_parser_.reset();
+  state_.store.discard(upload_dir_);
+  upload_dir_.clear();
+}
+
+}  // namespace zoomwarp::server

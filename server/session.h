@@ -1,0 +1,85 @@
+// One HTTP connection: read a request header, then its body (uploads stream to a file), answer it
+// on this thread or on a worker, write the response, repeat while keep-alive holds.
+#pragma once
+
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <atomic>
+#include <chrono>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <unordered_map>
+
+#include "api/router.h"
+#include "server/http_server.h"
+#include "server/metrics.h"
+#include "server/worker_pool.h"
+#include "tiles/store.h"
+
+namespace zoomwarp::server {
+
+class Session;
+
+// What the listener and every session share.
+struct ServerState {
+  ServerState(HttpServerOptions o, tiles::Store& s, api::Router& r, WorkerPool& c, WorkerPool& i, Metrics& m)
+      : options(std::move(o)), store(s), router(r), cpu(c), ingest(i), metrics(m) {}
+
+  HttpServerOptions options;
+  tiles::Store& store;
+  api::Router& router;
+  WorkerPool& cpu;
+  WorkerPool& ingest;
+  Metrics& metrics;
+  std::atomic<bool> draining{false};
+
+  std::mutex sessions_mu;
+  std::unordered_map<Session*, std::weak_ptr<Session>> sessions;  // for draining
+};
+
+class Session : public std::enable_shared_from_this<Session> {
+ public:
+  Session(boost::asio::ip::tcp::socket&& socket, ServerState& state);
+  ~Session();
+
+  void start();
+  // Drain: closes the connection if it is waiting for a new request. Runs on the session's strand.
+  void close_if_idle();
+  auto get_executor() { return stream_.get_executor(); }
+
+ private:
+  void read_header();
+  void on_header(boost::beast::error_code ec);
+  void read_body();
+  void on_body(boost::beast::error_code ec);
+  void answer();
+  void send(api::Response res);
+  void on_write(bool close, boost::beast::error_code ec);
+  void discard_upload();
+
+  boost::beast::tcp_stream stream_;
+  boost::beast::flat_buffer buffer_;
+  ServerState& state_;
+  std::string remote_;
+
+  std::optional<boost::beast::http::request_parser<boost::beast::http::empty_body>> header_parser_;
+  std::optional<boost::beast::http::request_parser<boost::beast::http::string_body>> string_parser_;
+  std::optional<boost::beast::http::request_parser<boost::beast::http::file_body>> file_parser_;
+  boost::beast::http::response<boost::beast::http::empty_body> continue_;
+
+  api::Request req_;
+  std::string target_;
+  unsigned version_ = 11;
+  bool keep_alive_ = true;
+  bool idle_ = true;
+  std::string upload_dir_;
+  std::chrono::steady_clock::time_point started_;
+
+  api::Response current_;  // the response being written (owns the body bytes)
+  boost::beast::http::response<boost::beast::http::buffer_body> res_;
+};
+
+}  // namespace zoomwarp::server

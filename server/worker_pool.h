@@ -1,0 +1,40 @@
+// A fixed set of threads for CPU work (decode, resample, encode, ingest), off the I/O threads,
+// with a bounded queue: when it is full, try_submit() refuses and the caller answers 503 instead
+// of letting latency grow without bound.
+#pragma once
+
+#include <condition_variable>
+#include <cstddef>
+#include <deque>
+#include <functional>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace zoomwarp::server {
+
+class WorkerPool {
+ public:
+  WorkerPool(int threads, std::size_t max_queue);
+  ~WorkerPool();  // finishes queued jobs, then joins
+  WorkerPool(const WorkerPool&) = delete;
+  WorkerPool& operator=(const WorkerPool&) = delete;
+
+  bool try_submit(std::function<void()> job);
+
+  std::size_t queued() const;   // waiting, not yet running
+  std::size_t running() const;  // being run now
+
+ private:
+  void run();
+
+  const std::size_t max_queue_;
+  mutable std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<std::function<void()>> queue_;
+  std::size_t running_ = 0;
+  bool stopping_ = false;
+  std::vector<std::thread> threads_;
+};
+
+}  // namespace zoomwarp::server

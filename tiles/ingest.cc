@@ -1,0 +1,41 @@
+#include "tiles/ingest.h"
+
+#include <filesystem>
+#include <stdexcept>
+
+#include "tiles/image_id.h"
+
+namespace zoomwarp::tiles {
+
+Manifest ingest_image(Store& store, const std::string& source_path, const std::string& id,
+                      const IngestOptions& options, const ProgressFn& progress) {
+  if (!is_valid_image_id(id)) throw std::invalid_argument("invalid image id");
+  probe_source(source_path, options.limits);  // refuse bad input before making anything
+  const std::string staging = store.make_staging_dir();
+  try {
+    PyramidInfo info = build_pyramid(source_path, staging, options.pyramid, options.limits, progress);
+    Manifest m;
+    m.id = id;
+    m.width = info.width;
+    m.height = info.height;
+    m.channels = info.channels;
+    m.levels = info.levels;
+    m.tile_size = options.pyramid.tile_size;
+    m.compression = options.pyramid.compression;
+    m.source_format = info.source_format;
+    m.source_bits = info.source_bits;
+    m.source_channels = info.source_channels;
+    m.source_orientation = info.source_orientation;
+    std::error_code ec;
+    m.source_bytes = std::int64_t(std::filesystem::file_size(source_path, ec));
+    return store.publish(staging, std::move(m))->manifest;
+  } catch (const IngestError&) {
+    store.discard(staging);
+    throw;
+  } catch (const std::exception& e) {
+    store.discard(staging);
+    throw IngestError(IngestError::Kind::kIo, e.what());
+  }
+}
+
+}  // namespace zoomwarp::tiles

@@ -1,0 +1,23 @@
+// Ingest as one operation: decode, build the pyramid in a staging folder, publish atomically.
+// On any failure nothing is left in the store and the previously published version (if any)
+// stays in place.
+#pragma once
+
+#include <string>
+
+#include "tiles/manifest.h"
+#include "tiles/pyramid_builder.h"
+#include "tiles/store.h"
+
+namespace zoomwarp::tiles {
+
+struct IngestOptions {
+  PyramidOptions pyramid;
+  SourceLimits limits;
+};
+
+// Throws IngestError (bad input or write failure) or std::invalid_argument (invalid id).
+Manifest ingest_image(Store& store, const std::string& source_path, const std::string& id,
+                      const IngestOptions& options, const ProgressFn& progress = {});
+
+}  // namespace zoomwarp::tiles

@@ -1,0 +1,67 @@
+#include "tiles/manifest.h"
+
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "tiles/image_id.h"
+
+namespace zoomwarp::tiles {
+
+int pyramid_levels(int width, int height) {
+  int n = 1;
+  for (long long d = std::max(width, height); d > 1; d = (d + 1) / 2) ++n;
+  return n;
+}
+
+std::string manifest_to_json(const Manifest& m) {
+  nlohmann::json j = {
+      {"id", m.id},
+      {"version", m.version},
+      {"width", m.width},
+      {"height", m.height},
+      {"channels", m.channels},
+      {"levels", m.levels},
+      {"tile_size", m.tile_size},
+      {"compression", m.compression},
+      {"created_ms", m.created_ms},
+      {"source",
+       {{"format", m.source_format},
+        {"bits", m.source_bits},
+        {"channels", m.source_channels},
+        {"orientation", m.source_orientation},
+        {"bytes", m.source_bytes}}},
+  };
+  return j.dump(2) + "\n";
+}
+
+Manifest manifest_from_json(std::string_view text) {
+  try {
+    auto j = nlohmann::json::parse(text);
+    Manifest m;
+    m.id = j.at("id").get<std::string>();
+    m.version = j.at("version").get<std::string>();
+    m.width = j.at("width").get<int>();
+    m.height = j.at("height").get<int>();
+    m.channels = j.at("channels").get<int>();
+    m.levels = j.at("levels").get<int>();
+    m.tile_size = j.at("tile_size").get<int>();
+    m.compression = j.value("compression", "");
+    m.created_ms = j.value("created_ms", std::int64_t(0));
+    if (auto s = j.find("source"); s != j.end()) {
+      m.source_format = s->value("format", "");
+      m.source_bits = s->value("bits", 8);
+      m.source_channels = s->value("channels", 3);
+      m.source_orientation = s->value("orientation", 1);
+      m.source_bytes = s->value("bytes", std::int64_t(0));
+    }
+    if (!is_valid_image_id(m.id) || m.width <= 0 || m.height <= 0 ||
+        (m.channels != 3 && m.channels != 4) || m.tile_size <= 0 ||
+        m.levels != pyramid_levels(m.width, m.height))
+      throw std::runtime_error("inconsistent manifest");
+    return m;
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error(std::string("malformed manifest: ") + e.what());
+  }
+}
+
+}  // namespace zoomwarp::tiles

@@ -1,0 +1,67 @@
+// Ingest, step one: decode a source image and write its multi-resolution pyramid.
+//
+// The source is streamed in strips of scanlines; each strip is written as one row of tiles of
+// level 0 and halved (2×2 box, rounding sizes up) into level 1, which feeds level 2, and so on
+// down to 1×1. Memory is a few strips per level, never the whole image — except for sources with
+// an EXIF rotation, which are decoded whole (as 8-bit, never float) to be reoriented.
+// Each level is its own tiled TIFF (see tiles/README.md for why).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <stdexcept>
+#include <string>
+
+namespace zoomwarp::tiles {
+
+struct PyramidOptions {
+  int tile_size = 256;
+  std::string compression = "zip";  // TIFF compression of the levels
+};
+
+struct SourceLimits {
+  std::uint64_t max_pixels = 1'000'000'000;  // width × height, checked from the header
+  int max_dimension = 1 << 20;
+};
+
+class IngestError : public std::runtime_error {
+ public:
+  enum class Kind {
+    kUnsupportedFormat,  // not one of the formats we read
+    kTooLarge,           // over the pixel or dimension limit
+    kCorrupt,            // a known format that does not decode
+    kIo,                 // writing the pyramid failed
+  };
+  IngestError(Kind kind, const std::string& what) : std::runtime_error(what), kind_(kind) {}
+  Kind kind() const { return kind_; }
+
+ private:
+  Kind kind_;
+};
+
+struct PyramidInfo {
+  int width = 0, height = 0;  // after orientation
+  int channels = 3;           // stored: 3 or 4
+  int levels = 0;
+  std::string source_format;
+  int source_bits = 8;
+  int source_channels = 3;
+  int source_orientation = 1;
+};
+
+// Fraction of the work done, 0…1; called from the ingesting thread.
+using ProgressFn = std::function<void(double)>;
+
+// File name of pyramid level k inside an image version's folder.
+std::string level_filename(int k);
+
+// Reads only the header of `source_path` and checks it against the limits. Throws IngestError.
+PyramidInfo probe_source(const std::string& source_path, const SourceLimits& limits);
+
+// Writes level_0.tif … level_{n-1}.tif into the existing folder `out_dir`. Throws IngestError;
+// on error the caller discards out_dir.
+PyramidInfo build_pyramid(const std::string& source_path, const std::string& out_dir,
+                          const PyramidOptions& options, const SourceLimits& limits,
+                          const ProgressFn& progress = {});
+
+}  // namespace zoomwarp::tiles

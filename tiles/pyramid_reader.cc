@@ -1,0 +1,93 @@
+#include "tiles/pyramid_reader.h"
+
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
+#include <OpenImageIO/imagecache.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace zoomwarp::tiles {
+
+struct PyramidReader::Impl {
+  OIIO::ImageCache* cache = nullptr;
+  std::int64_t limit = 0;
+};
+
+PyramidReader::PyramidReader(std::size_t cache_bytes, int max_open_files)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->cache = OIIO::ImageCache::create(/*shared=*/false);
+  impl_->limit = std::int64_t(cache_bytes);
+  impl_->cache->attribute("max_memory_MB", float(double(cache_bytes) / (1024.0 * 1024.0)));
+  impl_->cache->attribute("max_open_files", max_open_files);
+  impl_->cache->attribute("unassociatedalpha", 1);
+  impl_->cache->attribute("autotile", 0);
+  impl_->cache->attribute("forcefloat", 0);
+  impl_->cache->attribute("failure_retries", 1);
+}
+
+PyramidReader::~PyramidReader() { OIIO::ImageCache::destroy(impl_->cache); }
+
+Raster PyramidReader::read_level(const ImageEntry& image, int level, Rect r) {
+  const Manifest& m = image.manifest;
+  if (level < 0 || level >= m.levels || r.w <= 0 || r.h <= 0 || r.x < 0 || r.y < 0 ||
+      r.x + r.w > m.level_width(level) || r.y + r.h > m.level_height(level))
+    throw std::out_of_range("region outside the pyramid level");
+  Raster out(int(r.w), int(r.h), m.channels);
+  OIIO::ustring file(image.level_path(level));
+  if (!impl_->cache->get_pixels(file, 0, 0, int(r.x), int(r.x + r.w), int(r.y), int(r.y + r.h), 0,
+                                1, OIIO::TypeDesc::UINT8, out.pixels.data()))
+    throw std::runtime_error("cannot read " + file.string() + ": " + impl_->cache->geterror());
+  return out;
+}
+
+int level_for_shrink(double shrink, int levels) {
+  if (!(shrink > 1.0)) return 0;
+  int k = int(std::floor(std::log2(shrink) + 1e-9));
+  return std::clamp(k, 0, levels - 1);
+}
+
+Raster PyramidReader::read_scaled(const ImageEntry& image, Rect region, int out_w, int out_h) {
+  const Manifest& m = image.manifest;
+  const double shrink = std::min(double(region.w) / out_w, double(region.h) / out_h);
+  const int k = level_for_shrink(shrink, m.levels);
+  const double f = std::ldexp(1.0, -k);
+  // The level-k pixels that cover the region (snapped outwards to whole pixels).
+  const long long x0 = (long long)std::floor(region.x * f), y0 = (long long)std::floor(region.y * f);
+  const long long x1 = std::min<long long>((long long)std::ceil((region.x + region.w) * f), m.level_width(k));
+  const long long y1 = std::min<long long>((long long)std::ceil((region.y + region.h) * f), m.level_height(k));
+  Raster src = read_level(image, k, Rect{x0, y0, std::max(1LL, x1 - x0), std::max(1LL, y1 - y0)});
+  if (src.width == out_w && src.height == out_h) return src;
+
+  OIIO::ImageSpec in_spec(src.width, src.height, src.channels, OIIO::TypeDesc::UINT8);
+  OIIO::ImageSpec out_spec(out_w, out_h, src.channels, OIIO::TypeDesc::UINT8);
+  in_spec.alpha_channel = out_spec.alpha_channel = -1;  // resample straight values as they are
+  Raster out(out_w, out_h, src.channels);
+  OIIO::ImageBuf in_buf(in_spec, src.pixels.data());
+  OIIO::ImageBuf out_buf(out_spec, out.pixels.data());
+  if (!OIIO::ImageBufAlgo::resize(out_buf, in_buf))
+    throw std::runtime_error("resize failed: " + out_buf.geterror());
+  return out;
+}
+
+void PyramidReader::forget(const ImageEntry& image) {
+  for (int k = 0; k < image.manifest.levels; ++k)
+    impl_->cache->invalidate(OIIO::ustring(image.level_path(k)), true);
+}
+
+PyramidReader::Stats PyramidReader::stats() const {
+  Stats s;
+  int calls = 0, created = 0;
+  long long used = 0;
+  impl_->cache->getattribute("stat:find_tile_calls", calls);
+  impl_->cache->getattribute("stat:tiles_created", created);
+  impl_->cache->getattribute("stat:cache_memory_used", OIIO::TypeDesc::INT64, &used);
+  s.lookups = calls;
+  s.tiles_read = created;
+  s.bytes_used = used;
+  s.bytes_limit = impl_->limit;
+  return s;
+}
+
+}  // namespace zoomwarp::tiles

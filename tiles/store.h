@@ -1,0 +1,71 @@
+// The on-disk store of published images, shared by every process (CLI ingest, server replicas).
+//
+//   ROOT/images/ID          symlink to ../versions/ID@VERSION: the published version of ID
+//   ROOT/versions/ID@VERSION/manifest.json, level_K.tif   one immutable image version
+//   ROOT/staging/HOST.PID.RANDOM/                        work in progress, never read
+//
+// Publishing renames a finished staging folder into versions/ and then atomically replaces the
+// images/ID link, so a reader sees the old version or the new one, never a half-written one.
+// Superseded and deleted versions stay on disk for a grace period, for readers that resolved them
+// just before; collect_garbage() removes them and staging folders of processes that died.
+#pragma once
+
+#include <chrono>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "tiles/manifest.h"
+
+namespace zoomwarp::tiles {
+
+struct ImageEntry {
+  Manifest manifest;
+  std::string dir;  // absolute path of the version's folder
+  std::string level_path(int k) const;
+};
+
+class Store {
+ public:
+  // Creates ROOT and its folders if missing. Throws std::runtime_error if it cannot.
+  explicit Store(const std::string& root);
+
+  const std::string& root() const { return root_; }
+
+  // The published version of `id` (which must be valid), or null. The link is read on every call,
+  // so a version published by another process is seen at once; manifests are cached per version.
+  std::shared_ptr<const ImageEntry> find(const std::string& id) const;
+
+  // Every published image, sorted by id.
+  std::vector<std::shared_ptr<const ImageEntry>> list() const;
+
+  // A new, empty folder to build an image in; give it to publish() or discard().
+  std::string make_staging_dir() const;
+  void discard(const std::string& staging_dir) const;
+
+  // Moves `staging_dir` (holding the pyramid; manifest.json is written here) into place as a new
+  // version of m.id and points the id at it. Fills m.version and m.created_ms.
+  std::shared_ptr<const ImageEntry> publish(const std::string& staging_dir, Manifest m);
+
+  // Unpublishes `id`; false if it was not published.
+  bool remove(const std::string& id);
+
+  // Removes versions no link points to that are older than `grace`, and staging folders whose
+  // process is gone (or that are older than a day). Returns how many folders it removed.
+  int collect_garbage(std::chrono::seconds grace);
+
+  // Whether the store's folders can be read (readiness).
+  bool readable() const;
+
+ private:
+  std::shared_ptr<const ImageEntry> load_version(const std::string& id,
+                                                 const std::string& version_dir) const;
+
+  std::string root_;
+  mutable std::mutex mu_;
+  mutable std::unordered_map<std::string, std::shared_ptr<const ImageEntry>> versions_;
+};
+
+}  // namespace zoomwarp::tiles
