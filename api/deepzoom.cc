@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "api/url.h"
+
 namespace zoomwarp::api {
 
 std::string dzi_descriptor(const tiles::Manifest& m, const DziLayout& layout, std::string_view format) {
@@ -10,6 +12,15 @@ std::string dzi_descriptor(const tiles::Manifest& m, const DziLayout& layout, st
          std::string(format) + "\" Overlap=\"" + std::to_string(layout.overlap) + "\" TileSize=\"" +
          std::to_string(layout.tile_size) + "\">\n  <Size Width=\"" + std::to_string(m.width) +
          "\" Height=\"" + std::to_string(m.height) + "\"/>\n</Image>\n";
+}
+
+std::optional<DziTileName> parse_dzi_tile_name(std::string_view name) {
+  const std::size_t underscore = name.find('_'), dot = name.rfind('.');
+  if (underscore == std::string_view::npos || dot == std::string_view::npos || dot < underscore) return std::nullopt;
+  auto col = parse_small_uint(name.substr(0, underscore));
+  auto row = parse_small_uint(name.substr(underscore + 1, dot - underscore - 1));
+  if (!col || !row) return std::nullopt;
+  return DziTileName{*col, *row, std::string(name.substr(dot + 1))};
 }
 
 std::optional<DziTile> dzi_tile(const tiles::Manifest& m, const DziLayout& layout, int level,

@@ -26,6 +26,13 @@ struct DziTile {
   tiles::Rect rect;     // pixels of that level
 };
 
+// "{col}_{row}.{ext}", the last path segment of a tile URL; nullopt if malformed.
+struct DziTileName {
+  int col = 0, row = 0;
+  std::string extension;
+};
+std::optional<DziTileName> parse_dzi_tile_name(std::string_view name);
+
 // The pixels of tile (col, row) at DZI level `level`, or nullopt if there is no such tile.
 std::optional<DziTile> dzi_tile(const tiles::Manifest& m, const DziLayout& layout, int level,
                                 int col, int row);

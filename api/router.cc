@@ -1,5 +1,6 @@
 #include "api/router.h"
 
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -177,21 +178,17 @@ std::optional<Response> Router::dispatch(const Request& req, bool may_compute) {
       }
       if (s.size() == 4 && s[1].ends_with("_files")) {
         const std::string id = s[1].substr(0, s[1].size() - 6);
-        const std::size_t underscore = s[3].find('_'), dot = s[3].rfind('.');
         auto level = parse_small_uint(s[2]);
-        auto col = underscore == std::string::npos ? std::nullopt : parse_small_uint(s[3].substr(0, underscore));
-        auto row = underscore == std::string::npos || dot == std::string::npos || dot < underscore
-                       ? std::nullopt
-                       : parse_small_uint(s[3].substr(underscore + 1, dot - underscore - 1));
-        if (!level || !col || !row)
+        auto name = parse_dzi_tile_name(s[3]);
+        if (!level || !name)
           throw ApiError(400, "invalid_tile", "tile paths are /dzi/{id}_files/{level}/{col}_{row}.{jpg|png|webp}");
-        auto format = tiles::format_from_extension(s[3].substr(dot + 1));
+        auto format = tiles::format_from_extension(name->extension);
         if (!format) throw ApiError(400, "invalid_format", "tile format must be jpg, png or webp");
         auto entry = find_image(store_, id);
-        auto tile = dzi_tile(entry->manifest, config_.dzi, *level, *col, *row);
+        auto tile = dzi_tile(entry->manifest, config_.dzi, *level, name->col, name->row);
         if (!tile)
           throw ApiError(404, "tile_not_found",
-                         "no tile " + std::to_string(*col) + "_" + std::to_string(*row) + " at level " +
+                         "no tile " + std::to_string(name->col) + "_" + std::to_string(name->row) + " at level " +
                              std::to_string(*level) + " (levels 0-" + std::to_string(entry->manifest.levels - 1) + ")");
         return image_response(req, id, "dzi_tile", "", may_compute, [&](const tiles::ImageEntry& e) {
           tiles::Raster pixels = reader_.read_level(e, tile->store_level, tile->rect);
@@ -290,7 +287,9 @@ Response Router::upload_image(const Request& req) {
     if (k == "id") id = v;
     else throw ApiError(400, "invalid_query", "unknown parameter '" + k + "' (only id is accepted)");
   }
-  if (req.body_file.empty()) throw ApiError(400, "empty_body", "send the image file as the request body");
+  std::error_code ec;
+  if (req.body_file.empty() || std::filesystem::file_size(req.body_file, ec) == 0 || ec)
+    throw ApiError(400, "empty_body", "send the image file as the request body");
   if (id.empty()) id = content_id(req.body_file);
   if (!tiles::is_valid_image_id(id))
     throw ApiError(400, "invalid_id",

@@ -2,6 +2,7 @@
 
 #include <boost/asio/dispatch.hpp>
 #include <boost/asio/post.hpp>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "api/errors.h"
@@ -60,6 +61,9 @@ void Session::read_header() {
   if (state_.draining.load() && buffer_.size() == 0) return;  // drained: let the connection go
   header_parser_.emplace();
   header_parser_->header_limit(kHeaderLimit);
+  // The body's limit depends on the route and is set once the header is read. (Not boost::none:
+  // Beast 1.74 compares the length against an empty optional and always fails.)
+  header_parser_->body_limit(std::numeric_limits<std::uint64_t>::max());
   stream_.expires_after(state_.options.idle_timeout);
   http::async_read_header(stream_, buffer_, *header_parser_,
                           [self = shared_from_this()](beast::error_code ec, std::size_t) { self->on_header(ec); });
@@ -92,6 +96,7 @@ void Session::on_header(beast::error_code ec) {
   req_.forwarded_proto = std::string(h["X-Forwarded-Proto"]);
   req_.if_none_match = std::string(h[http::field::if_none_match]);
   req_.accept = std::string(h[http::field::accept]);
+  const bool expect_continue = beast::iequals(h[http::field::expect], "100-continue");
 
   if (api::Router::is_upload(req_.method, req_.path)) {
     auto length = header_parser_->content_length();
@@ -121,7 +126,7 @@ void Session::on_header(beast::error_code ec) {
   }
   header_parser_.reset();
 
-  if (beast::iequals(h[http::field::expect], "100-continue")) {
+  if (expect_continue) {
     continue_ = {http::status::continue_, version_};
     return http::async_write(stream_, continue_, [self = shared_from_this()](beast::error_code ec, std::size_t) {
       if (!ec) self->read_body();
@@ -192,6 +197,7 @@ void Session::answer() {
 }
 
 void Session::send(api::Response r) {
+  discard_upload();  // before the client hears back, so it never sees the upload's leftovers
   current_ = std::move(r);
   if (current_.route.empty()) current_.route = "error";
   res_ = {};
@@ -229,7 +235,6 @@ void Session::on_write(bool close, beast::error_code ec) {
     if (ec) fields["write_error"] = ec.message();
     log_event("info", "request", fields);
   }
-  discard_upload();
   current_ = {};
   if (ec) return;
   if (close) {

@@ -209,7 +209,8 @@ PyramidInfo build_pyramid(const std::string& path, const std::string& out_dir,
   std::vector<std::uint8_t> row(std::size_t(info.width) * ch);
 
   if (info.source_orientation == 1) {
-    const int strip = options.tile_size;
+    // Small chunks: OpenImageIO allocates conversion buffers proportional to the chunk.
+    const int strip = 16;
     std::vector<std::uint8_t> buf(std::size_t(strip) * sw * rc);
     for (int y = 0; y < sh; y += strip) {
       const int n = std::min(strip, sh - y);

@@ -16,7 +16,7 @@ namespace zoomwarp::tiles {
 
 struct PyramidOptions {
   int tile_size = 256;
-  std::string compression = "zip";  // TIFF compression of the levels
+  std::string compression = "zip:1";  // TIFF compression of the levels (see tiles/README.md)
 };
 
 struct SourceLimits {

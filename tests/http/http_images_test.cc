@@ -1,0 +1,234 @@
+// /v1/images over a real server: upload, describe, list, delete, re-ingest while serving,
+// restart persistence, and every way an upload or an id can be bad.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "tests/support/http_client.h"
+#include "tests/support/images.h"
+#include "tests/support/server_process.h"
+
+namespace zoomwarp {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using testing::HttpClient;
+using testing::ServerProcess;
+using testing::TempDir;
+
+std::string sample(const std::string& name) { return testing::read_file(testing::samples_dir() + "/" + name); }
+
+void expect_json_error(const testing::HttpResponse& r, int status, const std::string& code = "") {
+  EXPECT_EQ(r.status, status) << r.body;
+  EXPECT_EQ(r.header("content-type"), "application/json");
+  auto j = json::parse(r.body, nullptr, false);
+  ASSERT_TRUE(j.is_object()) << r.body;
+  ASSERT_TRUE(j.contains("error")) << r.body;
+  EXPECT_TRUE(j["error"]["message"].is_string());
+  if (!code.empty()) {
+    EXPECT_EQ(j["error"]["code"], code) << r.body;
+  }
+}
+
+// Nothing half-made is left: no staging folders, no versions beyond those of published images.
+void expect_store_clean(const std::string& store, std::size_t published) {
+  std::size_t staging = 0, versions = 0;
+  for (auto& e : fs::directory_iterator(store + "/staging")) { (void)e; ++staging; }
+  for (auto& e : fs::directory_iterator(store + "/versions")) { (void)e; ++versions; }
+  EXPECT_EQ(staging, 0u);
+  EXPECT_EQ(versions, published);
+}
+
+TEST(Images, UploadDescribeListDelete) {
+  TempDir dir;
+  ServerProcess server(dir.path() + "/store");
+  HttpClient http(server.port());
+
+  auto up = http.request("POST", "/v1/images?id=boats", sample("boats_lake_sunset.jpg"),
+                         {{"Content-Type", "image/jpeg"}});
+  ASSERT_EQ(up.status, 201) << up.body;
+  EXPECT_EQ(up.header("location"), "/v1/images/boats");
+  auto created = json::parse(up.body);
+  EXPECT_EQ(created["id"], "boats");
+
+  auto got = http.get("/v1/images/boats");
+  ASSERT_EQ(got.status, 200);
+  auto j = json::parse(got.body);
+  EXPECT_EQ(j["id"], "boats");
+  EXPECT_EQ(j["width"], 2560);
+  EXPECT_EQ(j["height"], 1600);
+  EXPECT_EQ(j["levels"], 13);
+  EXPECT_EQ(j["tile_size"], 256);
+  EXPECT_EQ(j["status"], "ready");
+  EXPECT_EQ(j["version"], created["version"]);
+
+  auto list = json::parse(http.get("/v1/images").body);
+  ASSERT_EQ(list["images"].size(), 1u);
+  EXPECT_EQ(list["images"][0]["id"], "boats");
+
+  EXPECT_EQ(http.request("DELETE", "/v1/images/boats").status, 204);
+  expect_json_error(http.get("/v1/images/boats"), 404, "image_not_found");
+  expect_json_error(http.get("/dzi/boats.dzi"), 404);
+  expect_json_error(http.request("DELETE", "/v1/images/boats"), 404);
+  EXPECT_TRUE(json::parse(http.get("/v1/images").body)["images"].empty());
+}
+
+TEST(Images, UploadWithoutIdIsNamedByContent) {
+  TempDir dir;
+  ServerProcess server(dir.path() + "/store");
+  HttpClient http(server.port());
+  auto a = http.request("POST", "/v1/images", sample("pano_grossmugl_field_4to1.png"));
+  auto b = http.request("POST", "/v1/images", sample("pano_grossmugl_field_4to1.png"));
+  ASSERT_EQ(a.status, 201) << a.body;
+  const std::string id = json::parse(a.body)["id"];
+  EXPECT_EQ(id.rfind("img-", 0), 0u);
+  EXPECT_EQ(json::parse(b.body)["id"], id);
+  auto info = json::parse(http.get("/v1/images/" + id).body);
+  EXPECT_EQ(info["width"], 2048);
+  EXPECT_EQ(info["channels"], 4);
+}
+
+TEST(Images, BadUploadsAreRefusedAndLeaveNothing) {
+  TempDir dir;
+  const std::string store = dir.path() + "/store";
+  ServerProcess server(store, {"--max-upload", "1M", "--max-pixels", "5000000"});
+  HttpClient http(server.port());
+  const std::string jpeg = sample("boats_lake_sunset.jpg");        // 4.1 MP, 633 KB
+  const std::string tall = sample("interior_wine_djembe_tall.jpg"); // 9.8 MP, 522 KB
+
+  expect_json_error(http.request("POST", "/v1/images?id=x", jpeg.substr(0, jpeg.size() / 2)), 422, "corrupt_image");
+  expect_json_error(http.request("POST", "/v1/images?id=x", "GIF89a" + std::string(100, '\0')), 415);
+  expect_json_error(http.request("POST", "/v1/images?id=x", "just some text"), 415);
+  expect_json_error(http.request("POST", "/v1/images?id=x", ""), 400, "empty_body");
+  expect_json_error(http.request("POST", "/v1/images?id=x", tall), 413, "image_too_large");
+  for (const char* id : {"..", "..%2Fetc", "a%2Fb", "a%00b", "-x", "x%20y"})
+    EXPECT_EQ(http.request("POST", std::string("/v1/images?id=") + id, jpeg).status, 400) << id;
+  expect_json_error(http.request("POST", "/v1/images?id=" + std::string(129, 'a'), jpeg), 400, "invalid_id");
+  expect_json_error(http.request("POST", "/v1/images?id=x&colour=red", jpeg), 400, "invalid_query");
+
+  // Over the byte limit: refused from Content-Length, before the body is read.
+  HttpClient fresh(server.port());
+  std::string big = sample("lake_hill_reflection.jpg");
+  if (big.size() < 2'000'000) big += std::string(2'000'000, '\0');
+  expect_json_error(fresh.request("POST", "/v1/images?id=big", big), 413, "upload_too_large");
+
+  expect_store_clean(store, 0);
+  EXPECT_TRUE(json::parse(http.get("/v1/images").body)["images"].empty());
+  // The server is still fine.
+  EXPECT_EQ(http.request("POST", "/v1/images?id=ok", jpeg).status, 201);
+  expect_store_clean(store, 1);
+}
+
+TEST(Images, BadIdsInPaths) {
+  TempDir dir;
+  ServerProcess server(dir.path() + "/store");
+  HttpClient http(server.port());
+  for (const std::string& path : std::vector<std::string>{"/v1/images/..", "/v1/images/..%2F..%2Fetc%2Fpasswd", "/v1/images/a%00b", "/v1/images/.hidden",
+        "/dzi/..%2Fx.dzi", "/iiif/3/..%2F..%2Fetc/info.json", "/v1/images/" + std::string(200, 'a')})
+    EXPECT_EQ(http.get(path).status, 400) << path;
+  expect_json_error(http.get("/v1/images/a%zz"), 400, "invalid_path");
+  expect_json_error(http.get("/v1/images/nope"), 404, "image_not_found");
+  expect_json_error(http.get("/iiif/3/nope/info.json"), 404);
+  expect_json_error(http.get("/nowhere"), 404, "not_found");
+  expect_json_error(http.request("PUT", "/v1/images/x"), 405);
+}
+
+// A reader keeps fetching tiles while the same id is re-ingested with other images; every answer
+// is a whole, valid image of one version or the other.
+TEST(Images, ReingestWhileServingAndConcurrentIngests) {
+  TempDir dir;
+  ServerProcess server(dir.path() + "/store", {"--ingest-workers", "2"});
+  HttpClient http(server.port());
+  ASSERT_EQ(http.request("POST", "/v1/images?id=live", sample("boats_lake_sunset.jpg")).status, 201);
+
+  std::atomic<bool> stop{false};
+  std::atomic<int> reads{0}, failures{0};
+  std::vector<std::thread> readers;
+  for (int t = 0; t < 2; ++t)
+    readers.emplace_back([&, t] {
+      HttpClient c(server.port());
+      for (int i = 0; !stop; ++i) {
+        auto r = c.get("/iiif/3/live/full/!" + std::to_string(100 + (i * 7 + t) % 300) + ",300/0/default.jpg");
+        if (r.status != 200) {
+          ++failures;
+          continue;
+        }
+        try {
+          testing::decode_image(r.body);
+          ++reads;
+        } catch (const std::exception&) {
+          ++failures;
+        }
+      }
+    });
+  std::thread other([&] {
+    HttpClient c(server.port());
+    for (int i = 0; i < 2; ++i)
+      EXPECT_EQ(c.request("POST", "/v1/images?id=other" + std::to_string(i), sample("pano_grossmugl_field_4to1.png")).status, 201);
+  });
+  const char* versions[] = {"interior_wine_djembe_tall.jpg", "boats_lake_sunset.jpg", "interior_wine_djembe_tall.jpg"};
+  for (const char* file : versions) EXPECT_EQ(http.request("POST", "/v1/images?id=live", sample(file)).status, 201);
+  other.join();
+  stop = true;
+  for (auto& t : readers) t.join();
+  EXPECT_EQ(failures.load(), 0);
+  EXPECT_GT(reads.load(), 10);
+  auto j = json::parse(http.get("/v1/images/live").body);
+  EXPECT_EQ(j["width"], 2560);
+  EXPECT_EQ(j["height"], 3837);
+  EXPECT_EQ(json::parse(http.get("/v1/images").body)["images"].size(), 3u);
+}
+
+TEST(Images, RestartedServerServesEveryPublishedImage) {
+  TempDir dir;
+  const std::string store = dir.path() + "/store";
+  // One image through the CLI, one through HTTP.
+  auto cli = testing::run_command({testing::zoomwarp_binary(), "ingest", testing::samples_dir() + "/boats_lake_sunset.jpg",
+                                   "--store", store, "--quiet"});
+  ASSERT_EQ(cli.exit_code, 0) << cli.output;
+  EXPECT_EQ(cli.output, "boats_lake_sunset\n");
+  std::string tile_before;
+  {
+    ServerProcess server(store);
+    HttpClient http(server.port());
+    ASSERT_EQ(http.request("POST", "/v1/images?id=pano", sample("pano_grossmugl_field_4to1.png")).status, 201);
+    tile_before = http.get("/dzi/boats_lake_sunset_files/11/1_1.png").body;
+    EXPECT_EQ(server.terminate(), 0) << "SIGTERM exits 0";
+  }
+  ServerProcess again(store);
+  HttpClient http(again.port());
+  auto list = json::parse(http.get("/v1/images").body);
+  ASSERT_EQ(list["images"].size(), 2u);
+  EXPECT_EQ(http.get("/dzi/boats_lake_sunset_files/11/1_1.png").body, tile_before);
+  EXPECT_EQ(http.get("/dzi/pano.dzi").status, 200);
+}
+
+TEST(IngestCli, ExitCodesAndMessages) {
+  TempDir dir;
+  const std::string store = dir.path() + "/store";
+  const std::string bin = testing::zoomwarp_binary();
+  auto help = testing::run_command({bin, "ingest", "--help"});
+  EXPECT_EQ(help.exit_code, 0);
+  EXPECT_NE(help.output.find("ZOOMWARP_STORE"), std::string::npos);
+
+  const std::string text = dir.path() + "/notes.txt";
+  std::ofstream(text) << "not an image";
+  auto r = testing::run_command({bin, "ingest", text, "--store", store});
+  EXPECT_EQ(r.exit_code, 3) << r.output;
+  EXPECT_NE(r.output.find("unsupported"), std::string::npos);
+  EXPECT_EQ(testing::run_command({bin, "ingest", dir.path() + "/missing.jpg", "--store", store}).exit_code, 2);
+  EXPECT_EQ(testing::run_command({bin, "ingest", testing::samples_dir() + "/boats_lake_sunset.jpg", "--store", store,
+                                  "--id", "../x"}).exit_code, 2);
+  EXPECT_EQ(testing::run_command({bin, "ingest", testing::samples_dir() + "/boats_lake_sunset.jpg", "--store", store,
+                                  "--max-pixels", "1000"}).exit_code, 4);
+  EXPECT_EQ(testing::run_command({bin, "ingest", "--bogus"}).exit_code, 2);
+  expect_store_clean(store, 0);
+}
+
+}  // namespace
+}  // namespace zoomwarp

@@ -1,0 +1,63 @@
+// Runs the real `zoomwarp serve` binary as a child process on a loopback port it picks itself,
+// for tests that talk HTTP to it. The destructor stops it (SIGTERM, then SIGKILL), so no test
+// leaves a server behind.
+#pragma once
+
+#include <sys/types.h>
+
+#include <string>
+#include <vector>
+
+namespace zoomwarp::testing {
+
+// Path of the zoomwarp binary under test and of the bundled sample images.
+std::string zoomwarp_binary();
+std::string samples_dir();
+
+// A fresh empty folder under the test's temporary directory, removed by its destructor.
+class TempDir {
+ public:
+  TempDir();
+  ~TempDir();
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+class ServerProcess {
+ public:
+  // Starts `zoomwarp serve --host 127.0.0.1 --port 0 --store STORE ARGS...` and waits for its
+  // "listening" log line. Throws std::runtime_error if it does not come up within 20 s.
+  ServerProcess(const std::string& store, const std::vector<std::string>& extra_args = {});
+  ~ServerProcess();
+  ServerProcess(const ServerProcess&) = delete;
+  ServerProcess& operator=(const ServerProcess&) = delete;
+
+  int port() const { return port_; }
+  pid_t pid() const { return pid_; }
+
+  // Sends SIGTERM and waits (up to `timeout_s`); returns the exit status, or -1 if it had to be
+  // killed.
+  int terminate(double timeout_s = 20);
+
+  // Everything the server has logged so far (JSON lines).
+  std::string log() const;
+
+ private:
+  pid_t pid_ = -1;
+  int port_ = 0;
+  std::string log_path_;
+};
+
+std::string read_file(const std::string& path);
+
+// Runs a command to completion, returns its exit status; stdout/stderr go to `output` if given.
+struct RunResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr, interleaved
+  long max_rss_kb = 0; // peak resident set size of the child
+};
+RunResult run_command(const std::vector<std::string>& argv);
+
+}  // namespace zoomwarp::testing
