@@ -154,6 +154,20 @@ std::optional<Response> Router::dispatch(const Request& req, bool may_compute) {
     const std::string method = req.method == "HEAD" ? "GET" : req.method;
     const bool get = method == "GET";
 
+    if (s.size() == 1 && s[0].empty()) {  // "/": where to go from here
+      if (!get) return method_not_allowed("GET, HEAD");
+      Response r = json_response(200, {{"service", "zoomwarp"},
+                                       {"links",
+                                        {{"images", "/v1/images"},
+                                         {"dzi", "/dzi/{id}.dzi"},
+                                         {"iiif", "/iiif/3/{id}/info.json"},
+                                         {"health", "/healthz"},
+                                         {"readiness", "/readyz"},
+                                         {"metrics", "/metrics"}}}});
+      r.route = "index";
+      return r;
+    }
+
     if (s.size() >= 2 && s[0] == "v1" && s[1] == "images") {
       if (s.size() == 2 || (s.size() == 3 && s[2].empty())) {
         if (get) return list_images();

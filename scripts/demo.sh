@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Sets up, builds, ingests the bundled sample image and serves it on http://127.0.0.1:8080/.
+# Environment variables ZOOMWARP_* configure the server (see `build/bin/zoomwarp serve --help`).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/setup.sh
+scripts/build.sh
+export ZOOMWARP_STORE="${ZOOMWARP_STORE:-$PWD/store}"
+if [ ! -e "$ZOOMWARP_STORE/images/boats_lake_sunset" ]; then
+  build/bin/zoomwarp ingest samples/boats_lake_sunset.jpg --id boats_lake_sunset
+fi
+port="${ZOOMWARP_PORT:-8080}"
+cat <<TXT
+
+zoomwarp is starting on http://127.0.0.1:${port}/  (Ctrl-C stops it)
+  images:    curl http://127.0.0.1:${port}/v1/images
+  IIIF:      http://127.0.0.1:${port}/iiif/3/boats_lake_sunset/full/!800,800/0/default.jpg
+  Deep Zoom: http://127.0.0.1:${port}/dzi/boats_lake_sunset.dzi
+  metrics:   curl http://127.0.0.1:${port}/metrics
+
+TXT
+exec build/bin/zoomwarp serve

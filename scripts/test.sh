@@ -1,0 +1,8 @@
+#!/usr/bin/env bash
+# Runs the whole test suite: unit, HTTP integration (real server on loopback), and browser tests.
+# Extra arguments go to ctest, e.g. `scripts/test.sh -L unit` or `scripts/test.sh -R Iiif`.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/setup.sh
+scripts/build.sh
+ctest --test-dir build --output-on-failure -j "$(nproc)" "$@"

@@ -1,0 +1,283 @@
+// OpenSeadragon in headless Chromium opens an image served by a real zoomwarp server, once
+// through the Deep Zoom descriptor and once through the IIIF Image API info.json, and the
+// screenshot must match a downscaled copy of the source image made by oiiotool, i.e.
+// independently of zoomwarp's own resampling and encoding.
+//
+// Run: cd tests/browser && npm ci && node --test
+// Needs: a built zoomwarp (ZOOMWARP_BINARY), /usr/bin/chromium, oiiotool, Node >= 20.
+
+import assert from 'node:assert/strict';
+import { execFile, spawn } from 'node:child_process';
+import { once } from 'node:events';
+import fs from 'node:fs/promises';
+import http from 'node:http';
+import os from 'node:os';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { promisify } from 'node:util';
+import { after, before, test } from 'node:test';
+
+import { chromium } from 'playwright-core';
+import { PNG } from 'pngjs';
+
+const __dirname = path.dirname(fileURLToPath(import.meta.url));
+const ZOOMWARP = process.env.ZOOMWARP_BINARY || path.resolve(__dirname, '../../build/bin/zoomwarp');
+const SAMPLE = path.resolve(__dirname, '../../samples/boats_lake_sunset.jpg');
+const OSD_SCRIPT = path.join(__dirname, 'node_modules/openseadragon/build/openseadragon/openseadragon.min.js');
+const OUT_DIR = path.join(__dirname, 'out');
+const CHROMIUM = '/usr/bin/chromium';
+const IMAGE_ID = 'boats';
+
+// Same aspect ratio as the 2560x1600 sample, so OpenSeadragon's home view fills the viewport
+// exactly and every screenshot pixel can be compared with the reference.
+const VIEWPORT = { width: 800, height: 500 };
+
+// A correct render measures about 30 dB / MAD 3 here (the browser's bilinear downscale of a
+// JPEG pyramid level against oiiotool's filtered resize of the original). A shifted, cropped,
+// mis-scaled or colour-swapped image lands far below 20 dB, so these limits leave room for
+// resampling differences between Chromium versions without letting a wrong picture through.
+const MIN_PSNR_DB = 24;
+const MAX_MAD = 8;
+
+// How OpenSeadragon is pointed at the server, and which requests are its image tiles
+// (so the test can prove the picture was really fetched through that protocol).
+const MODES = [
+  {
+    name: 'dzi',
+    tileSource: (base) => `${base}/dzi/${IMAGE_ID}.dzi`,
+    isTile: (url) => new RegExp(`/dzi/${IMAGE_ID}_files/\\d+/\\d+_\\d+\\.jpg$`).test(url),
+  },
+  {
+    name: 'iiif',
+    tileSource: (base) => `${base}/iiif/3/${IMAGE_ID}/info.json`,
+    isTile: (url) => new RegExp(`/iiif/3/${IMAGE_ID}/[^/]+/[^/]+/0/default\\.jpg$`).test(url),
+  },
+];
+
+// The page lives on a different origin (port) than zoomwarp, so the descriptor requests and,
+// with crossOriginPolicy 'Anonymous', the tile requests only succeed if zoomwarp's CORS
+// headers are right.
+const PAGE_HTML = `<!doctype html>
+<html>
+<head>
+<meta charset="utf-8">
+<title>zoomwarp browser test</title>
+<style>
+  html, body { margin: 0; height: 100%; overflow: hidden; background: #000; }
+  #viewer { width: 100vw; height: 100vh; }
+</style>
+<script src="/openseadragon.min.js"></script>
+</head>
+<body>
+<div id="viewer"></div>
+<script>
+  // Resolves once every tile the home view needs is loaded and drawn; rejects on the first
+  // descriptor or tile failure so that the test fails with OpenSeadragon's own reason.
+  window.openImage = (tileSource) => new Promise((resolve, reject) => {
+    const viewer = OpenSeadragon({
+      id: 'viewer',
+      tileSources: tileSource,
+      crossOriginPolicy: 'Anonymous',
+      showNavigationControl: false,
+      showNavigator: false,
+      animationTime: 0,
+      blendTime: 0,
+      immediateRender: true,
+      visibilityRatio: 1,
+      constrainDuringPan: true,
+      homeFillsViewer: false,
+    });
+    viewer.addHandler('open-failed', (e) => reject(new Error('open-failed: ' + e.message)));
+    viewer.addHandler('tile-load-failed', (e) =>
+      reject(new Error('tile-load-failed: ' + e.message + ' ' + e.tile.getUrl())));
+    viewer.addHandler('open', () => {
+      viewer.world.getItemAt(0).whenFullyLoaded(() => {
+        // 'fully-loaded' is raised during the update step, before that frame's draw; wait
+        // until nothing is left to draw, then one more frame so the canvas is composited.
+        const settle = () => {
+          if (viewer.world.needsDraw()) {
+            requestAnimationFrame(settle);
+          } else {
+            requestAnimationFrame(() => resolve(viewer.drawer.getType()));
+          }
+        };
+        settle();
+      });
+    });
+  });
+</script>
+</body>
+</html>
+`;
+
+const execFileP = promisify(execFile);
+
+// Children get no ZOOMWARP_* variables: each is also a zoomwarp option (ZOOMWARP_PUBLIC_URL,
+// ZOOMWARP_STORE, ...), and one left in a developer's shell must not change what is tested.
+const childEnv = Object.fromEntries(Object.entries(process.env).filter(([k]) => !k.startsWith('ZOOMWARP_')));
+
+// Teardown steps, run last-registered first, each even when an earlier one failed.
+const cleanups = [];
+let browser;
+let zoomwarpBase;
+let pageUrl;
+let reference;
+
+before(async () => {
+  const tmp = await fs.mkdtemp(path.join(os.tmpdir(), 'zoomwarp-browser-'));
+  cleanups.push(() => fs.rm(tmp, { recursive: true, force: true }));
+  await fs.rm(OUT_DIR, { recursive: true, force: true });
+  await fs.mkdir(OUT_DIR, { recursive: true });
+
+  const store = path.join(tmp, 'store');
+  await execFileP(ZOOMWARP, ['ingest', SAMPLE, '--store', store, '--id', IMAGE_ID, '--quiet'], { env: childEnv });
+
+  const referencePath = path.join(OUT_DIR, 'reference.png');
+  await execFileP('oiiotool', [SAMPLE, '--resize', `${VIEWPORT.width}x${VIEWPORT.height}`, '-o', referencePath]);
+  reference = PNG.sync.read(await fs.readFile(referencePath));
+
+  const port = await startZoomwarp(store);
+  zoomwarpBase = `http://127.0.0.1:${port}`;
+  pageUrl = await startPageServer();
+
+  browser = await chromium.launch({
+    executablePath: CHROMIUM,
+    // Playwright gives each launch a fresh temporary profile and deletes it on close.
+    args: [
+      '--headless=new', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
+      '--disable-background-networking', '--disable-component-update', '--disable-sync',
+    ],
+  });
+  cleanups.push(() => browser.close());
+}, { timeout: 60_000 });
+
+after(async () => {
+  const errors = [];
+  while (cleanups.length > 0) {
+    try {
+      await cleanups.pop()();
+    } catch (err) {
+      errors.push(err);
+    }
+  }
+  if (errors.length > 0) throw new AggregateError(errors, 'cleanup failed');
+});
+
+for (const mode of MODES) {
+  test(`OpenSeadragon shows the image via ${mode.name}`, { timeout: 60_000 }, async () => {
+    const context = await browser.newContext({ viewport: VIEWPORT, deviceScaleFactor: 1 });
+    try {
+      const page = await context.newPage();
+      const pageErrors = [];
+      page.on('pageerror', (err) => pageErrors.push(err.message));
+      const tileStatuses = [];
+      page.on('response', (res) => {
+        if (res.url().startsWith(zoomwarpBase) && mode.isTile(res.url())) tileStatuses.push(res.status());
+      });
+
+      await page.goto(pageUrl);
+      const drawer = await page.evaluate((src) => window.openImage(src), mode.tileSource(zoomwarpBase));
+      const screenshotPath = path.join(OUT_DIR, `${mode.name}.png`);
+      const shot = PNG.sync.read(await page.screenshot({ path: screenshotPath }));
+
+      const { psnr, mad } = compareRgb(shot, reference);
+      console.log(`${mode.name}: PSNR ${psnr.toFixed(2)} dB, MAD ${mad.toFixed(2)} ` +
+                  `(${tileStatuses.length} tiles, ${drawer} drawer, ${screenshotPath})`);
+
+      assert.deepEqual(pageErrors, []);
+      assert.ok(tileStatuses.length > 0, `no ${mode.name} tile was requested from zoomwarp`);
+      assert.ok(tileStatuses.every((s) => s === 200), `tile statuses: ${tileStatuses.join(',')}`);
+      assert.ok(psnr >= MIN_PSNR_DB && mad <= MAX_MAD,
+                `${screenshotPath} differs from ${path.join(OUT_DIR, 'reference.png')}: ` +
+                `PSNR ${psnr.toFixed(2)} dB (min ${MIN_PSNR_DB}), MAD ${mad.toFixed(2)} (max ${MAX_MAD})`);
+    } finally {
+      await context.close();
+    }
+  });
+}
+
+// Starts `zoomwarp serve` on a free loopback port and returns that port, read from the
+// server's JSON 'listening' log line.
+async function startZoomwarp(store) {
+  const server = spawn(ZOOMWARP, ['serve', '--host', '127.0.0.1', '--port', '0', '--store', store,
+                                  '--log-requests', '0'],
+                       { env: childEnv, stdio: ['ignore', 'ignore', 'pipe'] });
+  // The log is read to the end (not just up to 'listening') so that the server never blocks
+  // on a full pipe, and is kept for error messages.
+  let log = '';
+  server.stderr.setEncoding('utf8');
+  server.stderr.on('data', (chunk) => { log += chunk; });
+  const exited = new Promise((resolve) => server.on('exit', (code, signal) => resolve(code ?? signal)));
+
+  const port = await new Promise((resolve, reject) => {
+    const timer = setTimeout(() => reject(new Error(`zoomwarp serve did not start listening:\n${log}`)), 20_000);
+    const onData = () => {
+      const line = log.split('\n').find((l) => l.includes('"msg":"listening"'));
+      if (line === undefined) return;
+      server.stderr.off('data', onData);
+      clearTimeout(timer);
+      resolve(JSON.parse(line).port);
+    };
+    server.stderr.on('data', onData);
+    server.on('error', (err) => {
+      clearTimeout(timer);
+      reject(err);
+    });
+    exited.then((status) => {
+      clearTimeout(timer);
+      reject(new Error(`zoomwarp serve exited with ${status} at start:\n${log}`));
+    });
+  }).catch((err) => {
+    server.kill('SIGKILL');
+    throw err;
+  });
+
+  cleanups.push(async () => {
+    server.kill('SIGTERM');
+    const timer = setTimeout(() => server.kill('SIGKILL'), 10_000);
+    const status = await exited;
+    clearTimeout(timer);
+    assert.equal(status, 0, `zoomwarp serve exited with ${status} on SIGTERM:\n${log}`);
+  });
+  return port;
+}
+
+// Serves the test page and OpenSeadragon from node_modules on a free loopback port; returns
+// the page's URL.
+async function startPageServer() {
+  const osd = await fs.readFile(OSD_SCRIPT);
+  const server = http.createServer((req, res) => {
+    if (req.url === '/') {
+      res.writeHead(200, { 'Content-Type': 'text/html; charset=utf-8' }).end(PAGE_HTML);
+    } else if (req.url === '/openseadragon.min.js') {
+      res.writeHead(200, { 'Content-Type': 'text/javascript' }).end(osd);
+    } else {
+      res.writeHead(404).end();
+    }
+  });
+  server.listen(0, '127.0.0.1');
+  await once(server, 'listening');
+  cleanups.push(() => {
+    server.closeAllConnections();
+    return new Promise((resolve) => server.close(resolve));
+  });
+  return `http://127.0.0.1:${server.address().port}/`;
+}
+
+// PSNR (dB) and mean absolute difference over the R, G and B samples of two same-sized
+// RGBA images (pngjs always decodes to RGBA); alpha is ignored.
+function compareRgb(a, b) {
+  assert.deepEqual([a.width, a.height], [b.width, b.height], 'screenshot and reference sizes differ');
+  let sumSq = 0;
+  let sumAbs = 0;
+  for (let i = 0; i < a.data.length; i += 4) {
+    for (let c = 0; c < 3; c++) {
+      const d = a.data[i + c] - b.data[i + c];
+      sumSq += d * d;
+      sumAbs += Math.abs(d);
+    }
+  }
+  const n = a.width * a.height * 3;
+  const mse = sumSq / n;
+  return { psnr: mse === 0 ? Infinity : 10 * Math.log10((255 * 255) / mse), mad: sumAbs / n };
+}
