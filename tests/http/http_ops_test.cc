@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
+#include <signal.h>
+
 #include <sstream>
 #include <thread>
 
@@ -81,6 +83,37 @@ TEST(Ops, OverloadAnswers503WithRetryAfter) {
   EXPECT_GE(ok, 1);
   EXPECT_GE(busy, 1) << "12 slow requests against 1 worker and a queue of 1";
   EXPECT_EQ(setup.get("/healthz").status, 200);
+}
+
+// SIGTERM: readiness fails first, requests already in flight are answered in full, new
+// connections are refused once the listener closes, and the process exits 0.
+TEST(Ops, SigtermDrainsInFlightRequests) {
+  testing::TempDir dir;
+  testing::ServerProcess server(dir.path() + "/store", {"--drain-delay", "1", "--log-requests", "0"});
+  HttpClient setup(server.port());
+  ASSERT_EQ(setup.request("POST", "/v1/images?id=a", testing::read_file(testing::samples_dir() + "/interior_wine_djembe_tall.jpg")).status, 201);
+
+  std::vector<int> statuses(3);
+  std::vector<std::size_t> sizes(3);
+  std::vector<std::thread> clients;
+  for (int i = 0; i < 3; ++i)
+    clients.emplace_back([&, i] {  // slow, uncached: full-size PNGs
+      HttpClient c(server.port());
+      auto r = c.get("/iiif/3/a/full/" + std::to_string(2500 + i) + ",/0/default.png");
+      statuses[i] = r.status;
+      sizes[i] = r.body.size();
+    });
+  std::this_thread::sleep_for(std::chrono::milliseconds(150));
+  ::kill(server.pid(), SIGTERM);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  EXPECT_EQ(setup.get("/readyz").status, 503) << "not ready while draining";
+  for (auto& t : clients) t.join();
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(statuses[i], 200);
+    EXPECT_GT(sizes[i], 100000u);
+  }
+  EXPECT_EQ(server.terminate(30), 0);
+  EXPECT_THROW(HttpClient(server.port()).get("/healthz"), std::exception) << "the listener is closed";
 }
 
 TEST(Ops, MalformedHttpGets400AndTheServerLivesOn) {
