@@ -19,6 +19,7 @@ namespace {
 constexpr std::size_t kHeaderLimit = 16 * 1024;
 constexpr auto kUploadTimeout = std::chrono::minutes(10);
 constexpr auto kWriteTimeout = std::chrono::seconds(60);
+constexpr auto kLingerTimeout = std::chrono::seconds(2);
 
 // Errors that mean the client went away or stalled: there is nobody to answer.
 bool client_gone(beast::error_code ec) {
@@ -240,9 +241,20 @@ void Session::on_write(bool close, beast::error_code ec) {
   if (close) {
     beast::error_code ignored;
     stream_.socket().shutdown(net::ip::tcp::socket::shutdown_send, ignored);
-    return;
+    stream_.expires_after(kLingerTimeout);  // one deadline for the whole lingering
+    return linger();
   }
   read_header();
+}
+
+// Closing a socket with unread input makes the kernel send a reset, which can destroy the response
+// still in flight (e.g. a 413 to an upload whose body we refused to read). So after shutting down
+// our side we read and drop what the client still sends, for a short while, as nginx does.
+void Session::linger() {
+  buffer_.consume(buffer_.size());
+  stream_.async_read_some(buffer_.prepare(64 * 1024), [self = shared_from_this()](beast::error_code ec, std::size_t) {
+    if (!ec) self->linger();
+  });
 }
 
 void Session::discard_upload() {

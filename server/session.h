@@ -58,6 +58,7 @@ class Session : public std::enable_shared_from_this<Session> {
   void answer();
   void send(api::Response res);
   void on_write(bool close, boost::beast::error_code ec);
+  void linger();
   void discard_upload();
 
   boost::beast::tcp_stream stream_;
