@@ -1,5 +1,6 @@
 #include "server/metrics.h"
 
+#include <cmath>
 #include <sstream>
 
 namespace zoomwarp::server {
@@ -51,7 +52,8 @@ std::string Metrics::render() const {
       }
       out << s.name;
       if (!s.labels.empty()) out << "{" << s.labels << "}";
-      out << " " << std::fixed << s.value << std::defaultfloat << "\n";
+      if (s.value == std::floor(s.value) && std::fabs(s.value) < 1e15) out << " " << (long long)s.value << "\n";
+      else out << " " << s.value << "\n";
     }
   }
   return out.str();

@@ -99,7 +99,8 @@ int serve_command(const std::vector<std::string>& args) {
       auto ts = reader.stats();
       return std::vector<S>{
           {"zoomwarp_cache_hits_total", "Cache hits.", "counter", R"(cache="response")", double(rs.hits)},
-          {"zoomwarp_cache_hits_total", "", "counter", R"(cache="tile")", double(ts.lookups - ts.tiles_read)},
+          // OpenImageIO counts one lookup per call but may read several tiles in it: clamp at 0.
+          {"zoomwarp_cache_hits_total", "", "counter", R"(cache="tile")", double(std::max<std::int64_t>(0, ts.lookups - ts.tiles_read))},
           {"zoomwarp_cache_misses_total", "Cache misses.", "counter", R"(cache="response")", double(rs.misses)},
           {"zoomwarp_cache_misses_total", "", "counter", R"(cache="tile")", double(ts.tiles_read)},
           {"zoomwarp_cache_bytes", "Bytes held by a cache.", "gauge", R"(cache="response")", double(rs.bytes)},

@@ -80,7 +80,7 @@ class Session : public std::enable_shared_from_this<Session> {
   std::chrono::steady_clock::time_point started_;
 
   api::Response current_;  // the response being written (owns the body bytes)
-  boost::beast::http::response<boost::beast::http::buffer_body> res_;
+  std::string head_;       // its status line and header fields
 };
 
 }  // namespace zoomwarp::server
