@@ -114,11 +114,10 @@ std::string Router::base_url(const Request& req) const {
 }
 
 template <class Compute>
-std::optional<Response> Router::image_response(const Request& req, const std::string& id,
+std::optional<Response> Router::image_response(const Request& req, const tiles::ImageEntry& entry,
                                                const std::string& route, const std::string& key_extra,
                                                bool may_compute, Compute compute) {
-  auto entry = find_image(store_, id);
-  const tiles::Manifest& m = entry->manifest;
+  const tiles::Manifest& m = entry.manifest;
   const std::string key = req.path + "|" + key_extra;
   const std::string etag = make_etag(m.version, key);
   auto with_validators = [&](Response r) {
@@ -140,7 +139,7 @@ std::optional<Response> Router::image_response(const Request& req, const std::st
     return r;
   }
   if (!may_compute) return std::nullopt;
-  Response r = with_validators(compute(*entry));
+  Response r = with_validators(compute(entry));
   cache_.put(cache_key, std::make_shared<const Response>(r), r.body->size());
   r.cache = "miss";
   return r;
@@ -185,7 +184,7 @@ std::optional<Response> Router::dispatch(const Request& req, bool may_compute) {
       if (!get) return method_not_allowed("GET, HEAD");
       if (s.size() == 2 && s[1].ends_with(".dzi")) {
         const std::string id = s[1].substr(0, s[1].size() - 4);
-        return image_response(req, id, "dzi_descriptor", "", true, [&](const tiles::ImageEntry& e) {
+        return image_response(req, *find_image(store_, id), "dzi_descriptor", "", true, [&](const tiles::ImageEntry& e) {
           return body_response("application/xml",
                                dzi_descriptor(e.manifest, config_.dzi, e.manifest.has_alpha() ? "png" : "jpg"));
         });
@@ -204,7 +203,7 @@ std::optional<Response> Router::dispatch(const Request& req, bool may_compute) {
           throw ApiError(404, "tile_not_found",
                          "no tile " + std::to_string(name->col) + "_" + std::to_string(name->row) + " at level " +
                              std::to_string(*level) + " (levels 0-" + std::to_string(entry->manifest.levels - 1) + ")");
-        return image_response(req, id, "dzi_tile", "", may_compute, [&](const tiles::ImageEntry& e) {
+        return image_response(req, *entry, "dzi_tile", "", may_compute, [&](const tiles::ImageEntry& e) {
           tiles::Raster pixels = reader_.read_level(e, tile->store_level, tile->rect);
           return body_response(std::string(tiles::mime_type(*format)),
                                tiles::encode_image(pixels, *format, config_.encode));
@@ -226,7 +225,7 @@ std::optional<Response> Router::dispatch(const Request& req, bool may_compute) {
       if (s.size() == 4 && s[3] == "info.json") {
         const std::string base = base_url(req);
         const bool ld = req.accept.find("application/ld+json") != std::string::npos;
-        return image_response(req, id, "iiif_info", base + (ld ? "|ld" : ""), true, [&](const tiles::ImageEntry& e) {
+        return image_response(req, *find_image(store_, id), "iiif_info", base + (ld ? "|ld" : ""), true, [&](const tiles::ImageEntry& e) {
           Response r = body_response(
               ld ? "application/ld+json;profile=\"http://iiif.io/api/image/3/context.json\"" : "application/json",
               iiif_info_json(e.manifest, base + "/iiif/3/" + e.manifest.id, config_.iiif));
@@ -238,7 +237,7 @@ std::optional<Response> Router::dispatch(const Request& req, bool may_compute) {
         auto entry = find_image(store_, id);
         const IiifPlan plan = plan_iiif_request(s[3], s[4], s[5], s[6], entry->manifest.width,
                                                 entry->manifest.height, config_.iiif);
-        return image_response(req, id, "iiif_image", "", may_compute, [&](const tiles::ImageEntry& e) {
+        return image_response(req, *entry, "iiif_image", "", may_compute, [&](const tiles::ImageEntry& e) {
           tiles::Raster pixels = reader_.read_scaled(e, plan.region, plan.width, plan.height);
           if (plan.mirror) pixels = tiles::mirror_horizontally(pixels);
           pixels = tiles::rotate_clockwise(pixels, plan.rotation);

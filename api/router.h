@@ -58,10 +58,10 @@ class Router {
   Response delete_image(const std::string& id);
   Response upload_image(const Request& req);
 
-  // Image responses go through one path: resolve the id, check If-None-Match, look in the cache,
-  // and only then (if allowed) compute.
+  // Image responses go through one path: check If-None-Match, look in the cache, and only then
+  // (if allowed) compute.
   template <class Compute>
-  std::optional<Response> image_response(const Request& req, const std::string& id,
+  std::optional<Response> image_response(const Request& req, const tiles::ImageEntry& entry,
                                          const std::string& route, const std::string& key_extra,
                                          bool may_compute, Compute compute);
 
