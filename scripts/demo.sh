@@ -4,7 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
-scripts/build.sh
+scripts/build.sh zoomwarp
 export ZOOMWARP_STORE="${ZOOMWARP_STORE:-$PWD/store}"
 if [ ! -e "$ZOOMWARP_STORE/images/boats_lake_sunset" ]; then
   build/bin/zoomwarp ingest samples/boats_lake_sunset.jpg --id boats_lake_sunset
