@@ -1,0 +1,37 @@
+// A triangle mesh as plain data (libigl style): vertex positions and counter-clockwise index
+// triples, in image pixels with y pointing down. "Counter-clockwise" is meant in that frame:
+// signed_area() > 0 for every triangle of a valid mesh.
+#pragma once
+
+#include <array>
+#include <vector>
+
+namespace zoomwarp::warp {
+
+struct Point {
+  double x = 0, y = 0;
+};
+
+using Triangle = std::array<int, 3>;
+
+struct Mesh {
+  std::vector<Point> vertices;
+  std::vector<Triangle> triangles;
+};
+
+// A straight segment in image pixels, e.g. a line constraint.
+struct Segment {
+  Point a, b;
+};
+
+// Twice the signed area of triangle (a, b, c): positive when a→b→c turns clockwise on screen
+// (y down), which is counter-clockwise in the usual y-up frame.
+inline double signed_area2(const Point& a, const Point& b, const Point& c) {
+  return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+}
+
+inline double signed_area(const Mesh& m, const Triangle& t, const std::vector<Point>& positions) {
+  return 0.5 * signed_area2(positions[t[0]], positions[t[1]], positions[t[2]]);
+}
+
+}  // namespace zoomwarp::warp

@@ -1,0 +1,324 @@
+#include "warp/shape_warp.h"
+
+#include <Eigen/CholmodSupport>
+#include <Eigen/Sparse>
+#include <cmath>
+#include <stdexcept>
+
+namespace zoomwarp::warp {
+
+namespace {
+
+using SpMat = Eigen::SparseMatrix<double>;
+using Triplets = std::vector<Eigen::Triplet<double>>;
+using Solver = Eigen::CholmodSimplicialLLT<SpMat>;  // simplicial beats supernodal at these sizes
+
+enum class LineKind { kHorizontal, kVertical, kOblique };
+
+struct Line {
+  std::vector<int> vertices;  // start first, end last
+  LineKind kind;
+};
+
+// Adds w·(Σ_k a_k u_k)² to a quadratic form over variables u (indices into `col`): w·a·aᵀ.
+template <std::size_t N>
+void add_square(Triplets& t, const std::array<int, N>& var, const std::array<double, N>& a, double w) {
+  for (std::size_t p = 0; p < N; ++p)
+    for (std::size_t q = 0; q < N; ++q)
+      if (var[p] >= 0 && var[q] >= 0) t.emplace_back(var[p], var[q], w * a[p] * a[q]);
+}
+
+}  // namespace
+
+struct ShapeWarp::Impl {
+  Mesh mesh;
+  std::vector<double> weights;
+  double width, height;
+  std::vector<Line> lines;
+  bool has_oblique = false;
+
+  // Boundary constraints: which vertices have a fixed x (left/right edge) or y (top/bottom).
+  std::vector<signed char> fixed_x, fixed_y;  // 0 free, 1 at 0, 2 at the far side
+  // Per axis, the index of each free vertex among the free unknowns, or -1.
+  std::vector<int> free_x, free_y;
+  int n_free_x = 0, n_free_y = 0;
+
+  // Fast path: one factorization per axis, and the coupling to fixed values (A_FC x_C),
+  // which is linear in the target size: A_FC x_C = size · c_far.
+  std::unique_ptr<Solver> solver_x, solver_y;
+  Eigen::VectorXd far_x, far_y;  // A_FC applied to "1 on the far edge, 0 on the near edge"
+
+  void classify() {
+    const std::size_t n = mesh.vertices.size();
+    fixed_x.assign(n, 0), fixed_y.assign(n, 0), free_x.assign(n, -1), free_y.assign(n, -1);
+    const double eps_x = 1e-9 * std::max(1.0, width), eps_y = 1e-9 * std::max(1.0, height);
+    for (std::size_t i = 0; i < n; ++i) {
+      const Point& p = mesh.vertices[i];
+      if (std::abs(p.x) <= eps_x) fixed_x[i] = 1;
+      else if (std::abs(p.x - width) <= eps_x) fixed_x[i] = 2;
+      if (std::abs(p.y) <= eps_y) fixed_y[i] = 1;
+      else if (std::abs(p.y - height) <= eps_y) fixed_y[i] = 2;
+      if (!fixed_x[i]) free_x[i] = n_free_x++;
+      if (!fixed_y[i]) free_y[i] = n_free_y++;
+    }
+  }
+
+  // The Laplacian part of one axis, over all vertices: Σ_f w_f Σ_e (e_i − e_j)(e_i − e_j)ᵀ, plus
+  // the orientation-form line terms α(u_i − u_s)² of lines whose normal is this axis.
+  Triplets axis_form(LineKind fixed_normal_kind, double alpha) const {
+    Triplets t;
+    for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
+      for (int k = 0; k < 3; ++k) {
+        const int i = mesh.triangles[f][k], j = mesh.triangles[f][(k + 1) % 3];
+        add_square<2>(t, {i, j}, {1.0, -1.0}, weights[f]);
+      }
+    for (const Line& l : lines)
+      if (l.kind == fixed_normal_kind)
+        for (std::size_t k = 1; k < l.vertices.size(); ++k)
+          add_square<2>(t, {l.vertices[k], l.vertices[0]}, {1.0, -1.0}, alpha);
+    return t;
+  }
+
+  void factor_axes(double alpha) {
+    const int n = int(mesh.vertices.size());
+    auto build = [&](LineKind normal_kind, const std::vector<int>& free, const std::vector<signed char>& fixed,
+                     int n_free, std::unique_ptr<Solver>& solver, Eigen::VectorXd& far) {
+      Triplets ff, fc;
+      for (const auto& e : axis_form(normal_kind, alpha)) {
+        const int r = free[e.row()];
+        if (r < 0) continue;
+        const int c = free[e.col()];
+        if (c >= 0) ff.emplace_back(r, c, e.value());
+        else if (fixed[e.col()] == 2) fc.emplace_back(r, e.col(), e.value());
+      }
+      SpMat a(n_free, n_free), b(n_free, n);
+      a.setFromTriplets(ff.begin(), ff.end());
+      b.setFromTriplets(fc.begin(), fc.end());
+      solver = std::make_unique<Solver>();
+      solver->compute(a);
+      if (solver->info() != Eigen::Success) throw std::runtime_error("CHOLMOD could not factor the warp system");
+      far = b * Eigen::VectorXd::Ones(n);  // only far-edge columns were kept
+    };
+    // x: vertical lines keep their x (normal (1,0)); y: horizontal lines keep their y.
+    build(LineKind::kVertical, free_x, fixed_x, n_free_x, solver_x, far_x);
+    build(LineKind::kHorizontal, free_y, fixed_y, n_free_y, solver_y, far_y);
+  }
+
+  // Optimal isotropic scale of each triangle for the current positions (the "local" step).
+  std::vector<double> scales(const std::vector<Point>& cur) const {
+    std::vector<double> s(mesh.triangles.size());
+    for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+      double num = 0, den = 0;
+      for (int k = 0; k < 3; ++k) {
+        const int i = mesh.triangles[f][k], j = mesh.triangles[f][(k + 1) % 3];
+        const double dx = mesh.vertices[i].x - mesh.vertices[j].x, dy = mesh.vertices[i].y - mesh.vertices[j].y;
+        num += (cur[i].x - cur[j].x) * dx + (cur[i].y - cur[j].y) * dy;
+        den += dx * dx + dy * dy;
+      }
+      s[f] = den > 0 ? num / den : 1.0;
+    }
+    return s;
+  }
+
+  // Right-hand side of the shape term for one axis: b_i = Σ w_f s_f (u_i − u_j) over edges.
+  Eigen::VectorXd shape_rhs(const std::vector<double>& s, bool y_axis, const std::vector<int>& free, int n_free,
+                            const std::vector<double>& w) const {
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(n_free);
+    for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
+      for (int k = 0; k < 3; ++k) {
+        const int i = mesh.triangles[f][k], j = mesh.triangles[f][(k + 1) % 3];
+        const double d = y_axis ? mesh.vertices[i].y - mesh.vertices[j].y : mesh.vertices[i].x - mesh.vertices[j].x;
+        const double c = w[f] * s[f] * d;
+        if (free[i] >= 0) b[free[i]] += c;
+        if (free[j] >= 0) b[free[j]] -= c;
+      }
+    return b;
+  }
+
+  std::vector<int> inverted(const std::vector<Point>& p) const {
+    std::vector<int> out;
+    for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+      const auto& t = mesh.triangles[f];
+      if (signed_area2(p[t[0]], p[t[1]], p[t[2]]) <= 0) out.push_back(int(f));
+    }
+    return out;
+  }
+
+  std::vector<Point> fixed_positions(const std::vector<Point>& start, double tw, double th) const {
+    std::vector<Point> p = start;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      if (fixed_x[i]) p[i].x = fixed_x[i] == 1 ? 0 : tw;
+      if (fixed_y[i]) p[i].y = fixed_y[i] == 1 ? 0 : th;
+    }
+    return p;
+  }
+
+  // One global step of the fast path.
+  void solve_decoupled(std::vector<Point>& cur, double tw, double th) const {
+    const auto s = scales(cur);
+    Eigen::VectorXd bx = shape_rhs(s, false, free_x, n_free_x, weights) - tw * far_x;
+    Eigen::VectorXd by = shape_rhs(s, true, free_y, n_free_y, weights) - th * far_y;
+    const Eigen::VectorXd x = solver_x->solve(bx), y = solver_y->solve(by);
+    for (std::size_t i = 0; i < cur.size(); ++i) {
+      if (free_x[i] >= 0) cur[i].x = x[free_x[i]];
+      if (free_y[i] >= 0) cur[i].y = y[free_y[i]];
+    }
+  }
+
+  // One global step with oblique lines: x and y are solved jointly. Unknowns: free x first, then
+  // free y. Even iterations use the direction form D_Line_D (ratios r_i fixed), odd ones the
+  // orientation form D_Line_O (normal fixed), as §4.2 prescribes.
+  void solve_joint(std::vector<Point>& cur, double tw, double th, double alpha, int iteration,
+                   const std::vector<double>& w) const {
+    const int n = n_free_x + n_free_y;
+    auto vx = [&](int i) { return free_x[i]; };
+    auto vy = [&](int i) { return free_y[i] < 0 ? -1 : n_free_x + free_y[i]; };
+    const auto s = scales(cur);
+    Triplets t;
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(n);
+    b.head(n_free_x) = shape_rhs(s, false, free_x, n_free_x, w);
+    b.tail(n_free_y) = shape_rhs(s, true, free_y, n_free_y, w);
+    // Adds w·(Σ a_k u_k − c)² where some u_k may be fixed (index −1, value known).
+    auto add = [&](std::array<int, 4> var, std::array<double, 4> a, std::array<double, 4> known, double w) {
+      double k0 = 0;
+      for (int p = 0; p < 4; ++p)
+        if (var[p] < 0) k0 += a[p] * known[p];
+      for (int p = 0; p < 4; ++p) {
+        if (var[p] < 0) continue;
+        b[var[p]] -= w * a[p] * k0;
+        for (int q = 0; q < 4; ++q)
+          if (var[q] >= 0) t.emplace_back(var[p], var[q], w * a[p] * a[q]);
+      }
+    };
+    const auto fixed = fixed_positions(cur, tw, th);
+    for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
+      for (int k = 0; k < 3; ++k) {
+        const int i = mesh.triangles[f][k], j = mesh.triangles[f][(k + 1) % 3];
+        // The shape RHS is already in b; add the matrix, with fixed ends moved to the RHS.
+        add({vx(i), vx(j), -1, -1}, {1, -1, 0, 0}, {fixed[i].x, fixed[j].x, 0, 0}, w[f]);
+        add({vy(i), vy(j), -1, -1}, {1, -1, 0, 0}, {fixed[i].y, fixed[j].y, 0, 0}, w[f]);
+      }
+    for (const Line& l : lines) {
+      const int st = l.vertices.front(), en = l.vertices.back();
+      double nx = 0, ny = 0;
+      if (l.kind == LineKind::kHorizontal) ny = 1;
+      else if (l.kind == LineKind::kVertical) nx = 1;
+      else {
+        const double dx = cur[en].x - cur[st].x, dy = cur[en].y - cur[st].y, len = std::hypot(dx, dy);
+        nx = len > 0 ? -dy / len : 0, ny = len > 0 ? dx / len : 1;
+      }
+      const bool direction_form = l.kind == LineKind::kOblique && iteration % 2 == 0;
+      const double ex = cur[en].x - cur[st].x, ey = cur[en].y - cur[st].y, e2 = ex * ex + ey * ey;
+      // The direction form says nothing about the end point itself (r = 1); the orientation form
+      // keeps it on the line too.
+      const std::size_t last = direction_form ? l.vertices.size() - 1 : l.vertices.size();
+      for (std::size_t k = 1; k < last; ++k) {
+        const int i = l.vertices[k];
+        if (direction_form) {  // ‖v'_i − (1 − r) v'_s − r v'_e‖², per axis
+          const double r = e2 > 0 ? ((cur[i].x - cur[st].x) * ex + (cur[i].y - cur[st].y) * ey) / e2 : 0;
+          add({vx(i), vx(st), vx(en), -1}, {1, -(1 - r), -r, 0}, {fixed[i].x, fixed[st].x, fixed[en].x, 0}, alpha);
+          add({vy(i), vy(st), vy(en), -1}, {1, -(1 - r), -r, 0}, {fixed[i].y, fixed[st].y, fixed[en].y, 0}, alpha);
+        } else {  // ((v'_i − v'_s)·n)²
+          add({vx(i), vx(st), vy(i), vy(st)}, {nx, -nx, ny, -ny}, {fixed[i].x, fixed[st].x, fixed[i].y, fixed[st].y},
+              alpha);
+        }
+      }
+    }
+    SpMat a(n, n);
+    a.setFromTriplets(t.begin(), t.end());
+    Solver solver;
+    solver.compute(a);
+    if (solver.info() != Eigen::Success) throw std::runtime_error("CHOLMOD could not factor the warp system");
+    const Eigen::VectorXd u = solver.solve(b);
+    for (std::size_t i = 0; i < cur.size(); ++i) {
+      if (free_x[i] >= 0) cur[i].x = u[free_x[i]];
+      if (free_y[i] >= 0) cur[i].y = u[n_free_x + free_y[i]];
+    }
+  }
+};
+
+ShapeWarp::ShapeWarp(Mesh mesh, std::vector<double> weights, double width, double height,
+                     std::vector<std::vector<int>> lines)
+    : impl_(std::make_unique<Impl>()) {
+  if (weights.size() != mesh.triangles.size()) throw std::invalid_argument("one weight per triangle");
+  impl_->mesh = std::move(mesh);
+  impl_->weights = std::move(weights);
+  impl_->width = width;
+  impl_->height = height;
+  for (auto& ids : lines) {
+    if (ids.size() < 2) continue;
+    const Point& a = impl_->mesh.vertices[ids.front()];
+    const Point& b = impl_->mesh.vertices[ids.back()];
+    const double len = std::hypot(b.x - a.x, b.y - a.y);
+    LineKind kind = std::abs(b.y - a.y) <= 1e-9 * len   ? LineKind::kHorizontal
+                    : std::abs(b.x - a.x) <= 1e-9 * len ? LineKind::kVertical
+                                                        : LineKind::kOblique;
+    impl_->has_oblique |= kind == LineKind::kOblique;
+    impl_->lines.push_back({std::move(ids), kind});
+  }
+  impl_->classify();
+  if (!impl_->has_oblique) impl_->factor_axes(WarpOptions{}.alpha);
+}
+
+ShapeWarp::~ShapeWarp() = default;
+ShapeWarp::ShapeWarp(ShapeWarp&&) noexcept = default;
+
+const Mesh& ShapeWarp::mesh() const { return impl_->mesh; }
+bool ShapeWarp::factored_once() const { return !impl_->has_oblique; }
+
+WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, const std::vector<Point>& initial) const {
+  const Impl& m = *impl_;
+  WarpResult r;
+  if (initial.size() == m.mesh.vertices.size()) {
+    r.positions = m.fixed_positions(initial, tw, th);
+  } else {
+    r.positions.resize(m.mesh.vertices.size());
+    for (std::size_t i = 0; i < r.positions.size(); ++i)
+      r.positions[i] = {m.mesh.vertices[i].x * tw / m.width, m.mesh.vertices[i].y * th / m.height};
+  }
+  // The fast path's factorization was made with the default α; another α needs the joint path.
+  const bool fast = !m.has_oblique && options.alpha == WarpOptions{}.alpha;
+  for (r.iterations = 0; r.iterations < options.max_iterations;) {
+    const std::vector<Point> before = r.positions;
+    if (fast) m.solve_decoupled(r.positions, tw, th);
+    else m.solve_joint(r.positions, tw, th, options.alpha, r.iterations, m.weights);
+    ++r.iterations;
+    double moved = 0;
+    for (std::size_t i = 0; i < before.size(); ++i)
+      moved = std::max(moved, std::hypot(r.positions[i].x - before[i].x, r.positions[i].y - before[i].y));
+    // Oblique lines alternate two forms: judge convergence after a pair of iterations.
+    if (moved < options.tolerance && (fast || r.iterations % 2 == 0)) {
+      r.converged = true;
+      break;
+    }
+  }
+  // Fold-over guard. The shape energy alone can invert triangles where weights are low next to
+  // high ones (DESIGN.md §4 saw 15 of 3348 with w_min = 0.05). Where that happens, the weights of
+  // the inverted triangles and their neighbours are raised — making them resist deformation —
+  // and the warp goes on from where it is, until no triangle is inverted.
+  auto bad = m.inverted(r.positions);
+  std::vector<double> w = m.weights;
+  for (int round = 0; !bad.empty() && round < options.max_guard_rounds; ++round) {
+    std::vector<char> near(m.mesh.vertices.size(), 0);
+    for (int f : bad)
+      for (int v : m.mesh.triangles[f]) near[v] = 1;
+    for (std::size_t f = 0; f < w.size(); ++f) {
+      const auto& t = m.mesh.triangles[f];
+      if (near[t[0]] || near[t[1]] || near[t[2]]) w[f] = std::min(1.0, w[f] * 4);
+    }
+    for (int k = 0; k < options.max_iterations; ++k) {
+      const std::vector<Point> before = r.positions;
+      m.solve_joint(r.positions, tw, th, options.alpha, r.iterations++, w);
+      double moved = 0;
+      for (std::size_t i = 0; i < before.size(); ++i)
+        moved = std::max(moved, std::hypot(r.positions[i].x - before[i].x, r.positions[i].y - before[i].y));
+      if (moved < options.tolerance && k % 2 == 1) break;
+    }
+    bad = m.inverted(r.positions);
+    r.guard_rounds = round + 1;
+  }
+  r.inverted = int(bad.size());
+  return r;
+}
+
+}  // namespace zoomwarp::warp

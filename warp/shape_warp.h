@@ -1,0 +1,68 @@
+// Mesh warping by the local–global minimisation of seed 000 §4.2–4.3:
+//
+//   D = Σ_f w_f Σ_{e_ij ∈ f} ‖(v'_i − v'_j) − s_f (v_i − v_j)‖²  +  α D_Line
+//
+// subject to boundary constraints: vertices on the left/top edges of the source rectangle stay at
+// x' = 0 / y' = 0, those on the right/bottom edges go to x' = W' / y' = H'. Each iteration fixes
+// the optimal scale s_f = Σ_e (d'_e·d_e) / Σ_e |d_e|² of every triangle (and the line parameters)
+// from the current positions, which makes D quadratic, and solves the sparse SPD system with
+// CHOLMOD.
+//
+// Structure exploited: the shape term's matrix is a weighted graph Laplacian that depends only on
+// the mesh and the weights, never on s_f or on the target size (those only change the right-hand
+// side), and x and y decouple. With no lines, or only horizontal/vertical ones (orientation form
+// D_Line_O with a fixed normal), each axis system is factored once in the constructor and every
+// iteration — for any target size — is two back-substitutions. Oblique lines couple x and y and
+// change the matrix every iteration (alternating D_Line_D / D_Line_O forms); then the joint
+// system's pattern is analysed once and refactored numerically per iteration.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "warp/mesh.h"
+
+namespace zoomwarp::warp {
+
+struct WarpOptions {
+  double alpha = 100;  // line energy weight (§4.3)
+  // Local–global converges linearly: measured on a 2000-vertex mesh squeezing 8:3 to 1:1, the
+  // largest remaining error is 12 px after 10 iterations, 0.4 px after 40, 0.004 px after 80.
+  int max_iterations = 100;
+  // Converged when no vertex moved more than this many target pixels in an iteration.
+  double tolerance = 0.02;
+  int max_guard_rounds = 4;  // fold-over guard (see solve())
+};
+
+struct WarpResult {
+  std::vector<Point> positions;  // v' for every mesh vertex
+  int iterations = 0;
+  bool converged = false;
+  int guard_rounds = 0;  // rounds of the fold-over guard that were needed
+  int inverted = 0;      // triangles still inverted at the end (0 unless the guard gave up)
+};
+
+class ShapeWarp {
+ public:
+  // `mesh` covers [0, width] × [0, height]; `weights` has one entry per triangle (significance,
+  // > 0); `lines` lists, per line constraint, its vertices in order along it.
+  ShapeWarp(Mesh mesh, std::vector<double> weights, double width, double height,
+            std::vector<std::vector<int>> lines = {});
+  ~ShapeWarp();
+  ShapeWarp(ShapeWarp&&) noexcept;
+
+  // Warps to a target_width × target_height rectangle, starting from `initial` (e.g. a coarser
+  // warp, nested iteration §6.2) or, when empty, from uniform scaling.
+  WarpResult solve(double target_width, double target_height, const WarpOptions& options = {},
+                   const std::vector<Point>& initial = {}) const;
+
+  const Mesh& mesh() const;
+  // Whether the fast path applies (no oblique lines: matrices factored once).
+  bool factored_once() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace zoomwarp::warp
