@@ -1,0 +1,101 @@
+// Significance maps: range, faces, curator edits, per-triangle weights, and that an edit changes
+// the warp where it should and not elsewhere.
+#include <gtest/gtest.h>
+
+#include "tests/support/images.h"
+#include "tests/support/server_process.h"
+#include "warp/coarse_mesh.h"
+#include "warp/shape_warp.h"
+#include "warp/significance.h"
+
+namespace zoomwarp {
+namespace {
+
+tiles::Raster load_small(const std::string& name, int max_side) {
+  tiles::Raster full = testing::load_image(testing::samples_dir() + "/" + name);
+  const double f = std::min(1.0, double(max_side) / std::max(full.width, full.height));
+  return testing::resize(full, int(full.width * f), int(full.height * f));
+}
+
+TEST(Significance, MapIsNormalisedAndFollowsStructure) {
+  const tiles::Raster img = load_small("boats_lake_sunset.jpg", 1024);
+  const auto map = warp::compute_significance(img, 2560);
+  EXPECT_EQ(map.width, 1024);
+  EXPECT_EQ(map.height, 640);
+  EXPECT_DOUBLE_EQ(map.scale, 0.4);
+  float lo = 1, hi = 0;
+  for (float v : map.values) lo = std::min(lo, v), hi = std::max(hi, v);
+  EXPECT_GE(lo, 0.0f);
+  EXPECT_FLOAT_EQ(hi, 1.0f);
+  // The band of boats matters more than the cloudy sky or the gravel in front.
+  auto sum = [&](int x0, int y0, int x1, int y1) {
+    double s = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) s += map.at(x, y);
+    return s;
+  };
+  const double boats = sum(100, 320, 700, 440), sky = sum(100, 0, 700, 120), gravel = sum(100, 520, 700, 640);
+  EXPECT_GT(boats, 2 * sky);
+  EXPECT_GT(boats, 2 * gravel);
+}
+
+TEST(Significance, FacesAreFullySignificant) {
+  const tiles::Raster img = testing::load_image(testing::samples_dir() + "/astronaut_portrait.png");
+  const auto faces = warp::detect_faces(img, warp::SignificanceOptions{}.face_cascade);
+  ASSERT_FALSE(faces.empty()) << "the astronaut's face";
+  const auto& f = faces.front();
+  EXPECT_GT(f.x + f.w / 2, 150);  // her face is in the upper middle-right of the portrait
+  EXPECT_LT(f.y + f.h / 2, 250);
+  const auto map = warp::compute_significance(img, 512);
+  EXPECT_FLOAT_EQ(map.at(int(f.x + f.w / 2), int(f.y + f.h / 2)), 1.0f);
+  warp::SignificanceOptions none;
+  none.face_cascade = "";
+  EXPECT_TRUE(warp::detect_faces(img, none.face_cascade).empty());
+}
+
+TEST(Significance, PaintingAndTriangleWeights) {
+  warp::SignificanceMap map;
+  map.width = 200, map.height = 100, map.scale = 0.1;  // for a 2000×1000 image
+  map.values.assign(200 * 100, 0.2f);
+  warp::paint_polygon(map, {{100, 100}, {600, 100}, {600, 500}, {100, 500}}, 1.0f);
+  EXPECT_FLOAT_EQ(map.at(30, 30), 1.0f);
+  EXPECT_FLOAT_EQ(map.at(80, 30), 0.2f);
+  auto cm = warp::build_coarse_mesh(2000, 1000, {});
+  auto w = warp::triangle_weights(cm.mesh, map, 0.25);
+  ASSERT_EQ(w.size(), cm.mesh.triangles.size());
+  EXPECT_DOUBLE_EQ(*std::min_element(w.begin(), w.end()), 0.25);
+  EXPECT_DOUBLE_EQ(*std::max_element(w.begin(), w.end()), 1.0);
+}
+
+// Marking a region important makes it larger in the warped image, and leaves a far-away region
+// (almost) where it was.
+TEST(Significance, AnEditChangesTheWarpWhereItShould) {
+  const double W = 2560, H = 1600, tw = 1200, th = 1600;  // squeeze 16:10 to 3:4
+  const tiles::Raster img = load_small("boats_lake_sunset.jpg", 1024);
+  auto map = warp::compute_significance(img, int(W));
+  auto cm = warp::build_coarse_mesh(W, H, {});
+  auto warp_with = [&](const warp::SignificanceMap& m) {
+    return warp::ShapeWarp(cm.mesh, warp::triangle_weights(cm.mesh, m, 0.2), W, H).solve(tw, th);
+  };
+  const auto before = warp_with(map);
+  auto edited = map;
+  const std::vector<warp::Point> region = {{1800, 200}, {2300, 200}, {2300, 600}, {1800, 600}};  // sky, right
+  warp::paint_polygon(edited, region, 1.0f);
+  const auto after = warp_with(edited);
+  ASSERT_EQ(after.inverted, 0);
+  auto width_of = [&](const warp::WarpResult& r, double x0, double x1, double y0, double y1) {
+    double lo = 1e9, hi = -1e9;
+    for (std::size_t i = 0; i < cm.mesh.vertices.size(); ++i) {
+      const auto& v = cm.mesh.vertices[i];
+      if (v.x >= x0 && v.x <= x1 && v.y >= y0 && v.y <= y1) lo = std::min(lo, r.positions[i].x), hi = std::max(hi, r.positions[i].x);
+    }
+    return hi - lo;
+  };
+  const double grown = width_of(after, 1850, 2250, 250, 550) / width_of(before, 1850, 2250, 250, 550);
+  EXPECT_GT(grown, 1.3) << "the marked region is shown larger";
+  const double far = width_of(after, 150, 550, 1100, 1500) / width_of(before, 150, 550, 1100, 1500);
+  EXPECT_NEAR(far, 1.0, 0.35) << "a region far away changes little";
+}
+
+}  // namespace
+}  // namespace zoomwarp
