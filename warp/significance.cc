@@ -116,34 +116,36 @@ void paint_polygon(SignificanceMap& map, const std::vector<Point>& polygon, floa
   cv::fillPoly(m, std::vector<std::vector<cv::Point>>{pts}, cv::Scalar(std::clamp(weight, 0.0f, 1.0f)), cv::LINE_8, 4);
 }
 
+double mean_over_triangle(const SignificanceMap& map, const Point& a, const Point& b, const Point& c) {
+  const Point p[3] = {{a.x * map.scale, a.y * map.scale}, {b.x * map.scale, b.y * map.scale},
+                      {c.x * map.scale, c.y * map.scale}};
+  const double area2 = signed_area2(p[0], p[1], p[2]);
+  const int x0 = std::max(0, int(std::floor(std::min({p[0].x, p[1].x, p[2].x}))));
+  const int x1 = std::min(map.width - 1, int(std::ceil(std::max({p[0].x, p[1].x, p[2].x}))));
+  const int y0 = std::max(0, int(std::floor(std::min({p[0].y, p[1].y, p[2].y}))));
+  const int y1 = std::min(map.height - 1, int(std::ceil(std::max({p[0].y, p[1].y, p[2].y}))));
+  double sum = 0;
+  int n = 0;
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x) {
+      const Point q{x + 0.5, y + 0.5};  // pixel centre: inside when all three edge tests agree
+      const double e0 = signed_area2(p[0], p[1], q), e1 = signed_area2(p[1], p[2], q), e2 = signed_area2(p[2], p[0], q);
+      if ((area2 > 0 && e0 >= 0 && e1 >= 0 && e2 >= 0) || (area2 < 0 && e0 <= 0 && e1 <= 0 && e2 <= 0)) {
+        sum += map.at(x, y);
+        ++n;
+      }
+    }
+  if (n > 0) return sum / n;
+  const int cx = std::clamp(int((p[0].x + p[1].x + p[2].x) / 3), 0, map.width - 1);
+  const int cy = std::clamp(int((p[0].y + p[1].y + p[2].y) / 3), 0, map.height - 1);
+  return map.at(cx, cy);
+}
+
 std::vector<double> triangle_weights(const Mesh& mesh, const SignificanceMap& map, double w_min) {
   std::vector<double> mean(mesh.triangles.size());
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
-    Point p[3];
-    for (int k = 0; k < 3; ++k)
-      p[k] = {mesh.vertices[mesh.triangles[f][k]].x * map.scale, mesh.vertices[mesh.triangles[f][k]].y * map.scale};
-    const double area2 = signed_area2(p[0], p[1], p[2]);
-    const int x0 = std::max(0, int(std::floor(std::min({p[0].x, p[1].x, p[2].x}))));
-    const int x1 = std::min(map.width - 1, int(std::ceil(std::max({p[0].x, p[1].x, p[2].x}))));
-    const int y0 = std::max(0, int(std::floor(std::min({p[0].y, p[1].y, p[2].y}))));
-    const int y1 = std::min(map.height - 1, int(std::ceil(std::max({p[0].y, p[1].y, p[2].y}))));
-    double sum = 0;
-    int n = 0;
-    for (int y = y0; y <= y1; ++y)
-      for (int x = x0; x <= x1; ++x) {
-        const Point c{x + 0.5, y + 0.5};  // pixel centre: inside when all three edge tests agree
-        const double a = signed_area2(p[0], p[1], c), b = signed_area2(p[1], p[2], c), d = signed_area2(p[2], p[0], c);
-        if ((area2 > 0 && a >= 0 && b >= 0 && d >= 0) || (area2 < 0 && a <= 0 && b <= 0 && d <= 0)) {
-          sum += map.at(x, y);
-          ++n;
-        }
-      }
-    if (n == 0) {  // smaller than a map pixel: the value at its centroid
-      const int cx = std::clamp(int((p[0].x + p[1].x + p[2].x) / 3), 0, map.width - 1);
-      const int cy = std::clamp(int((p[0].y + p[1].y + p[2].y) / 3), 0, map.height - 1);
-      sum = map.at(cx, cy), n = 1;
-    }
-    mean[f] = sum / n;
+    const auto& t = mesh.triangles[f];
+    mean[f] = mean_over_triangle(map, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
   }
   const auto [lo, hi] = std::minmax_element(mean.begin(), mean.end());
   const double range = mean.empty() ? 0 : *hi - *lo;

@@ -45,6 +45,10 @@ std::vector<tiles::Rect> detect_faces(const tiles::Raster& image, const std::str
 // Sets the significance inside a polygon (image pixels) to `weight` (curator edits).
 void paint_polygon(SignificanceMap& map, const std::vector<Point>& polygon, float weight);
 
+// Mean of the map over a triangle given in image pixels (the value at its centroid when it
+// covers no map pixel centre).
+double mean_over_triangle(const SignificanceMap& map, const Point& a, const Point& b, const Point& c);
+
 // Mean significance of every triangle of `mesh` (image pixels), normalised to [w_min, 1]: the
 // per-triangle weights w_f of the shape energy.
 std::vector<double> triangle_weights(const Mesh& mesh, const SignificanceMap& map, double w_min);

@@ -1,0 +1,198 @@
+#include "warp/icaz.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "warp/lod_cut.h"
+
+namespace zoomwarp::warp {
+
+namespace {
+
+// Barycentric coordinates of p in triangle (a, b, c).
+std::array<double, 3> barycentric(const Point& p, const Point& a, const Point& b, const Point& c) {
+  const double d = signed_area2(a, b, c);
+  const double l0 = signed_area2(p, b, c) / d, l1 = signed_area2(a, p, c) / d;
+  return {l0, l1, 1 - l0 - l1};
+}
+
+Point combine(const std::array<double, 3>& l, const Point& a, const Point& b, const Point& c) {
+  return {l[0] * a.x + l[1] * b.x + l[2] * c.x, l[0] * a.y + l[1] * b.y + l[2] * c.y};
+}
+
+// Where source point p lands in a warp of `mesh`: the affine map of the triangle holding it
+// (the most nearly containing one, for points on edges or rounding).
+Point locate(const Mesh& mesh, const std::vector<Point>& warped, const Point& p) {
+  double best = -std::numeric_limits<double>::infinity();
+  Point out = p;
+  for (const auto& t : mesh.triangles) {
+    const auto l = barycentric(p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
+    const double inside = std::min({l[0], l[1], l[2]});
+    if (inside > best) {
+      best = inside;
+      out = combine(l, warped[t[0]], warped[t[1]], warped[t[2]]);
+      if (inside >= 0) break;
+    }
+  }
+  return out;
+}
+
+// Vertex chains of each line in a mesh, found geometrically (refinement only adds midpoints).
+std::vector<std::vector<int>> line_chains(const Mesh& mesh, const CoarseMesh& coarse) {
+  std::vector<std::vector<int>> out;
+  for (const auto& ids : coarse.line_vertices) {
+    if (ids.size() < 2) continue;
+    const Point a = coarse.mesh.vertices[ids.front()], b = coarse.mesh.vertices[ids.back()];
+    const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
+    std::vector<std::pair<double, int>> on;
+    for (int i = 0; i < int(mesh.vertices.size()); ++i) {
+      const Point& p = mesh.vertices[i];
+      const double t = ((p.x - a.x) * dx + (p.y - a.y) * dy) / len2, cross = (p.x - a.x) * dy - (p.y - a.y) * dx;
+      if (t > -1e-9 && t < 1 + 1e-9 && cross * cross < 1e-12 * len2) on.emplace_back(t, i);
+    }
+    std::sort(on.begin(), on.end());
+    std::vector<int> chain;
+    for (auto& [t, i] : on) chain.push_back(i);
+    out.push_back(std::move(chain));
+  }
+  return out;
+}
+
+}  // namespace
+
+ImageModel make_image_model(const tiles::Raster& reduced, double width, double height,
+                            const std::vector<Segment>& lines, const CoarseMeshOptions& mesh) {
+  ImageModel m;
+  m.width = width;
+  m.height = height;
+  m.lines = lines;
+  m.coarse = build_coarse_mesh(width, height, lines, mesh);
+  m.significance = compute_significance(reduced, int(std::lround(width)));
+  return m;
+}
+
+Icaz::Icaz(ImageModel model)
+    : model_(std::move(model)),
+      coarse_(model_.coarse.mesh, triangle_weights(model_.coarse.mesh, model_.significance, model_.w_min),
+              model_.width, model_.height, model_.coarse.line_vertices),
+      forest_(model_.coarse.mesh) {
+  node_mean_.assign(std::size_t(forest_.root_count()), std::numeric_limits<double>::quiet_NaN());
+  sig_lo_ = std::numeric_limits<double>::infinity(), sig_hi_ = -sig_lo_;
+  for (int r = 0; r < forest_.root_count(); ++r) {
+    const auto& t = forest_.corners(r);
+    const auto& v = forest_.vertices();
+    node_mean_[r] = mean_over_triangle(model_.significance, v[t[0]], v[t[1]], v[t[2]]);
+    sig_lo_ = std::min(sig_lo_, node_mean_[r]), sig_hi_ = std::max(sig_hi_, node_mean_[r]);
+  }
+}
+
+Icaz::~Icaz() = default;
+
+double Icaz::node_weight(int node) {
+  if (node >= int(node_mean_.size())) node_mean_.resize(std::size_t(forest_.node_count()), std::numeric_limits<double>::quiet_NaN());
+  double& mean = node_mean_[node];
+  if (std::isnan(mean)) {
+    const auto& t = forest_.corners(node);
+    const auto& v = forest_.vertices();
+    mean = mean_over_triangle(model_.significance, v[t[0]], v[t[1]], v[t[2]]);
+  }
+  const double range = sig_hi_ - sig_lo_;
+  const double unit = range > 0 ? std::clamp((mean - sig_lo_) / range, 0.0, 1.0) : 1.0;
+  return model_.w_min + (1 - model_.w_min) * unit;
+}
+
+std::vector<Point> Icaz::coarse_positions(const ZoomGeometry& g, WarpResult* stats) {
+  const auto key = std::make_pair(std::llround(g.target_width * 1000), std::llround(g.target_height * 1000));
+  if (auto it = coarse_cache_.find(key); it != coarse_cache_.end()) return it->second;
+  *stats = coarse_.solve(g.target_width, g.target_height);
+  if (coarse_cache_.size() >= 64) coarse_cache_.erase(coarse_cache_.begin());
+  coarse_cache_.emplace(key, stats->positions);
+  return stats->positions;
+}
+
+View Icaz::view(const ViewRequest& req) {
+  std::lock_guard lock(mu_);
+  View out;
+  const ZoomGeometry g = zoom_geometry(model_.width, model_.height, req.screen_width, req.screen_height, req.zoom, req.curve);
+  out.geometry = g;
+  const Point centre{std::clamp(req.cx, 0.0, model_.width), std::clamp(req.cy, 0.0, model_.height)};
+
+  // Coarse level: warp, then place the viewing area on the view centre, inside the image.
+  const std::vector<Point> coarse = coarse_positions(g, &out.coarse_stats);
+  auto place = [&](const Point& c) {
+    const double x = std::clamp(c.x - g.view_width / 2, 0.0, g.target_width - g.view_width);
+    const double y = std::clamp(c.y - g.view_height / 2, 0.0, g.target_height - g.view_height);
+    return Point{x, y};
+  };
+  Point origin = place(locate(model_.coarse.mesh, coarse, centre));
+
+  // Warped position of any forest vertex through its root triangle's affine map.
+  const Mesh& roots = model_.coarse.mesh;
+  auto warped_by_coarse = [&](int v) {
+    const auto& t = roots.triangles[forest_.root_of_vertex(v)];
+    const auto l = barycentric(forest_.vertices()[v], roots.vertices[t[0]], roots.vertices[t[1]], roots.vertices[t[2]]);
+    return combine(l, coarse[t[0]], coarse[t[1]], coarse[t[2]]);
+  };
+  // Area magnification of each root under the coarse warp.
+  auto root_stretch = [&](int r) {
+    const auto& t = roots.triangles[r];
+    return signed_area2(coarse[t[0]], coarse[t[1]], coarse[t[2]]) /
+           signed_area2(roots.vertices[t[0]], roots.vertices[t[1]], roots.vertices[t[2]]);
+  };
+
+  // Refinement: split what touches the viewing area (with a margin of one screen triangle) and
+  // is larger on screen than the threshold. A cap bounds the work whatever the input.
+  LodCut cut(forest_);
+  const double s2 = g.screen_scale * g.screen_scale;
+  const double margin = std::sqrt(req.max_screen_area) / g.screen_scale;
+  auto wants_split = [&](int node) {
+    if (forest_.area(node) * std::max(root_stretch(forest_.root_of(node)), 0.0) * s2 <= req.max_screen_area) return false;
+    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+    for (int v : forest_.corners(node)) {
+      const Point p = warped_by_coarse(v);
+      x0 = std::min(x0, p.x), x1 = std::max(x1, p.x), y0 = std::min(y0, p.y), y1 = std::max(y1, p.y);
+    }
+    return x1 >= origin.x - margin && x0 <= origin.x + g.view_width + margin && y1 >= origin.y - margin &&
+           y0 <= origin.y + g.view_height + margin;
+  };
+  constexpr int kMaxSplits = 40000;
+  std::vector<int> queue = cut.nodes(), split;
+  for (std::size_t i = 0; i < queue.size() && int(split.size()) < kMaxSplits; ++i) {
+    const int n = queue[i];
+    if (!cut.active(n) || !wants_split(n)) continue;
+    const std::size_t before = split.size();
+    cut.refine(n, &split);
+    for (std::size_t k = before; k < split.size(); ++k)
+      for (int c : forest_.children(split[k])) queue.push_back(c);
+  }
+
+  // Fine level: warp the refined mesh from the coarse result, place the viewing area again.
+  std::vector<int> node_of_triangle;
+  out.source = cut.mesh(&out.forest_vertex, &node_of_triangle);
+  std::vector<double> weights;
+  for (int n : node_of_triangle) weights.push_back(node_weight(n));
+  std::vector<Point> initial;
+  for (int v : out.forest_vertex) initial.push_back(warped_by_coarse(v));
+  ShapeWarp fine(out.source, std::move(weights), model_.width, model_.height, line_chains(out.source, model_.coarse));
+  out.fine_stats = fine.solve(g.target_width, g.target_height, {}, initial);
+  out.warped = out.fine_stats.positions;
+  const Point c = locate(out.source, out.warped, centre);
+  origin = place(c);
+  out.view_x = origin.x, out.view_y = origin.y;
+  out.centre_clamped = std::abs(c.x - g.view_width / 2 - origin.x) > 1e-6 || std::abs(c.y - g.view_height / 2 - origin.y) > 1e-6;
+
+  for (const Point& p : out.warped) out.screen.push_back({(p.x - origin.x) * g.screen_scale, (p.y - origin.y) * g.screen_scale});
+  for (int f = 0; f < int(out.source.triangles.size()); ++f) {
+    const auto& t = out.source.triangles[f];
+    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+    for (int v : t) {
+      x0 = std::min(x0, out.screen[v].x), x1 = std::max(x1, out.screen[v].x);
+      y0 = std::min(y0, out.screen[v].y), y1 = std::max(y1, out.screen[v].y);
+    }
+    if (x1 > 0 && x0 < req.screen_width && y1 > 0 && y0 < req.screen_height) out.visible.push_back(f);
+  }
+  return out;
+}
+
+}  // namespace zoomwarp::warp

@@ -1,0 +1,83 @@
+// The Interactive Content-Aware Zooming operator (seed 000 §5) with the two-level warp of §5.2:
+//
+//   1. zoom geometry: target size and viewing area from z (zoom_curve.h);
+//   2. coarse warp of the coarsest mesh to the target size (cached per target size, so panning at
+//      a fixed zoom skips it);
+//   3. the viewing area is centred on the view centre's place in the coarse warp, clamped inside
+//      the warped image (no black bands);
+//   4. the LOD cut is refined where, judged by the coarse warp, triangles touch the viewing area and
+//      are larger than `max_screen_area` on screen;
+//   5. fine warp of the refined mesh, started from the coarse result (nested iteration, §6.2);
+//      the viewing area is placed again on the fine result.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <vector>
+
+#include "warp/coarse_mesh.h"
+#include "warp/forest.h"
+#include "warp/shape_warp.h"
+#include "warp/significance.h"
+#include "warp/zoom_curve.h"
+
+namespace zoomwarp::warp {
+
+// What the operator knows about one image version.
+struct ImageModel {
+  double width = 0, height = 0;
+  CoarseMesh coarse;            // built with `lines`
+  std::vector<Segment> lines;   // line constraints, image pixels
+  SignificanceMap significance;
+  double w_min = 0.2;           // weight floor (DESIGN.md §4: 0.2 avoided fold-overs where 0.05 did not)
+};
+
+// Builds the model from a reduced-resolution copy of the image (≤ kSignificanceMaxSide).
+ImageModel make_image_model(const tiles::Raster& reduced, double width, double height,
+                            const std::vector<Segment>& lines = {}, const CoarseMeshOptions& mesh = {});
+
+struct ViewRequest {
+  double zoom = 0;
+  double cx = 0, cy = 0;  // view centre, image pixels
+  int screen_width = 480, screen_height = 360;
+  ZoomCurve curve = ZoomCurve::kGeometric;
+  double max_screen_area = 500;  // px², the paper's runtime threshold (§6.1)
+};
+
+struct View {
+  ZoomGeometry geometry;
+  double view_x = 0, view_y = 0;   // top-left of the viewing area in warped pixels
+  bool centre_clamped = false;     // the viewing area had to move to stay inside the image
+  Mesh source;                     // the refined mesh, image pixels
+  std::vector<Point> warped;       // per vertex, warped-image pixels
+  std::vector<Point> screen;       // per vertex, screen pixels
+  std::vector<int> forest_vertex;  // per vertex, its forest vertex (stable across views)
+  std::vector<int> visible;        // triangles that touch the screen
+  WarpResult coarse_stats, fine_stats;
+};
+
+class Icaz {
+ public:
+  explicit Icaz(ImageModel model);
+  ~Icaz();
+
+  // Thread-safe; views of the same image share the forest and the coarse-warp cache.
+  View view(const ViewRequest& request);
+
+  const ImageModel& model() const { return model_; }
+
+ private:
+  std::vector<Point> coarse_positions(const ZoomGeometry& g, WarpResult* stats);
+  double node_weight(int node);
+
+  ImageModel model_;
+  ShapeWarp coarse_;
+  double sig_lo_ = 0, sig_hi_ = 1;  // range of root means: maps significance to [w_min, 1]
+  std::mutex mu_;
+  Forest forest_;
+  std::vector<double> node_mean_;  // per forest node, NaN until computed
+  std::map<std::pair<long long, long long>, std::vector<Point>> coarse_cache_;  // by target size (1/1000 px)
+};
+
+}  // namespace zoomwarp::warp

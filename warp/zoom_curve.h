@@ -1,0 +1,28 @@
+// The zoom evolution of seed 000 §5.1: the zoom level z ∈ [0, 1] sets the target aspect ratio of
+// the warp and the size of the viewing area, the part of the warped image shown on the screen.
+//
+//   z = 0: target aspect = the screen's, viewing area = the whole warped image (global view);
+//   z = 1: target aspect = the image's (no distortion), viewing area = the screen (1:1 crop).
+//
+// The warped image keeps the source's area (W'·H' = W·H), so z = 1 is exactly the source size.
+// Two curves: the paper's linear interpolation, and a geometric one for the viewing area whose
+// magnification grows by the same factor for every equal step of z, so zoom steps feel equal.
+#pragma once
+
+namespace zoomwarp::warp {
+
+enum class ZoomCurve { kLinear, kGeometric };
+
+struct ZoomGeometry {
+  double target_width = 0, target_height = 0;  // the warped image (the rectangle the warp fills)
+  double view_width = 0, view_height = 0;      // the viewing area, in warped-image pixels
+  double screen_scale = 1;                     // screen pixels per warped-image pixel
+};
+
+// The screen is screen_w × screen_h; the image W × H. z is clamped to [0, 1]. The viewing area
+// always fits inside the warped image (shrunk, keeping the screen's aspect, when the curve would
+// make it larger), so the screen is always covered.
+ZoomGeometry zoom_geometry(double image_w, double image_h, double screen_w, double screen_h, double z,
+                           ZoomCurve curve = ZoomCurve::kGeometric);
+
+}  // namespace zoomwarp::warp
