@@ -299,12 +299,22 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
   auto bad = m.inverted(r.positions);
   std::vector<double> w = m.weights;
   for (int round = 0; !bad.empty() && round < options.max_guard_rounds; ++round) {
+    // The neighbourhood grows by one ring of triangles per round; the last round makes every
+    // weight 1 (uniform weights warp the rectangle almost affinely, with nothing to fold).
     std::vector<char> near(m.mesh.vertices.size(), 0);
     for (int f : bad)
       for (int v : m.mesh.triangles[f]) near[v] = 1;
+    for (int ring = 0; ring < round; ++ring) {
+      std::vector<char> grown = near;
+      for (const auto& t : m.mesh.triangles)
+        if (near[t[0]] || near[t[1]] || near[t[2]]) grown[t[0]] = grown[t[1]] = grown[t[2]] = 1;
+      near.swap(grown);
+    }
+    const bool last = round + 1 == options.max_guard_rounds;
     for (std::size_t f = 0; f < w.size(); ++f) {
       const auto& t = m.mesh.triangles[f];
-      if (near[t[0]] || near[t[1]] || near[t[2]]) w[f] = std::min(1.0, w[f] * 4);
+      if (last) w[f] = 1;
+      else if (near[t[0]] || near[t[1]] || near[t[2]]) w[f] = std::min(1.0, w[f] * 4);
     }
     for (int k = 0; k < options.max_iterations; ++k) {
       const std::vector<Point> before = r.positions;
@@ -316,6 +326,28 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
     }
     bad = m.inverted(r.positions);
     r.guard_rounds = round + 1;
+  }
+  // Last resort, for extreme aspect changes (a 4:1 panorama on a 9:16 screen folded even with
+  // uniform weights): blend towards the affine stretch, which folds nothing and meets the same
+  // boundary constraints, as little as needed (bisection on the blend factor).
+  if (!bad.empty()) {
+    std::vector<Point> affine(r.positions.size());
+    for (std::size_t i = 0; i < affine.size(); ++i)
+      affine[i] = {m.mesh.vertices[i].x * tw / m.width, m.mesh.vertices[i].y * th / m.height};
+    auto blend = [&](double t) {
+      std::vector<Point> p(r.positions.size());
+      for (std::size_t i = 0; i < p.size(); ++i)
+        p[i] = {(1 - t) * r.positions[i].x + t * affine[i].x, (1 - t) * r.positions[i].y + t * affine[i].y};
+      return p;
+    };
+    double lo = 0, hi = 1;
+    for (int step = 0; step < 20; ++step) {
+      const double mid = (lo + hi) / 2;
+      (m.inverted(blend(mid)).empty() ? hi : lo) = mid;
+    }
+    r.positions = blend(hi);
+    r.affine_blend = hi;
+    bad = m.inverted(r.positions);
   }
   r.inverted = int(bad.size());
   return r;

@@ -31,7 +31,7 @@ struct WarpOptions {
   int max_iterations = 100;
   // Converged when no vertex moved more than this many target pixels in an iteration.
   double tolerance = 0.02;
-  int max_guard_rounds = 4;  // fold-over guard (see solve())
+  int max_guard_rounds = 6;  // fold-over guard (see solve())
 };
 
 struct WarpResult {
@@ -39,7 +39,8 @@ struct WarpResult {
   int iterations = 0;
   bool converged = false;
   int guard_rounds = 0;  // rounds of the fold-over guard that were needed
-  int inverted = 0;      // triangles still inverted at the end (0 unless the guard gave up)
+  double affine_blend = 0;  // how far the result was blended towards the affine stretch (0: not)
+  int inverted = 0;         // triangles still inverted at the end (0 by construction)
 };
 
 class ShapeWarp {
