@@ -102,10 +102,17 @@ double Icaz::node_weight(int node) {
   return model_.w_min + (1 - model_.w_min) * unit;
 }
 
+// Accuracy is judged on screen: iterate until no vertex moves more than 0.05 screen pixels.
+WarpOptions Icaz::tolerance_for(const ZoomGeometry& g) {
+  WarpOptions o;
+  o.tolerance = 0.05 / g.screen_scale;
+  return o;
+}
+
 std::vector<Point> Icaz::coarse_positions(const ZoomGeometry& g, WarpResult* stats) {
   const auto key = std::make_pair(std::llround(g.target_width * 1000), std::llround(g.target_height * 1000));
   if (auto it = coarse_cache_.find(key); it != coarse_cache_.end()) return it->second;
-  *stats = coarse_.solve(g.target_width, g.target_height);
+  *stats = coarse_.solve(g.target_width, g.target_height, tolerance_for(g));
   if (coarse_cache_.size() >= 64) coarse_cache_.erase(coarse_cache_.begin());
   coarse_cache_.emplace(key, stats->positions);
   return stats->positions;
@@ -174,8 +181,13 @@ View Icaz::view(const ViewRequest& req) {
   for (int n : node_of_triangle) weights.push_back(node_weight(n));
   std::vector<Point> initial;
   for (int v : out.forest_vertex) initial.push_back(warped_by_coarse(v));
-  ShapeWarp fine(out.source, std::move(weights), model_.width, model_.height, line_chains(out.source, model_.coarse));
-  out.fine_stats = fine.solve(g.target_width, g.target_height, {}, initial);
+  if (split.empty()) {  // nothing refined: the fine mesh is the coarse one, already warped
+    out.fine_stats = out.coarse_stats;
+    out.fine_stats.positions = std::move(initial);
+  } else {
+    ShapeWarp fine(out.source, std::move(weights), model_.width, model_.height, line_chains(out.source, model_.coarse));
+    out.fine_stats = fine.solve(g.target_width, g.target_height, tolerance_for(g), initial);
+  }
   out.warped = out.fine_stats.positions;
   const Point c = locate(out.source, out.warped, centre);
   origin = place(c);

@@ -68,6 +68,7 @@ class Icaz {
   const ImageModel& model() const { return model_; }
 
  private:
+  static WarpOptions tolerance_for(const ZoomGeometry& g);
   std::vector<Point> coarse_positions(const ZoomGeometry& g, WarpResult* stats);
   double node_weight(int node);
 

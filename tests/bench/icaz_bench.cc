@@ -1,0 +1,129 @@
+// Time per zoom and per pan action of the ICAZ operator at 480×360 with 500 px² triangles, along
+// the zoom range, on a ≥ 10 MP wide photo and on a ≥ 300 MP synthetic mosaic; plus the paper's
+// Fig. 9 comparison with a uniform mesh of the finest resolution, and the model-building cost.
+//
+//   build/bin/icaz_bench [IMAGE]   (default: ../shared/corpus/world_satellite_map.jpg, 5400×2500)
+//
+// A zoom action changes the target size, so its coarse warp is computed (not cached); a pan at a
+// fixed zoom reuses it. The operator only ever sees a ≤ 1024 px copy of the image and its size,
+// which is why the mosaic needs no 300 MP of pixels here.
+#include <benchmark/benchmark.h>
+
+#include <filesystem>
+#include <memory>
+
+#include "tests/support/images.h"
+#include "tests/support/server_process.h"
+#include "warp/icaz.h"
+
+namespace {
+
+using namespace zoomwarp;
+
+struct Subject {
+  std::string name;
+  tiles::Raster reduced;
+  double width, height;
+  std::unique_ptr<warp::Icaz> icaz;
+};
+
+std::vector<Subject>& subjects() {
+  static std::vector<Subject> s;
+  return s;
+}
+
+tiles::Raster reduce(const tiles::Raster& full, int max_side) {
+  const double f = std::min(1.0, double(max_side) / std::max(full.width, full.height));
+  return testing::resize(full, std::max(1, int(full.width * f)), std::max(1, int(full.height * f)));
+}
+
+void BM_BuildModel(benchmark::State& state, int which) {
+  Subject& s = subjects()[which];
+  for (auto _ : state) benchmark::DoNotOptimize(warp::make_image_model(s.reduced, s.width, s.height));
+  state.SetLabel(s.name);
+}
+
+// One zoom action per iteration: the zoom level moves by a hair each time so the coarse warp is
+// never a cache hit.
+void BM_Zoom(benchmark::State& state, int which) {
+  Subject& s = subjects()[which];
+  const double z = state.range(0) / 100.0;
+  int i = 0;
+  std::size_t vertices = 0;
+  for (auto _ : state) {
+    warp::ViewRequest r;
+    r.zoom = std::min(1.0, z + 1e-4 * (i++ % 50));
+    r.cx = 0.4 * s.width, r.cy = 0.5 * s.height;
+    vertices = s.icaz->view(r).source.vertices.size();
+  }
+  state.counters["vertices"] = double(vertices);
+  state.SetLabel(s.name);
+}
+
+// One pan per iteration at a fixed zoom: the view centre moves across the image.
+void BM_Pan(benchmark::State& state, int which) {
+  Subject& s = subjects()[which];
+  const double z = state.range(0) / 100.0;
+  int i = 0;
+  for (auto _ : state) {
+    warp::ViewRequest r;
+    r.zoom = z;
+    r.cx = s.width * (0.1 + 0.8 * ((i * 37) % 100) / 100.0), r.cy = s.height * (0.2 + 0.6 * ((i * 61) % 100) / 100.0);
+    ++i;
+    benchmark::DoNotOptimize(s.icaz->view(r));
+  }
+  state.SetLabel(s.name);
+}
+
+// Fig. 9: a uniform mesh whose triangles are as fine as the adaptive mesh's finest (500 px² at
+// z = 1), warped whole for a zoom action.
+void BM_UniformMeshZoom(benchmark::State& state, int which) {
+  Subject& s = subjects()[which];
+  warp::CoarseMeshOptions fine;
+  fine.max_triangle_area = 500;
+  fine.vertex_budget = 1 << 30;
+  const auto cm = warp::build_coarse_mesh(s.width, s.height, {}, fine);
+  const auto weights = warp::triangle_weights(cm.mesh, s.icaz->model().significance, 0.2);
+  const warp::ShapeWarp warp(cm.mesh, weights, s.width, s.height);
+  const double z = state.range(0) / 100.0;
+  for (auto _ : state) {
+    const auto g = warp::zoom_geometry(s.width, s.height, 480, 360, z);
+    benchmark::DoNotOptimize(warp.solve(g.target_width, g.target_height));
+  }
+  state.counters["vertices"] = double(cm.mesh.vertices.size());
+  state.SetLabel(s.name);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  std::string image = argc > 1 ? argv[1] : testing::samples_dir() + "/../../shared/corpus/world_satellite_map.jpg";
+  if (!std::filesystem::exists(image)) image = testing::samples_dir() + "/boats_lake_sunset.jpg";
+  const tiles::Raster full = testing::load_image(image);
+  Subject photo{std::filesystem::path(image).filename().string(), reduce(full, 1024), double(full.width),
+                double(full.height), nullptr};
+  // A 24576 × 12800 (315 MP) mosaic of the photo, 4 × 4 cells (mirrored alternately), at 1024 px.
+  const tiles::Raster cell = reduce(full, 256);
+  tiles::Raster mosaic(cell.width * 4, cell.height * 4, cell.channels);
+  for (int y = 0; y < mosaic.height; ++y)
+    for (int x = 0; x < mosaic.width; ++x) {
+      const int cx = x / cell.width, cy = y / cell.height;
+      const int sx = (cx + cy) % 2 ? cell.width - 1 - x % cell.width : x % cell.width;
+      std::copy_n(cell.row(y % cell.height) + sx * cell.channels, cell.channels, mosaic.row(y) + x * cell.channels);
+    }
+  Subject big{"mosaic_24576x12800", reduce(mosaic, 1024), 24576, 12800, nullptr};
+  subjects().push_back(std::move(photo));
+  subjects().push_back(std::move(big));
+  for (auto& s : subjects()) s.icaz = std::make_unique<warp::Icaz>(warp::make_image_model(s.reduced, s.width, s.height));
+
+  for (int which = 0; which < 2; ++which) {
+    const std::string tag = which == 0 ? "photo" : "mosaic";
+    benchmark::RegisterBenchmark(("BuildModel/" + tag).c_str(), BM_BuildModel, which)->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark(("Zoom/" + tag).c_str(), BM_Zoom, which)->DenseRange(0, 100, 20)->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark(("Pan/" + tag).c_str(), BM_Pan, which)->DenseRange(0, 100, 20)->Unit(benchmark::kMillisecond);
+  }
+  benchmark::RegisterBenchmark("UniformMeshZoom/photo", BM_UniformMeshZoom, 0)->Arg(50)->Unit(benchmark::kMillisecond)->Iterations(3);
+  benchmark::RunSpecifiedBenchmarks();
+  return 0;
+}
