@@ -67,24 +67,8 @@ CoarseMesh triangulate(double w, double h, const std::vector<std::optional<Segme
     if (f->is_in_domain())
       out.mesh.triangles.push_back({f->vertex(0)->info(), f->vertex(1)->info(), f->vertex(2)->info()});
 
-  // Vertices on each line, ordered along it: the mesher only ever splits constrained edges, so
-  // they are exactly the vertices lying on the segment.
-  for (const auto& l : lines) {
-    std::vector<std::pair<double, int>> on_line;
-    if (l) {
-      const double dx = l->b.x - l->a.x, dy = l->b.y - l->a.y, len2 = dx * dx + dy * dy;
-      for (int i = 0; i < int(out.mesh.vertices.size()); ++i) {
-        const Point& p = out.mesh.vertices[i];
-        const double t = ((p.x - l->a.x) * dx + (p.y - l->a.y) * dy) / len2;
-        const double cross = (p.x - l->a.x) * dy - (p.y - l->a.y) * dx;
-        if (t > -1e-9 && t < 1 + 1e-9 && cross * cross < 1e-12 * len2) on_line.emplace_back(t, i);
-      }
-      std::sort(on_line.begin(), on_line.end());
-    }
-    std::vector<int> ids;
-    for (auto& [t, i] : on_line) ids.push_back(i);
-    out.line_vertices.push_back(std::move(ids));
-  }
+  // Vertices on each line, ordered along it: the mesher only ever splits constrained edges.
+  for (const auto& l : lines) out.line_vertices.push_back(l ? vertices_on_segment(out.mesh, *l) : std::vector<int>());
   return out;
 }
 

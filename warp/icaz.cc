@@ -38,24 +38,12 @@ Point locate(const Mesh& mesh, const std::vector<Point>& warped, const Point& p)
   return out;
 }
 
-// Vertex chains of each line in a mesh, found geometrically (refinement only adds midpoints).
+// Vertex chains of each line in a refined mesh (its end points are those of the coarse chain).
 std::vector<std::vector<int>> line_chains(const Mesh& mesh, const CoarseMesh& coarse) {
   std::vector<std::vector<int>> out;
-  for (const auto& ids : coarse.line_vertices) {
-    if (ids.size() < 2) continue;
-    const Point a = coarse.mesh.vertices[ids.front()], b = coarse.mesh.vertices[ids.back()];
-    const double dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
-    std::vector<std::pair<double, int>> on;
-    for (int i = 0; i < int(mesh.vertices.size()); ++i) {
-      const Point& p = mesh.vertices[i];
-      const double t = ((p.x - a.x) * dx + (p.y - a.y) * dy) / len2, cross = (p.x - a.x) * dy - (p.y - a.y) * dx;
-      if (t > -1e-9 && t < 1 + 1e-9 && cross * cross < 1e-12 * len2) on.emplace_back(t, i);
-    }
-    std::sort(on.begin(), on.end());
-    std::vector<int> chain;
-    for (auto& [t, i] : on) chain.push_back(i);
-    out.push_back(std::move(chain));
-  }
+  for (const auto& ids : coarse.line_vertices)
+    if (ids.size() >= 2)
+      out.push_back(vertices_on_segment(mesh, {coarse.mesh.vertices[ids.front()], coarse.mesh.vertices[ids.back()]}));
   return out;
 }
 

@@ -30,6 +30,10 @@ inline double signed_area2(const Point& a, const Point& b, const Point& c) {
   return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
 }
 
+// The vertices of `mesh` lying on segment s (within rounding), ordered from s.a to s.b. Mesh
+// refinement only ever adds midpoints of constrained edges, so this recovers a line's chain.
+std::vector<int> vertices_on_segment(const Mesh& mesh, const Segment& s);
+
 inline double signed_area(const Mesh& m, const Triangle& t, const std::vector<Point>& positions) {
   return 0.5 * signed_area2(positions[t[0]], positions[t[1]], positions[t[2]]);
 }

@@ -125,19 +125,11 @@ void check_view(const warp::Icaz& icaz, const warp::ViewRequest& r, const warp::
   }
   // Lines stay straight on screen (within 1 px of their chord), for visible line vertices.
   for (const auto& line : icaz.model().lines) {
-    const double dx = line.b.x - line.a.x, dy = line.b.y - line.a.y, len2 = dx * dx + dy * dy;
-    std::vector<std::pair<double, int>> on;
-    for (int i = 0; i < int(m.vertices.size()); ++i) {
-      const Point& p = m.vertices[i];
-      const double t = ((p.x - line.a.x) * dx + (p.y - line.a.y) * dy) / len2;
-      const double cross = (p.x - line.a.x) * dy - (p.y - line.a.y) * dx;
-      if (t > -1e-9 && t < 1 + 1e-9 && cross * cross < 1e-12 * len2) on.emplace_back(t, i);
-    }
-    std::sort(on.begin(), on.end());
+    const std::vector<int> on = warp::vertices_on_segment(m, line);
     ASSERT_GE(on.size(), 2u);
-    const Point a = v.screen[on.front().second], b = v.screen[on.back().second];
+    const Point a = v.screen[on.front()], b = v.screen[on.back()];
     const double chord = std::hypot(b.x - a.x, b.y - a.y);
-    for (auto& [t, i] : on) {
+    for (int i : on) {
       const Point& p = v.screen[i];
       if (p.x < 0 || p.x > r.screen_width || p.y < 0 || p.y > r.screen_height) continue;
       EXPECT_LT(std::abs((p.x - a.x) * (b.y - a.y) - (p.y - a.y) * (b.x - a.x)) / chord, 1.0) << "bent line";
