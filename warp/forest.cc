@@ -12,11 +12,11 @@ Forest::Forest(const Mesh& coarsest) : vertices_(coarsest.vertices), vertex_root
   roots_ = int(coarsest.triangles.size());
   for (int f = 0; f < roots_; ++f) {
     for (int v : coarsest.triangles[f]) vertex_root_[v] = f;
-    add_node(coarsest.triangles[f], f);
+    add_node(coarsest.triangles[f], f, -1);
   }
 }
 
-int Forest::add_node(Triangle t, int root) {
+int Forest::add_node(Triangle t, int root, int parent) {
   // Rotate (keeping orientation) so that the longest edge comes first; equal lengths are
   // ordered by the edge's key, identical for both triangles that share the edge.
   int best = 0;
@@ -28,6 +28,7 @@ int Forest::add_node(Triangle t, int root) {
   corners_.push_back({t[best], t[(best + 1) % 3], t[(best + 2) % 3]});
   children_.push_back({-1, -1});
   root_.push_back(root);
+  parent_.push_back(parent);
   return int(corners_.size()) - 1;
 }
 
@@ -51,8 +52,8 @@ std::array<int, 2> Forest::children(int node) {
     const int root = root_[node];
     const int m = midpoint(t[0], t[1], root);
     // (a, m, c) and (m, b, c) keep the orientation of (a, b, c).
-    const int first = add_node({t[0], m, t[2]}, root);
-    const int second = add_node({m, t[1], t[2]}, root);
+    const int first = add_node({t[0], m, t[2]}, root, node);
+    const int second = add_node({m, t[1], t[2]}, root, node);
     children_[node] = {first, second};
   }
   return children_[node];

@@ -28,6 +28,7 @@ class Forest {
 
   const Triangle& corners(int node) const { return corners_[node]; }
   int root_of(int node) const { return root_[node]; }
+  int parent(int node) const { return parent_[node]; }  // -1 for roots
   // The root whose affine map places vertex v (the triangle it was created in).
   int root_of_vertex(int v) const { return vertex_root_[v]; }
   double area(int node) const;  // in source pixels²
@@ -36,7 +37,7 @@ class Forest {
   std::array<int, 2> children(int node);
 
  private:
-  int add_node(Triangle t, int root);
+  int add_node(Triangle t, int root, int parent);
   int midpoint(int a, int b, int root);
 
   int roots_ = 0;
@@ -44,7 +45,7 @@ class Forest {
   std::vector<int> vertex_root_;
   std::vector<Triangle> corners_;
   std::vector<std::array<int, 2>> children_;  // {-1, -1} until split
-  std::vector<int> root_;
+  std::vector<int> root_, parent_;
   std::unordered_map<std::uint64_t, int> midpoints_;  // edge (min, max vertex) -> midpoint vertex
 };
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <unordered_map>
 
 #include "warp/lod_cut.h"
 
@@ -163,10 +164,9 @@ View Icaz::view(const ViewRequest& req) {
   }
 
   // Fine level: warp the refined mesh from the coarse result, place the viewing area again.
-  std::vector<int> node_of_triangle;
-  out.source = cut.mesh(&out.forest_vertex, &node_of_triangle);
+  out.source = cut.mesh(&out.forest_vertex, &out.nodes);
   std::vector<double> weights;
-  for (int n : node_of_triangle) weights.push_back(node_weight(n));
+  for (int n : out.nodes) weights.push_back(node_weight(n));
   std::vector<Point> initial;
   for (int v : out.forest_vertex) initial.push_back(warped_by_coarse(v));
   if (split.empty()) {  // nothing refined: the fine mesh is the coarse one, already warped
@@ -193,6 +193,43 @@ View Icaz::view(const ViewRequest& req) {
     if (x1 > 0 && x0 < req.screen_width && y1 > 0 && y0 < req.screen_height) out.visible.push_back(f);
   }
   return out;
+}
+
+Geomorph Icaz::geomorph(const View& from, const View& to) {
+  std::lock_guard lock(mu_);
+  // Split, coarsest first, every node that is a strict ancestor of a node of either cut; the
+  // dependents that refine() adds keep the result conforming.
+  std::vector<int> ancestors;
+  std::vector<char> seen(std::size_t(forest_.node_count()), 0);
+  for (const View* v : {&from, &to})
+    for (int n : v->nodes)
+      for (int p = forest_.parent(n); p >= 0 && !seen[p]; p = forest_.parent(p)) seen[p] = 1, ancestors.push_back(p);
+  auto depth = [&](int n) {
+    int d = 0;
+    for (; n >= 0; n = forest_.parent(n)) ++d;
+    return d;
+  };
+  std::sort(ancestors.begin(), ancestors.end(), [&](int a, int b) { return depth(a) < depth(b); });
+  LodCut cut(forest_);
+  for (int n : ancestors) cut.refine(n);
+
+  Geomorph g;
+  g.source = cut.mesh(&g.forest_vertex);
+  // A vertex a view has keeps that view's position; one it lacks (finer than its cut) is placed
+  // by the affine map of the view's triangle holding it — exactly where that view draws it.
+  auto positions = [&](const View& v) {
+    std::unordered_map<int, int> index;
+    for (int i = 0; i < int(v.forest_vertex.size()); ++i) index.emplace(v.forest_vertex[i], i);
+    std::vector<Point> out;
+    for (std::size_t i = 0; i < g.forest_vertex.size(); ++i) {
+      auto it = index.find(g.forest_vertex[i]);
+      out.push_back(it != index.end() ? v.screen[it->second] : locate(v.source, v.screen, g.source.vertices[i]));
+    }
+    return out;
+  };
+  g.from = positions(from);
+  g.to = positions(to);
+  return g;
 }
 
 }  // namespace zoomwarp::warp

@@ -53,8 +53,17 @@ struct View {
   std::vector<Point> warped;       // per vertex, warped-image pixels
   std::vector<Point> screen;       // per vertex, screen pixels
   std::vector<int> forest_vertex;  // per vertex, its forest vertex (stable across views)
+  std::vector<int> nodes;          // per triangle, its forest node (the LOD cut)
   std::vector<int> visible;        // triangles that touch the screen
   WarpResult coarse_stats, fine_stats;
+};
+
+// Geomorphing (§5.3): the common refinement of two views' LOD cuts, with both views' screen
+// positions on it, so a client can interpolate from one to the other without popping.
+struct Geomorph {
+  Mesh source;                     // image pixels
+  std::vector<int> forest_vertex;
+  std::vector<Point> from, to;     // per vertex, screen positions in the first and second view
 };
 
 class Icaz {
@@ -64,6 +73,9 @@ class Icaz {
 
   // Thread-safe; views of the same image share the forest and the coarse-warp cache.
   View view(const ViewRequest& request);
+
+  // The common refinement of the cuts of `from` and `to` (both made by this object).
+  Geomorph geomorph(const View& from, const View& to);
 
   const ImageModel& model() const { return model_; }
 

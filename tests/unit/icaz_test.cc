@@ -230,3 +230,39 @@ TEST(IcazZoomCurve, EndpointsAndMonotonicMagnification) {
 
 }  // namespace
 }  // namespace zoomwarp
+
+namespace zoomwarp {
+namespace {
+
+// Geomorphing: the common refinement holds every vertex of both views, reproduces each view's
+// positions exactly, and draws each view unfolded.
+TEST(IcazGeomorph, CommonRefinementCarriesBothViews) {
+  auto icaz = engine("boats_lake_sunset.jpg", true);
+  const double W = icaz->model().width, H = icaz->model().height;
+  warp::ViewRequest a, b;
+  a.zoom = 0.3, a.cx = 0.3 * W, a.cy = 0.6 * H;
+  b.zoom = 0.7, b.cx = 0.7 * W, b.cy = 0.4 * H;
+  const warp::View va = icaz->view(a), vb = icaz->view(b);
+  const warp::Geomorph g = icaz->geomorph(va, vb);
+  std::map<int, int> index;
+  for (int i = 0; i < int(g.forest_vertex.size()); ++i) index[g.forest_vertex[i]] = i;
+  EXPECT_GE(g.source.vertices.size(), std::max(va.source.vertices.size(), vb.source.vertices.size()));
+  for (const auto* v : {&va, &vb})
+    for (int i = 0; i < int(v->forest_vertex.size()); ++i) {
+      auto it = index.find(v->forest_vertex[i]);
+      ASSERT_NE(it, index.end()) << "a vertex of a view is missing from the common refinement";
+      const Point& p = (v == &va ? g.from : g.to)[it->second];
+      EXPECT_EQ(p.x, v->screen[i].x);
+      EXPECT_EQ(p.y, v->screen[i].y);
+    }
+  double area = 0;
+  for (const auto& t : g.source.triangles) {
+    area += 0.5 * warp::signed_area2(g.source.vertices[t[0]], g.source.vertices[t[1]], g.source.vertices[t[2]]);
+    EXPECT_GT(warp::signed_area2(g.from[t[0]], g.from[t[1]], g.from[t[2]]), 0);
+    EXPECT_GT(warp::signed_area2(g.to[t[0]], g.to[t[1]], g.to[t[2]]), 0);
+  }
+  EXPECT_NEAR(area, W * H, 1e-6 * W * H);
+}
+
+}  // namespace
+}  // namespace zoomwarp
