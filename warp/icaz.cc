@@ -195,6 +195,64 @@ View Icaz::view(const ViewRequest& req) {
   return out;
 }
 
+namespace {
+
+// Traditional zooming of a (possibly warped) image of size tw × th drawn by `warped`: uniform
+// scale from fit-to-screen (z = 0) to 1:1 (z = 1); the view centre goes to the screen centre,
+// clamped so that no blank shows along an axis where the image is larger than the screen, and
+// centred (letterboxed) along an axis where it is smaller.
+View uniform_zoom(const Mesh& source, const std::vector<Point>& warped, double tw, double th, const ViewRequest& r,
+                  const Point& centre_warped) {
+  View out;
+  const double sw = r.screen_width, sh = r.screen_height, z = std::clamp(std::isfinite(r.zoom) ? r.zoom : 0.0, 0.0, 1.0);
+  const double fit = std::min(sw / tw, sh / th);
+  const double scale = r.curve == ZoomCurve::kLinear ? (1 - z) * fit + z : fit * std::pow(1 / fit, z);
+  auto axis = [&](double c, double size, double screen, bool* clamped) {
+    const double extent = size * scale;
+    if (extent <= screen) return (screen - extent) / 2;  // letterbox
+    const double offset = screen / 2 - c * scale;
+    const double clamped_offset = std::clamp(offset, screen - extent, 0.0);
+    *clamped |= clamped_offset != offset;
+    return clamped_offset;
+  };
+  const double ox = axis(centre_warped.x, tw, sw, &out.centre_clamped), oy = axis(centre_warped.y, th, sh, &out.centre_clamped);
+  out.geometry = {tw, th, sw / scale, sh / scale, scale};
+  out.view_x = -ox / scale, out.view_y = -oy / scale;
+  out.source = source;
+  out.warped = warped;
+  for (const Point& p : warped) out.screen.push_back({p.x * scale + ox, p.y * scale + oy});
+  for (int f = 0; f < int(source.triangles.size()); ++f) {
+    const auto& t = source.triangles[f];
+    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+    for (int v : t) {
+      x0 = std::min(x0, out.screen[v].x), x1 = std::max(x1, out.screen[v].x);
+      y0 = std::min(y0, out.screen[v].y), y1 = std::max(y1, out.screen[v].y);
+    }
+    if (x1 > 0 && x0 < sw && y1 > 0 && y0 < sh) out.visible.push_back(f);
+  }
+  return out;
+}
+
+}  // namespace
+
+View Icaz::traditional(const ViewRequest& r) {
+  const Point centre{std::clamp(r.cx, 0.0, model_.width), std::clamp(r.cy, 0.0, model_.height)};
+  return uniform_zoom(model_.coarse.mesh, model_.coarse.mesh.vertices, model_.width, model_.height, r, centre);
+}
+
+View Icaz::retarget_zoom(const ViewRequest& r) {
+  std::lock_guard lock(mu_);
+  // The z = 0 target of ICAZ: the screen's aspect ratio, the image's area.
+  const ZoomGeometry g = zoom_geometry(model_.width, model_.height, r.screen_width, r.screen_height, 0, r.curve);
+  WarpResult stats;
+  const std::vector<Point> warped = coarse_positions(g, &stats);
+  const Point centre{std::clamp(r.cx, 0.0, model_.width), std::clamp(r.cy, 0.0, model_.height)};
+  View v = uniform_zoom(model_.coarse.mesh, warped, g.target_width, g.target_height, r,
+                        locate(model_.coarse.mesh, warped, centre));
+  v.coarse_stats = std::move(stats);
+  return v;
+}
+
 Geomorph Icaz::geomorph(const View& from, const View& to) {
   std::lock_guard lock(mu_);
   // Split, coarsest first, every node that is a strict ancestor of a node of either cut; the

@@ -74,6 +74,14 @@ class Icaz {
   // Thread-safe; views of the same image share the forest and the coarse-warp cache.
   View view(const ViewRequest& request);
 
+  // Baselines in the same interface (§1, §6.1), on the coarsest mesh:
+  //  - traditional: uniform scaling and cropping; the magnification goes from "whole image fits
+  //    the screen" (letterboxed) at z = 0 to 1:1 at z = 1, along the request's curve;
+  //  - retarget-zoom: the whole image warped once to the screen's aspect ratio, then traditional
+  //    zooming on the warped image.
+  View traditional(const ViewRequest& request);
+  View retarget_zoom(const ViewRequest& request);
+
   // The common refinement of the cuts of `from` and `to` (both made by this object).
   Geomorph geomorph(const View& from, const View& to);
 

@@ -266,3 +266,48 @@ TEST(IcazGeomorph, CommonRefinementCarriesBothViews) {
 
 }  // namespace
 }  // namespace zoomwarp
+
+namespace zoomwarp {
+namespace {
+
+TEST(IcazBaselines, TraditionalLetterboxesThenCrops) {
+  auto icaz = engine("pano_grossmugl_field_4to1.png", false);  // 2048 × 512
+  warp::ViewRequest r;
+  r.cx = 1024, r.cy = 256;
+  r.zoom = 0;
+  const auto v0 = icaz->traditional(r);
+  EXPECT_NEAR(v0.geometry.screen_scale, 480.0 / 2048, 1e-12);  // the width fits
+  double y0 = 1e9, y1 = -1e9;
+  for (const auto& p : v0.screen) y0 = std::min(y0, p.y), y1 = std::max(y1, p.y);
+  EXPECT_NEAR(y1 - y0, 120, 1e-6);  // 512 × 480/2048: black bands above and below
+  EXPECT_NEAR(y0, 120, 1e-6);
+  r.zoom = 1, r.cx = 300, r.cy = 100;
+  const auto v1 = icaz->traditional(r);
+  for (std::size_t i = 0; i < v1.screen.size(); ++i) {  // a 1:1 crop, clamped at the left and top
+    EXPECT_NEAR(v1.screen[i].x, v1.source.vertices[i].x - 60, 1e-9);
+    EXPECT_NEAR(v1.screen[i].y, v1.source.vertices[i].y - 0, 1e-9);
+  }
+  EXPECT_TRUE(v1.centre_clamped);
+}
+
+TEST(IcazBaselines, RetargetZoomFillsTheScreenAndKeepsItsDistortion) {
+  auto icaz = engine("pano_grossmugl_field_4to1.png", false);
+  warp::ViewRequest r;
+  r.cx = 1024, r.cy = 256;
+  for (double z : {0.0, 0.5, 1.0}) {
+    r.zoom = z;
+    const auto v = icaz->retarget_zoom(r);
+    // The warped image has the screen's aspect ratio at every zoom: no black bands, ever.
+    EXPECT_NEAR(v.geometry.target_width / v.geometry.target_height, 480.0 / 360, 1e-9);
+    double x0 = 1e9, x1 = -1e9, y0 = 1e9, y1 = -1e9;
+    for (const auto& p : v.screen) x0 = std::min(x0, p.x), x1 = std::max(x1, p.x), y0 = std::min(y0, p.y), y1 = std::max(y1, p.y);
+    EXPECT_LE(x0, 1e-6);
+    EXPECT_GE(x1, 480 - 1e-6);
+    EXPECT_LE(y0, 1e-6);
+    EXPECT_GE(y1, 360 - 1e-6);
+    for (const auto& t : v.source.triangles) EXPECT_GT(warp::signed_area2(v.screen[t[0]], v.screen[t[1]], v.screen[t[2]]), 0);
+  }
+}
+
+}  // namespace
+}  // namespace zoomwarp
