@@ -2,6 +2,8 @@
 
 #include <stdexcept>
 
+#include "warp/image_analysis.h"
+
 namespace zoomwarp::server {
 
 std::vector<OptionSpec> store_option_specs() {
@@ -20,6 +22,7 @@ tiles::IngestOptions ingest_options(const Options& o) {
   const bool zip_level = c.size() == 5 && c.rfind("zip:", 0) == 0 && c[4] >= '1' && c[4] <= '9';
   if (c != "zip" && !zip_level && c != "lzw" && c != "none")
     throw std::invalid_argument("--tile-compression must be zip:1 … zip:9, zip, lzw or none, not '" + c + "'");
+  opt.analyse = warp::write_image_analysis;  // the warp engine's significance map, published with the image
   return opt;
 }
 

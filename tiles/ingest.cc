@@ -28,6 +28,10 @@ Manifest ingest_image(Store& store, const std::string& source_path, const std::s
     m.source_orientation = info.source_orientation;
     std::error_code ec;
     m.source_bytes = std::int64_t(std::filesystem::file_size(source_path, ec));
+    if (options.analyse) {
+      if (progress) progress(0.97);
+      options.analyse(ImageEntry{m, staging});
+    }
     return store.publish(staging, std::move(m))->manifest;
   } catch (const IngestError&) {
     store.discard(staging);

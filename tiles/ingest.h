@@ -3,6 +3,7 @@
 // stays in place.
 #pragma once
 
+#include <functional>
 #include <string>
 
 #include "tiles/manifest.h"
@@ -14,6 +15,10 @@ namespace zoomwarp::tiles {
 struct IngestOptions {
   PyramidOptions pyramid;
   SourceLimits limits;
+  // Runs on the finished pyramid before it is published (e.g. the warp engine's analysis); what
+  // it writes into the entry's folder is published with the image. Throwing fails the ingest.
+  // The entry's manifest has no version yet.
+  std::function<void(const ImageEntry& staged)> analyse;
 };
 
 // Throws IngestError (bad input or write failure) or std::invalid_argument (invalid id).
