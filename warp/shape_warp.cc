@@ -1,6 +1,7 @@
 #include "warp/shape_warp.h"
 
 #include <Eigen/CholmodSupport>
+#include <Eigen/Dense>
 #include <Eigen/Sparse>
 #include <cmath>
 #include <stdexcept>
@@ -133,6 +134,20 @@ struct ShapeWarp::Impl {
         if (free[j] >= 0) b[free[j]] -= c;
       }
     return b;
+  }
+
+  // The shape energy D_Shape of positions p, with each s_f at its optimum for p.
+  double energy(const std::vector<Point>& p) const {
+    const auto s = scales(p);
+    double e = 0;
+    for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
+      for (int k = 0; k < 3; ++k) {
+        const int i = mesh.triangles[f][k], j = mesh.triangles[f][(k + 1) % 3];
+        const double ex = (p[i].x - p[j].x) - s[f] * (mesh.vertices[i].x - mesh.vertices[j].x);
+        const double ey = (p[i].y - p[j].y) - s[f] * (mesh.vertices[i].y - mesh.vertices[j].y);
+        e += weights[f] * (ex * ex + ey * ey);
+      }
+    return e;
   }
 
   std::vector<int> inverted(const std::vector<Point>& p) const {
@@ -278,10 +293,47 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
   }
   // The fast path's factorization was made with the default α; another α needs the joint path.
   const bool fast = !m.has_oblique && options.alpha == WarpOptions{}.alpha;
+  // Anderson acceleration (window 5) of the fast path's fixed-point map u ← G(u): local–global
+  // converges linearly, and extrapolating from the last few steps cuts the iterations several
+  // times. Safeguard: an accelerated step that does not lower the shape energy is dropped (and the
+  // history cleared) in favour of the plain step.
+  constexpr int kWindow = 5;
+  const int n2 = int(2 * r.positions.size());
+  auto stack = [&](const std::vector<Point>& p) {
+    Eigen::VectorXd v(n2);
+    for (std::size_t i = 0; i < p.size(); ++i) v[2 * i] = p[i].x, v[2 * i + 1] = p[i].y;
+    return v;
+  };
+  auto unstack = [&](const Eigen::VectorXd& v) {
+    std::vector<Point> p(v.size() / 2);
+    for (std::size_t i = 0; i < p.size(); ++i) p[i] = {v[2 * i], v[2 * i + 1]};
+    return p;
+  };
+  std::vector<Eigen::VectorXd> dg, df;
+  Eigen::VectorXd g_prev, f_prev;
   for (r.iterations = 0; r.iterations < options.max_iterations;) {
     const std::vector<Point> before = r.positions;
-    if (fast) m.solve_decoupled(r.positions, tw, th);
-    else m.solve_joint(r.positions, tw, th, options.alpha, r.iterations, m.weights);
+    if (fast) {
+      std::vector<Point> step = r.positions;
+      m.solve_decoupled(step, tw, th);
+      const Eigen::VectorXd u = stack(r.positions), g = stack(step), f = g - u;
+      if (g_prev.size() == n2) {
+        dg.push_back(g - g_prev), df.push_back(f - f_prev);
+        if (int(dg.size()) > kWindow) dg.erase(dg.begin()), df.erase(df.begin());
+      }
+      g_prev = g, f_prev = f;
+      r.positions = step;
+      if (!dg.empty()) {
+        Eigen::MatrixXd F(n2, df.size()), G(n2, dg.size());
+        for (std::size_t k = 0; k < df.size(); ++k) F.col(k) = df[k], G.col(k) = dg[k];
+        const Eigen::VectorXd gamma = F.colPivHouseholderQr().solve(f);
+        std::vector<Point> accelerated = unstack(g - G * gamma);
+        if (m.energy(accelerated) < m.energy(step)) r.positions = std::move(accelerated);
+        else dg.clear(), df.clear();
+      }
+    } else {
+      m.solve_joint(r.positions, tw, th, options.alpha, r.iterations, m.weights);
+    }
     ++r.iterations;
     double moved = 0;
     for (std::size_t i = 0; i < before.size(); ++i)

@@ -26,8 +26,9 @@ namespace zoomwarp::warp {
 
 struct WarpOptions {
   double alpha = 100;  // line energy weight (§4.3)
-  // Local–global converges linearly: measured on a 2000-vertex mesh squeezing 8:3 to 1:1, the
-  // largest remaining error is 12 px after 10 iterations, 0.4 px after 40, 0.004 px after 80.
+  // Plain local–global converges linearly (2000 vertices, 8:3 squeezed to 1:1: 12 px from the
+  // optimum after 10 iterations, 0.4 px after 40); the fast path's Anderson acceleration brings
+  // that to 0.07 px after 10 and 0.0002 px after 20.
   int max_iterations = 100;
   // Converged when no vertex moved more than this many target pixels in an iteration.
   double tolerance = 0.02;
