@@ -4,21 +4,20 @@
 
 namespace zoomwarp::api {
 
-namespace {
-// FNV-1a, 64-bit: a stable hash (std::hash is not stable across builds, ETags must be).
-std::uint64_t fnv1a64(std::string_view s) {
-  std::uint64_t h = 1469598103934665603ULL;
-  for (unsigned char c : s) h = (h ^ c) * 1099511628211ULL;
+std::uint64_t fnv1a64(std::string_view data, std::uint64_t h) {
+  for (unsigned char c : data) h = (h ^ c) * 1099511628211ULL;
   return h;
 }
-}  // namespace
+
+std::string hex64(std::uint64_t v) {
+  static const char* digits = "0123456789abcdef";
+  std::string hex(16, '0');
+  for (int i = 15; i >= 0; --i, v >>= 4) hex[std::size_t(i)] = digits[v & 15];
+  return hex;
+}
 
 std::string make_etag(std::string_view version, std::string_view key) {
-  static const char* digits = "0123456789abcdef";
-  std::uint64_t h = fnv1a64(key);
-  std::string hex(16, '0');
-  for (int i = 15; i >= 0; --i, h >>= 4) hex[std::size_t(i)] = digits[h & 15];
-  return "\"" + std::string(version) + "-" + hex + "\"";
+  return "\"" + std::string(version) + "-" + hex64(fnv1a64(key)) + "\"";
 }
 
 std::string http_date(std::int64_t unix_ms) {

@@ -8,6 +8,14 @@
 
 namespace zoomwarp::api {
 
+// FNV-1a, 64-bit: a hash stable across builds and machines (std::hash is neither). Feed data in
+// pieces by passing the previous result as `h`.
+inline constexpr std::uint64_t kFnvOffset = 1469598103934665603ULL;
+std::uint64_t fnv1a64(std::string_view data, std::uint64_t h = kFnvOffset);
+
+// 16 lower-case hex digits.
+std::string hex64(std::uint64_t v);
+
 // "\"<version>-<hash of key>\"": changes whenever the image is re-published or the request differs.
 std::string make_etag(std::string_view version, std::string_view key);
 

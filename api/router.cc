@@ -57,19 +57,13 @@ json image_json(const tiles::Manifest& m) {
             {"iiif", "/iiif/3/" + m.id + "/info.json"}}}};
 }
 
-// FNV-1a over a file: the default id of an upload is a digest of its bytes.
+// The default id of an upload: a digest of its bytes.
 std::string content_id(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  std::uint64_t h = 1469598103934665603ULL;
+  std::uint64_t h = kFnvOffset;
   char buf[1 << 16];
-  while (in.read(buf, sizeof buf) || in.gcount() > 0) {
-    for (std::streamsize i = 0; i < in.gcount(); ++i) h = (h ^ static_cast<unsigned char>(buf[i])) * 1099511628211ULL;
-    if (!in) break;
-  }
-  static const char* d = "0123456789abcdef";
-  std::string s = "img-";
-  for (int i = 15; i >= 0; --i) s.push_back(d[(h >> (4 * i)) & 15]);
-  return s;
+  while (in.read(buf, sizeof buf) || in.gcount() > 0) h = fnv1a64(std::string_view(buf, std::size_t(in.gcount())), h);
+  return "img-" + hex64(h);
 }
 
 Response method_not_allowed(const std::string& allow) {

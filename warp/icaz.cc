@@ -39,6 +39,20 @@ Point locate(const Mesh& mesh, const std::vector<Point>& warped, const Point& p)
   return out;
 }
 
+// The triangles whose screen bounding box overlaps the screen.
+std::vector<int> visible_triangles(const Mesh& mesh, const std::vector<Point>& screen, double sw, double sh) {
+  std::vector<int> out;
+  for (int f = 0; f < int(mesh.triangles.size()); ++f) {
+    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+    for (int v : mesh.triangles[f]) {
+      x0 = std::min(x0, screen[v].x), x1 = std::max(x1, screen[v].x);
+      y0 = std::min(y0, screen[v].y), y1 = std::max(y1, screen[v].y);
+    }
+    if (x1 > 0 && x0 < sw && y1 > 0 && y0 < sh) out.push_back(f);
+  }
+  return out;
+}
+
 // Vertex chains of each line in a refined mesh (its end points are those of the coarse chain).
 std::vector<std::vector<int>> line_chains(const Mesh& mesh, const CoarseMesh& coarse) {
   std::vector<std::vector<int>> out;
@@ -183,15 +197,7 @@ View Icaz::view(const ViewRequest& req) {
   out.centre_clamped = std::abs(c.x - g.view_width / 2 - origin.x) > 1e-6 || std::abs(c.y - g.view_height / 2 - origin.y) > 1e-6;
 
   for (const Point& p : out.warped) out.screen.push_back({(p.x - origin.x) * g.screen_scale, (p.y - origin.y) * g.screen_scale});
-  for (int f = 0; f < int(out.source.triangles.size()); ++f) {
-    const auto& t = out.source.triangles[f];
-    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
-    for (int v : t) {
-      x0 = std::min(x0, out.screen[v].x), x1 = std::max(x1, out.screen[v].x);
-      y0 = std::min(y0, out.screen[v].y), y1 = std::max(y1, out.screen[v].y);
-    }
-    if (x1 > 0 && x0 < req.screen_width && y1 > 0 && y0 < req.screen_height) out.visible.push_back(f);
-  }
+  out.visible = visible_triangles(out.source, out.screen, req.screen_width, req.screen_height);
   return out;
 }
 
@@ -221,15 +227,7 @@ View uniform_zoom(const Mesh& source, const std::vector<Point>& warped, double t
   out.source = source;
   out.warped = warped;
   for (const Point& p : warped) out.screen.push_back({p.x * scale + ox, p.y * scale + oy});
-  for (int f = 0; f < int(source.triangles.size()); ++f) {
-    const auto& t = source.triangles[f];
-    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
-    for (int v : t) {
-      x0 = std::min(x0, out.screen[v].x), x1 = std::max(x1, out.screen[v].x);
-      y0 = std::min(y0, out.screen[v].y), y1 = std::max(y1, out.screen[v].y);
-    }
-    if (x1 > 0 && x0 < sw && y1 > 0 && y0 < sh) out.visible.push_back(f);
-  }
+  out.visible = visible_triangles(source, out.screen, sw, sh);
   return out;
 }
 
