@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 #include <unordered_map>
 
 #include "warp/lod_cut.h"
@@ -37,6 +38,14 @@ Point locate(const Mesh& mesh, const std::vector<Point>& warped, const Point& p)
     }
   }
   return out;
+}
+
+// Requests come from the network: refuse what no view can be made of rather than compute garbage.
+void check(const ViewRequest& r) {
+  if (!std::isfinite(r.zoom) || !std::isfinite(r.cx) || !std::isfinite(r.cy) || !std::isfinite(r.max_screen_area) ||
+      r.screen_width < 1 || r.screen_height < 1 || r.screen_width > 16384 || r.screen_height > 16384 ||
+      r.max_screen_area < 1)
+    throw std::invalid_argument("view request out of range");
 }
 
 // The triangles whose screen bounding box overlaps the screen.
@@ -122,6 +131,7 @@ std::vector<Point> Icaz::coarse_positions(const ZoomGeometry& g, WarpResult* sta
 }
 
 View Icaz::view(const ViewRequest& req) {
+  check(req);
   std::lock_guard lock(mu_);
   View out;
   const ZoomGeometry g = zoom_geometry(model_.width, model_.height, req.screen_width, req.screen_height, req.zoom, req.curve);
@@ -234,11 +244,13 @@ View uniform_zoom(const Mesh& source, const std::vector<Point>& warped, double t
 }  // namespace
 
 View Icaz::traditional(const ViewRequest& r) {
+  check(r);
   const Point centre{std::clamp(r.cx, 0.0, model_.width), std::clamp(r.cy, 0.0, model_.height)};
   return uniform_zoom(model_.coarse.mesh, model_.coarse.mesh.vertices, model_.width, model_.height, r, centre);
 }
 
 View Icaz::retarget_zoom(const ViewRequest& r) {
+  check(r);
   std::lock_guard lock(mu_);
   // The z = 0 target of ICAZ: the screen's aspect ratio, the image's area.
   const ZoomGeometry g = zoom_geometry(model_.width, model_.height, r.screen_width, r.screen_height, 0, r.curve);

@@ -71,7 +71,9 @@ class Icaz {
   explicit Icaz(ImageModel model);
   ~Icaz();
 
-  // Thread-safe; views of the same image share the forest and the coarse-warp cache.
+  // Thread-safe; views of the same image share the forest and the coarse-warp cache. Throws
+  // std::invalid_argument for non-finite numbers or a screen outside 1…16384 px. Zoom is
+  // clamped to [0, 1] and the view centre to the image.
   View view(const ViewRequest& request);
 
   // Baselines in the same interface (§1, §6.1), on the coarsest mesh:

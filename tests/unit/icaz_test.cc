@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 
@@ -307,6 +309,35 @@ TEST(IcazBaselines, RetargetZoomFillsTheScreenAndKeepsItsDistortion) {
     EXPECT_GE(y1, 360 - 1e-6);
     for (const auto& t : v.source.triangles) EXPECT_GT(warp::signed_area2(v.screen[t[0]], v.screen[t[1]], v.screen[t[2]]), 0);
   }
+}
+
+}  // namespace
+}  // namespace zoomwarp
+
+namespace zoomwarp {
+namespace {
+
+TEST(IcazBadInput, NonFiniteOrOutOfRangeRequestsAreRefused) {
+  auto icaz = engine("boats_lake_sunset.jpg", false);
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  warp::ViewRequest ok;
+  ok.cx = 1000, ok.cy = 800;
+  for (auto bad : std::vector<std::function<void(warp::ViewRequest&)>>{
+           [&](auto& r) { r.zoom = nan; }, [&](auto& r) { r.cx = inf; }, [&](auto& r) { r.cy = nan; },
+           [](auto& r) { r.screen_width = 0; }, [](auto& r) { r.screen_height = -5; },
+           [](auto& r) { r.screen_width = 100000; }, [](auto& r) { r.max_screen_area = 0; }}) {
+    warp::ViewRequest r = ok;
+    bad(r);
+    EXPECT_THROW(icaz->view(r), std::invalid_argument);
+    EXPECT_THROW(icaz->traditional(r), std::invalid_argument);
+    EXPECT_THROW(icaz->retarget_zoom(r), std::invalid_argument);
+  }
+  // Out-of-range zoom and centres are clamped, not refused.
+  warp::ViewRequest far = ok;
+  far.zoom = 7, far.cx = -1e9, far.cy = 1e9;
+  const auto v = icaz->view(far);
+  EXPECT_NEAR(v.geometry.screen_scale, 1, 1e-9);
+  EXPECT_TRUE(v.centre_clamped);
 }
 
 }  // namespace
