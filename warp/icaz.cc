@@ -71,6 +71,54 @@ std::vector<std::vector<int>> line_chains(const Mesh& mesh, const CoarseMesh& co
   return out;
 }
 
+// The triangles whose warped bounding box meets `box` (x0, y0, x1, y1).
+std::vector<char> triangles_near(const Mesh& mesh, const std::vector<Point>& warped, const std::array<double, 4>& box) {
+  std::vector<char> out(mesh.triangles.size(), 0);
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+    for (int v : mesh.triangles[f]) {
+      x0 = std::min(x0, warped[v].x), x1 = std::max(x1, warped[v].x);
+      y0 = std::min(y0, warped[v].y), y1 = std::max(y1, warped[v].y);
+    }
+    out[f] = x1 >= box[0] && x0 <= box[2] && y1 >= box[1] && y0 <= box[3];
+  }
+  return out;
+}
+
+// The chosen triangles of a mesh as a mesh of their own, for a local solve. Vertices shared with
+// a triangle not chosen are pinned, so the solved part joins the rest of the warp without a seam.
+struct Submesh {
+  Mesh mesh;
+  std::vector<int> vertex;    // submesh vertex → mesh vertex
+  std::vector<int> triangle;  // submesh triangle → mesh triangle
+  std::vector<int> pinned;    // submesh vertices
+};
+
+Submesh submesh(const Mesh& mesh, const std::vector<char>& chosen) {
+  Submesh out;
+  std::vector<int> index(mesh.vertices.size(), -1);
+  std::vector<char> outside(mesh.vertices.size(), 0);
+  for (int f = 0; f < int(mesh.triangles.size()); ++f) {
+    if (!chosen[f]) {
+      for (int v : mesh.triangles[f]) outside[v] = 1;
+      continue;
+    }
+    Triangle t;
+    for (int k = 0; k < 3; ++k) {
+      int& i = index[mesh.triangles[f][k]];
+      if (i < 0) i = int(out.vertex.size()), out.vertex.push_back(mesh.triangles[f][k]);
+      t[k] = i;
+    }
+    out.mesh.triangles.push_back(t);
+    out.triangle.push_back(f);
+  }
+  for (int v : out.vertex) {
+    out.mesh.vertices.push_back(mesh.vertices[v]);
+    if (outside[v]) out.pinned.push_back(index[v]);
+  }
+  return out;
+}
+
 }  // namespace
 
 ImageModel make_image_model(const tiles::Raster& reduced, double width, double height,
@@ -84,11 +132,13 @@ ImageModel make_image_model(const tiles::Raster& reduced, double width, double h
   return m;
 }
 
-Icaz::Icaz(ImageModel model)
+Icaz::Icaz(ImageModel model, const IcazOptions& options)
     : model_(std::move(model)),
+      options_(options),
       coarse_(model_.coarse.mesh, triangle_weights(model_.coarse.mesh, model_.significance, model_.w_min),
               model_.width, model_.height, model_.coarse.line_vertices),
-      forest_(model_.coarse.mesh) {
+      forest_(model_.coarse.mesh),
+      root_cut_(forest_) {
   node_mean_.assign(std::size_t(forest_.root_count()), std::numeric_limits<double>::quiet_NaN());
   sig_lo_ = std::numeric_limits<double>::infinity(), sig_hi_ = -sig_lo_;
   for (int r = 0; r < forest_.root_count(); ++r) {
@@ -163,7 +213,7 @@ View Icaz::view(const ViewRequest& req) {
 
   // Refinement: split what touches the viewing area (with a margin of one screen triangle) and
   // is larger on screen than the threshold. A cap bounds the work whatever the input.
-  LodCut cut(forest_);
+  LodCut cut = root_cut_;
   const double s2 = g.screen_scale * g.screen_scale;
   const double margin = std::sqrt(req.max_screen_area) / g.screen_scale;
   auto wants_split = [&](int node) {
@@ -187,20 +237,39 @@ View Icaz::view(const ViewRequest& req) {
       for (int c : forest_.children(split[k])) queue.push_back(c);
   }
 
-  // Fine level: warp the refined mesh from the coarse result, place the viewing area again.
+  // Fine level, from the coarse result (nested iteration). Only the part of the refined mesh near
+  // the viewing area is solved, with the coarse result pinned around it: far from the screen the
+  // fine warp would differ from the coarse one by what nobody sees, and solving there would cost
+  // as much as the whole coarsest mesh again on every view.
   out.source = cut.mesh(&out.forest_vertex, &out.nodes);
-  std::vector<double> weights;
-  for (int n : out.nodes) weights.push_back(node_weight(n));
-  std::vector<Point> initial;
-  for (int v : out.forest_vertex) initial.push_back(warped_by_coarse(v));
+  for (int v : out.forest_vertex) out.warped.push_back(warped_by_coarse(v));
   if (split.empty()) {  // nothing refined: the fine mesh is the coarse one, already warped
     out.fine_stats = out.coarse_stats;
-    out.fine_stats.positions = std::move(initial);
   } else {
-    ShapeWarp fine(out.source, std::move(weights), model_.width, model_.height, line_chains(out.source, model_.coarse));
+    const double pad = std::max(margin, options_.solve_margin * std::max(g.view_width, g.view_height));
+    std::vector<char> chosen = triangles_near(out.source, out.warped, {origin.x - pad, origin.y - pad,
+                                                                      origin.x + g.view_width + pad, origin.y + g.view_height + pad});
+    // Line constraints are solved whole (their triangles are few): pinning part of a line at its
+    // coarse positions would bend it by the coarse level's residual, magnified on screen.
+    const auto chains = line_chains(out.source, model_.coarse);
+    if (!chains.empty()) {
+      std::vector<char> on_line(out.source.vertices.size(), 0);
+      for (const auto& chain : chains)
+        for (int v : chain) on_line[v] = 1;
+      for (std::size_t f = 0; f < chosen.size(); ++f)
+        for (int v : out.source.triangles[f]) chosen[f] |= on_line[v];
+    }
+    const Submesh local = submesh(out.source, chosen);
+    std::vector<double> weights;
+    std::vector<Point> initial;
+    for (int f : local.triangle) weights.push_back(node_weight(out.nodes[f]));
+    for (int v : local.vertex) initial.push_back(out.warped[v]);
+    const ShapeWarp fine(local.mesh, std::move(weights), model_.width, model_.height,
+                         line_chains(local.mesh, model_.coarse), local.pinned);
     out.fine_stats = fine.solve(g.target_width, g.target_height, tolerance_for(g), initial);
+    for (std::size_t i = 0; i < local.vertex.size(); ++i) out.warped[local.vertex[i]] = out.fine_stats.positions[i];
   }
-  out.warped = out.fine_stats.positions;
+  out.fine_stats.positions.clear();  // in the submesh's numbering; `warped` has them all
   const Point c = locate(out.source, out.warped, centre);
   origin = place(c);
   out.view_x = origin.x, out.view_y = origin.y;

@@ -2,6 +2,7 @@
 
 #include <Eigen/CholmodSupport>
 #include <Eigen/Dense>
+#include <Eigen/OrderingMethods>
 #include <Eigen/Sparse>
 #include <cmath>
 #include <stdexcept>
@@ -39,17 +40,18 @@ struct ShapeWarp::Impl {
   bool has_oblique = false;
 
   // Boundary constraints: which vertices have a fixed x (left/right edge) or y (top/bottom).
-  std::vector<signed char> fixed_x, fixed_y;  // 0 free, 1 at 0, 2 at the far side
+  std::vector<signed char> fixed_x, fixed_y;  // 0 free, 1 at 0, 2 at the far side, 3 pinned
+  bool has_pinned = false;
   // Per axis, the index of each free vertex among the free unknowns, or -1.
   std::vector<int> free_x, free_y;
   int n_free_x = 0, n_free_y = 0;
 
-  // Fast path: one factorization per axis, and the coupling to fixed values (A_FC x_C),
-  // which is linear in the target size: A_FC x_C = size · c_far.
+  // Fast path: one factorization per axis, and the coupling A_FC of free to fixed unknowns: the
+  // fixed values x_C (0, the target size, or a pinned position) enter the RHS as −A_FC x_C.
   std::unique_ptr<Solver> solver_x, solver_y;
-  Eigen::VectorXd far_x, far_y;  // A_FC applied to "1 on the far edge, 0 on the near edge"
+  SpMat coupling_x, coupling_y;
 
-  void classify() {
+  void classify(const std::vector<int>& pinned) {
     const std::size_t n = mesh.vertices.size();
     fixed_x.assign(n, 0), fixed_y.assign(n, 0), free_x.assign(n, -1), free_y.assign(n, -1);
     const double eps_x = 1e-9 * std::max(1.0, width), eps_y = 1e-9 * std::max(1.0, height);
@@ -59,50 +61,85 @@ struct ShapeWarp::Impl {
       else if (std::abs(p.x - width) <= eps_x) fixed_x[i] = 2;
       if (std::abs(p.y) <= eps_y) fixed_y[i] = 1;
       else if (std::abs(p.y - height) <= eps_y) fixed_y[i] = 2;
+    }
+    for (int v : pinned) {
+      if (v < 0 || std::size_t(v) >= n) throw std::invalid_argument("pinned vertex out of range");
+      fixed_x[v] = fixed_y[v] = 3;
+      has_pinned = true;
+    }
+    std::vector<int> order(n);
+    for (std::size_t i = 0; i < n; ++i) order[i] = int(i);
+    number_unknowns(order);
+  }
+
+  // Numbers each axis's free unknowns in `order` (a permutation of the vertices).
+  void number_unknowns(const std::vector<int>& order) {
+    free_x.assign(fixed_x.size(), -1), free_y.assign(fixed_y.size(), -1);
+    n_free_x = n_free_y = 0;
+    for (int i : order) {
       if (!fixed_x[i]) free_x[i] = n_free_x++;
       if (!fixed_y[i]) free_y[i] = n_free_y++;
     }
   }
 
-  // The Laplacian part of one axis, over all vertices: Σ_f w_f Σ_e (e_i − e_j)(e_i − e_j)ᵀ, plus
-  // the orientation-form line terms α(u_i − u_s)² of lines whose normal is this axis.
-  Triplets axis_form(LineKind fixed_normal_kind, double alpha) const {
+  // The fast path's systems. Per axis, the matrix is the weighted graph Laplacian
+  // Σ_f w_f Σ_e (e_i − e_j)(e_i − e_j)ᵀ — the same for x and y — plus the orientation-form line
+  // terms α(u_i − u_s)² of lines whose normal is that axis, restricted to the free unknowns.
+  // One AMD ordering of the whole mesh serves both axes (each numbers its free unknowns in that
+  // order and CHOLMOD keeps it): AMD was the largest single cost of a fine view's factorization.
+  void factor_axes(double alpha) {
+    const int n = int(mesh.vertices.size());
     Triplets t;
+    t.reserve(mesh.triangles.size() * 12);
     for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
       for (int k = 0; k < 3; ++k) {
         const int i = mesh.triangles[f][k], j = mesh.triangles[f][(k + 1) % 3];
         add_square<2>(t, {i, j}, {1.0, -1.0}, weights[f]);
       }
-    for (const Line& l : lines)
-      if (l.kind == fixed_normal_kind)
-        for (std::size_t k = 1; k < l.vertices.size(); ++k)
-          add_square<2>(t, {l.vertices[k], l.vertices[0]}, {1.0, -1.0}, alpha);
-    return t;
-  }
+    SpMat laplacian(n, n);
+    laplacian.setFromTriplets(t.begin(), t.end());
+    Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> elimination;
+    Eigen::AMDOrdering<int>()(laplacian, elimination);
+    number_unknowns({elimination.indices().data(), elimination.indices().data() + n});
 
-  void factor_axes(double alpha) {
-    const int n = int(mesh.vertices.size());
-    auto build = [&](LineKind normal_kind, const std::vector<int>& free, const std::vector<signed char>& fixed,
-                     int n_free, std::unique_ptr<Solver>& solver, Eigen::VectorXd& far) {
-      Triplets ff, fc;
-      for (const auto& e : axis_form(normal_kind, alpha)) {
-        const int r = free[e.row()];
-        if (r < 0) continue;
-        const int c = free[e.col()];
-        if (c >= 0) ff.emplace_back(r, c, e.value());
-        else if (fixed[e.col()] == 2) fc.emplace_back(r, e.col(), e.value());
+    auto build = [&](LineKind normal_kind, const std::vector<int>& free, int n_free, std::unique_ptr<Solver>& solver,
+                     SpMat& coupling) {
+      Triplets line_terms;
+      for (const Line& l : lines)
+        if (l.kind == normal_kind)
+          for (std::size_t k = 1; k < l.vertices.size(); ++k)
+            add_square<2>(line_terms, {l.vertices[k], l.vertices[0]}, {1.0, -1.0}, alpha);
+      SpMat with_lines;
+      if (!line_terms.empty()) {
+        with_lines.resize(n, n);
+        with_lines.setFromTriplets(line_terms.begin(), line_terms.end());
+        with_lines += laplacian;
       }
-      SpMat a(n_free, n_free), b(n_free, n);
+      const SpMat& form = line_terms.empty() ? laplacian : with_lines;
+      // CHOLMOD reads the lower triangle only (Solver's UpLo), so only that is kept of A_FF.
+      Triplets ff, fc;
+      ff.reserve(form.nonZeros() / 2 + n);
+      for (int col = 0; col < n; ++col)
+        for (SpMat::InnerIterator e(form, col); e; ++e) {
+          const int r = free[e.row()];
+          if (r < 0) continue;
+          const int c = free[col];
+          if (c < 0) fc.emplace_back(r, col, e.value());
+          else if (r >= c) ff.emplace_back(r, c, e.value());
+        }
+      SpMat a(n_free, n_free);
       a.setFromTriplets(ff.begin(), ff.end());
-      b.setFromTriplets(fc.begin(), fc.end());
+      coupling.resize(n_free, n);
+      coupling.setFromTriplets(fc.begin(), fc.end());
       solver = std::make_unique<Solver>();
+      solver->cholmod().nmethods = 1;
+      solver->cholmod().method[0].ordering = CHOLMOD_NATURAL;
       solver->compute(a);
       if (solver->info() != Eigen::Success) throw std::runtime_error("CHOLMOD could not factor the warp system");
-      far = b * Eigen::VectorXd::Ones(n);  // only far-edge columns were kept
     };
     // x: vertical lines keep their x (normal (1,0)); y: horizontal lines keep their y.
-    build(LineKind::kVertical, free_x, fixed_x, n_free_x, solver_x, far_x);
-    build(LineKind::kHorizontal, free_y, fixed_y, n_free_y, solver_y, far_y);
+    build(LineKind::kVertical, free_x, n_free_x, solver_x, coupling_x);
+    build(LineKind::kHorizontal, free_y, n_free_y, solver_y, coupling_y);
   }
 
   // Optimal isotropic scale of each triangle for the current positions (the "local" step).
@@ -162,17 +199,24 @@ struct ShapeWarp::Impl {
   std::vector<Point> fixed_positions(const std::vector<Point>& start, double tw, double th) const {
     std::vector<Point> p = start;
     for (std::size_t i = 0; i < p.size(); ++i) {
-      if (fixed_x[i]) p[i].x = fixed_x[i] == 1 ? 0 : tw;
-      if (fixed_y[i]) p[i].y = fixed_y[i] == 1 ? 0 : th;
+      if (fixed_x[i] == 1 || fixed_x[i] == 2) p[i].x = fixed_x[i] == 1 ? 0 : tw;
+      if (fixed_y[i] == 1 || fixed_y[i] == 2) p[i].y = fixed_y[i] == 1 ? 0 : th;
     }
     return p;
   }
 
-  // One global step of the fast path.
-  void solve_decoupled(std::vector<Point>& cur, double tw, double th) const {
+  // −A_FC x_C of both axes for fixed values taken from `p` (constant during a solve).
+  std::pair<Eigen::VectorXd, Eigen::VectorXd> fixed_rhs(const std::vector<Point>& p) const {
+    Eigen::VectorXd cx(p.size()), cy(p.size());
+    for (std::size_t i = 0; i < p.size(); ++i) cx[i] = fixed_x[i] ? p[i].x : 0, cy[i] = fixed_y[i] ? p[i].y : 0;
+    return {-(coupling_x * cx), -(coupling_y * cy)};
+  }
+
+  // One global step of the fast path; `fixed` is fixed_rhs() of the solve.
+  void solve_decoupled(std::vector<Point>& cur, const std::pair<Eigen::VectorXd, Eigen::VectorXd>& fixed) const {
     const auto s = scales(cur);
-    Eigen::VectorXd bx = shape_rhs(s, false, free_x, n_free_x, weights) - tw * far_x;
-    Eigen::VectorXd by = shape_rhs(s, true, free_y, n_free_y, weights) - th * far_y;
+    Eigen::VectorXd bx = shape_rhs(s, false, free_x, n_free_x, weights) + fixed.first;
+    Eigen::VectorXd by = shape_rhs(s, true, free_y, n_free_y, weights) + fixed.second;
     const Eigen::VectorXd x = solver_x->solve(bx), y = solver_y->solve(by);
     for (std::size_t i = 0; i < cur.size(); ++i) {
       if (free_x[i] >= 0) cur[i].x = x[free_x[i]];
@@ -253,7 +297,7 @@ struct ShapeWarp::Impl {
 };
 
 ShapeWarp::ShapeWarp(Mesh mesh, std::vector<double> weights, double width, double height,
-                     std::vector<std::vector<int>> lines)
+                     std::vector<std::vector<int>> lines, const std::vector<int>& pinned)
     : impl_(std::make_unique<Impl>()) {
   if (weights.size() != mesh.triangles.size()) throw std::invalid_argument("one weight per triangle");
   impl_->mesh = std::move(mesh);
@@ -271,7 +315,7 @@ ShapeWarp::ShapeWarp(Mesh mesh, std::vector<double> weights, double width, doubl
     impl_->has_oblique |= kind == LineKind::kOblique;
     impl_->lines.push_back({std::move(ids), kind});
   }
-  impl_->classify();
+  impl_->classify(pinned);
   if (!impl_->has_oblique) impl_->factor_axes(WarpOptions{}.alpha);
 }
 
@@ -286,6 +330,8 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
   WarpResult r;
   if (initial.size() == m.mesh.vertices.size()) {
     r.positions = m.fixed_positions(initial, tw, th);
+  } else if (m.has_pinned) {
+    throw std::invalid_argument("a warp with pinned vertices needs initial positions");
   } else {
     r.positions.resize(m.mesh.vertices.size());
     for (std::size_t i = 0; i < r.positions.size(); ++i)
@@ -311,11 +357,13 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
   };
   std::vector<Eigen::VectorXd> dg, df;
   Eigen::VectorXd g_prev, f_prev;
+  const std::vector<Point> start = r.positions;
+  const auto fixed = fast ? m.fixed_rhs(start) : std::pair<Eigen::VectorXd, Eigen::VectorXd>{};
   for (r.iterations = 0; r.iterations < options.max_iterations;) {
     const std::vector<Point> before = r.positions;
     if (fast) {
       std::vector<Point> step = r.positions;
-      m.solve_decoupled(step, tw, th);
+      m.solve_decoupled(step, fixed);
       const Eigen::VectorXd u = stack(r.positions), g = stack(step), f = g - u;
       if (g_prev.size() == n2) {
         dg.push_back(g - g_prev), df.push_back(f - f_prev);
@@ -381,11 +429,13 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
   }
   // Last resort, for extreme aspect changes (a 4:1 panorama on a 9:16 screen folded even with
   // uniform weights): blend towards the affine stretch, which folds nothing and meets the same
-  // boundary constraints, as little as needed (bisection on the blend factor).
+  // boundary constraints, as little as needed (bisection on the blend factor). With pinned
+  // vertices the affine stretch would move them; the (fold-free) start is the fallback then.
   if (!bad.empty()) {
-    std::vector<Point> affine(r.positions.size());
-    for (std::size_t i = 0; i < affine.size(); ++i)
-      affine[i] = {m.mesh.vertices[i].x * tw / m.width, m.mesh.vertices[i].y * th / m.height};
+    std::vector<Point> affine = start;
+    if (!m.has_pinned)
+      for (std::size_t i = 0; i < affine.size(); ++i)
+        affine[i] = {m.mesh.vertices[i].x * tw / m.width, m.mesh.vertices[i].y * th / m.height};
     auto blend = [&](double t) {
       std::vector<Point> p(r.positions.size());
       for (std::size_t i = 0; i < p.size(); ++i)

@@ -3,7 +3,8 @@
 //   D = Σ_f w_f Σ_{e_ij ∈ f} ‖(v'_i − v'_j) − s_f (v_i − v_j)‖²  +  α D_Line
 //
 // subject to boundary constraints: vertices on the left/top edges of the source rectangle stay at
-// x' = 0 / y' = 0, those on the right/bottom edges go to x' = W' / y' = H'. Each iteration fixes
+// x' = 0 / y' = 0, those on the right/bottom edges go to x' = W' / y' = H'; pinned vertices (a
+// local solve inside a larger warp, see icaz.h) stay where the initial positions put them. Each iteration fixes
 // the optimal scale s_f = Σ_e (d'_e·d_e) / Σ_e |d_e|² of every triangle (and the line parameters)
 // from the current positions, which makes D quadratic, and solves the sparse SPD system with
 // CHOLMOD.
@@ -46,15 +47,17 @@ struct WarpResult {
 
 class ShapeWarp {
  public:
-  // `mesh` covers [0, width] × [0, height]; `weights` has one entry per triangle (significance,
-  // > 0); `lines` lists, per line constraint, its vertices in order along it.
+  // `mesh` lies in [0, width] × [0, height]; `weights` has one entry per triangle (significance,
+  // > 0); `lines` lists, per line constraint, its vertices in order along it; `pinned` vertices
+  // keep their initial positions in both axes (solve() must then be given a fold-free `initial`).
   ShapeWarp(Mesh mesh, std::vector<double> weights, double width, double height,
-            std::vector<std::vector<int>> lines = {});
+            std::vector<std::vector<int>> lines = {}, const std::vector<int>& pinned = {});
   ~ShapeWarp();
   ShapeWarp(ShapeWarp&&) noexcept;
 
   // Warps to a target_width × target_height rectangle, starting from `initial` (e.g. a coarser
-  // warp, nested iteration §6.2) or, when empty, from uniform scaling.
+  // warp, nested iteration §6.2) or, when empty, from uniform scaling. With pinned vertices,
+  // `initial` is required.
   WarpResult solve(double target_width, double target_height, const WarpOptions& options = {},
                    const std::vector<Point>& initial = {}) const;
 

@@ -50,13 +50,18 @@ void BM_Zoom(benchmark::State& state, int which) {
   const double z = state.range(0) / 100.0;
   int i = 0;
   std::size_t vertices = 0;
+  double iterations = 0, guard_rounds = 0;
   for (auto _ : state) {
     warp::ViewRequest r;
     r.zoom = std::min(1.0, z + 1e-4 * (i++ % 50));
     r.cx = 0.4 * s.width, r.cy = 0.5 * s.height;
-    vertices = s.icaz->view(r).source.vertices.size();
+    const warp::View v = s.icaz->view(r);
+    vertices = v.source.vertices.size();
+    iterations += v.fine_stats.iterations, guard_rounds += v.fine_stats.guard_rounds;
   }
   state.counters["vertices"] = double(vertices);
+  state.counters["fine_iterations"] = benchmark::Counter(iterations, benchmark::Counter::kAvgIterations);
+  state.counters["guard_rounds"] = benchmark::Counter(guard_rounds, benchmark::Counter::kAvgIterations);
   state.SetLabel(s.name);
 }
 

@@ -204,6 +204,30 @@ TEST(IcazContinuity, SmallZoomStepsMovePointsLittle) {
   }
 }
 
+// The fine level is solved only near the viewing area (IcazOptions::solve_margin); what is on
+// screen stays close to solving the whole refined mesh.
+TEST(IcazLocalSolve, VisibleVerticesMatchTheWholeSolve) {
+  const auto shared = engine("boats_lake_sunset.jpg", true);
+  warp::Icaz local(shared->model());
+  warp::IcazOptions whole_options;
+  whole_options.solve_margin = std::numeric_limits<double>::infinity();
+  warp::Icaz whole(shared->model(), whole_options);
+  const double W = shared->model().width, H = shared->model().height;
+  double worst = 0;
+  for (double z : {0.4, 0.7, 0.9})
+    for (double cx : {0.3, 0.6}) {
+      warp::ViewRequest r;
+      r.zoom = z, r.cx = cx * W, r.cy = 0.45 * H;
+      const auto a = local.view(r), b = whole.view(r);
+      ASSERT_EQ(a.forest_vertex, b.forest_vertex) << "the same cut";
+      for (int f : a.visible)
+        for (int v : a.source.triangles[f])
+          worst = std::max(worst, std::hypot(a.screen[v].x - b.screen[v].x, a.screen[v].y - b.screen[v].y));
+    }
+  std::printf("[ figures ] local vs whole fine solve: largest difference of a visible vertex %.2f px\n", worst);
+  EXPECT_LT(worst, 2.0);
+}
+
 TEST(IcazZoomCurve, EndpointsAndMonotonicMagnification) {
   const auto g0 = warp::zoom_geometry(5400, 2500, 480, 360, 0);
   EXPECT_NEAR(g0.target_width / g0.target_height, 480.0 / 360, 1e-9);

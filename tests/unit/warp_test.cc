@@ -134,6 +134,33 @@ TEST(ShapeWarp, SameSizeIsTheIdentity) {
   }
 }
 
+// A local solve (icaz.h): pinning part of a converged warp at its own positions and solving again
+// changes nothing, and pinned vertices never move even from a start far from the optimum.
+TEST(ShapeWarp, PinnedVerticesHoldTheirInitialPositions) {
+  const double w = 4000, h = 1500, tw = 1500, th = 1500;
+  auto cm = warp::build_coarse_mesh(w, h, {});
+  const auto weights = disc_weights(cm.mesh, {2000, 750}, 450);
+  const auto whole = warp::ShapeWarp(cm.mesh, weights, w, h).solve(tw, th);
+  std::vector<int> pinned;
+  for (std::size_t i = 0; i < cm.mesh.vertices.size(); ++i)
+    if (cm.mesh.vertices[i].x < 1000 || cm.mesh.vertices[i].x > 3000) pinned.push_back(int(i));
+  const warp::ShapeWarp local(cm.mesh, weights, w, h, {}, pinned);
+  const auto again = local.solve(tw, th, {}, whole.positions);
+  for (std::size_t i = 0; i < whole.positions.size(); ++i) {
+    EXPECT_NEAR(again.positions[i].x, whole.positions[i].x, 0.05);
+    EXPECT_NEAR(again.positions[i].y, whole.positions[i].y, 0.05);
+  }
+  std::vector<Point> uniform;
+  for (const Point& p : cm.mesh.vertices) uniform.push_back({p.x * tw / w, p.y * th / h});
+  const auto from_uniform = local.solve(tw, th, {}, uniform);
+  EXPECT_EQ(from_uniform.inverted, 0);
+  for (int i : pinned) {
+    EXPECT_EQ(from_uniform.positions[i].x, uniform[i].x);
+    EXPECT_EQ(from_uniform.positions[i].y, uniform[i].y);
+  }
+  EXPECT_THROW(local.solve(tw, th), std::invalid_argument) << "pinned vertices need initial positions";
+}
+
 TEST(ShapeWarp, SignificantRegionKeepsItsShapeWhenSqueezed) {
   const double w = 4000, h = 1500, tw = 1500, th = 1500;  // a wide image squeezed to a square
   auto cm = warp::build_coarse_mesh(w, h, {});
