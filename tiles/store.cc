@@ -1,5 +1,7 @@
 #include "tiles/store.h"
 
+#include <fcntl.h>
+#include <sys/file.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -82,6 +84,7 @@ Store::Store(const std::string& root) {
   fs::create_directories(fs::path(root) / "images", ec);
   fs::create_directories(fs::path(root) / "versions", ec);
   fs::create_directories(fs::path(root) / "staging", ec);
+  fs::create_directories(fs::path(root) / "locks", ec);
   if (ec || !fs::is_directory(fs::path(root) / "images"))
     throw std::runtime_error("cannot create the store at " + root + ": " + ec.message());
   root_ = fs::canonical(root).string();
@@ -146,8 +149,56 @@ void Store::discard(const std::string& staging_dir) const {
   fs::remove_all(staging_dir, ec);
 }
 
-std::shared_ptr<const ImageEntry> Store::publish(const std::string& staging_dir, Manifest m) {
+std::string Store::make_staging_copy(const ImageEntry& from) const {
+  const std::string staging = make_staging_dir();
+  try {
+    for (const auto& e : fs::directory_iterator(from.dir)) {
+      if (e.path().filename() == "manifest.json") continue;
+      std::error_code ec;
+      fs::create_hard_link(e.path(), fs::path(staging) / e.path().filename(), ec);
+      if (ec) fs::copy_file(e.path(), fs::path(staging) / e.path().filename());  // another file system
+    }
+  } catch (...) {
+    discard(staging);
+    throw;
+  }
+  return staging;
+}
+
+namespace {
+
+// An exclusive flock() on ROOT/locks/ID for the life of the object.
+class IdLock {
+ public:
+  IdLock(const std::string& root, const std::string& id)
+      : fd_(::open((root + "/locks/" + id).c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644)) {
+    if (fd_ >= 0 && ::flock(fd_, LOCK_EX) == 0) return;
+    if (fd_ >= 0) ::close(fd_);
+    throw std::runtime_error("cannot lock image " + id);
+  }
+  ~IdLock() { ::close(fd_); }
+  IdLock(const IdLock&) = delete;
+  IdLock& operator=(const IdLock&) = delete;
+
+ private:
+  int fd_;
+};
+
+}  // namespace
+
+std::shared_ptr<const ImageEntry> Store::publish(const std::string& staging_dir, Manifest m,
+                                                 const std::string* expected_version) {
   if (!is_valid_image_id(m.id)) throw std::runtime_error("invalid image id");
+  // Every publish and remove of an id holds its lock, so a conditional publish's check and swap
+  // are one step for all of them.
+  const IdLock lock(root_, m.id);
+  if (expected_version) {
+    const auto current = find(m.id);
+    if (!current || current->manifest.version != *expected_version) {
+      discard(staging_dir);
+      throw VersionConflict("image " + m.id + " changed since version " + *expected_version);
+    }
+  }
   m.created_ms = now_ms();
   // The version orders publishes in time and is unique across processes and hosts.
   m.version = hex(std::uint64_t(m.created_ms), 11) + hex(random_u64(), 5);
@@ -169,6 +220,7 @@ std::shared_ptr<const ImageEntry> Store::publish(const std::string& staging_dir,
 
 bool Store::remove(const std::string& id) {
   if (!is_valid_image_id(id)) return false;
+  const IdLock lock(root_, id);
   return ::unlink((root_ + "/images/" + id).c_str()) == 0;
 }
 

@@ -3,6 +3,7 @@
 //   ROOT/images/ID          symlink to ../versions/ID@VERSION: the published version of ID
 //   ROOT/versions/ID@VERSION/manifest.json, level_K.tif   one immutable image version
 //   ROOT/staging/HOST.PID.RANDOM/                        work in progress, never read
+//   ROOT/locks/ID                                        flock()ed around conditional publishes
 //
 // Publishing renames a finished staging folder into versions/ and then atomically replaces the
 // images/ID link, so a reader sees the old version or the new one, never a half-written one.
@@ -13,6 +14,7 @@
 #include <chrono>
 #include <memory>
 #include <mutex>
+#include <stdexcept>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -25,6 +27,10 @@ struct ImageEntry {
   Manifest manifest;
   std::string dir;  // absolute path of the version's folder
   std::string level_path(int k) const;
+};
+
+struct VersionConflict : std::runtime_error {
+  using std::runtime_error::runtime_error;
 };
 
 class Store {
@@ -45,9 +51,20 @@ class Store {
   std::string make_staging_dir() const;
   void discard(const std::string& staging_dir) const;
 
+  // A staging folder holding every file of `from` but its manifest, as hard links, for an edit
+  // that replaces a few small files (by writing new ones and renaming them over the links —
+  // never writing through a link, which would change the published version too).
+  std::string make_staging_copy(const ImageEntry& from) const;
+
   // Moves `staging_dir` (holding the pyramid; manifest.json is written here) into place as a new
   // version of m.id and points the id at it. Fills m.version and m.created_ms.
-  std::shared_ptr<const ImageEntry> publish(const std::string& staging_dir, Manifest m);
+  //
+  // With `expected_version`, publishing is conditional (optimistic concurrency for edits): if
+  // the published version of m.id is no longer that one — another edit, a re-ingest or a delete
+  // came first, in this process or another — the staging folder is discarded and VersionConflict
+  // thrown.
+  std::shared_ptr<const ImageEntry> publish(const std::string& staging_dir, Manifest m,
+                                            const std::string* expected_version = nullptr);
 
   // Unpublishes `id`; false if it was not published.
   bool remove(const std::string& id);

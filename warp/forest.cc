@@ -1,6 +1,9 @@
 #include "warp/forest.h"
 
 #include <cmath>
+#include <istream>
+#include <ostream>
+#include <stdexcept>
 
 namespace zoomwarp::warp {
 
@@ -14,6 +17,60 @@ Forest::Forest(const Mesh& coarsest) : vertices_(coarsest.vertices), vertex_root
     for (int v : coarsest.triangles[f]) vertex_root_[v] = f;
     add_node(coarsest.triangles[f], f, -1);
   }
+  keep_current();
+}
+
+void Forest::keep_current() {
+  kept_nodes_ = node_count();
+  kept_vertices_ = int(vertices_.size());
+}
+
+void Forest::build_levels(double min_area, int max_nodes) {
+  std::vector<int> level;
+  for (int n = 0; n < node_count(); ++n)
+    if (!is_split(n)) level.push_back(n);
+  for (;;) {
+    std::vector<int> split;
+    for (int n : level)
+      if (area(n) > min_area) split.push_back(n);
+    if (split.empty() || node_count() + 2 * std::int64_t(split.size()) > max_nodes) break;
+    level.clear();
+    for (int n : split)
+      for (int c : children(n)) level.push_back(c);
+  }
+  keep_current();
+}
+
+void Forest::forget_lazy_nodes() {
+  corners_.resize(kept_nodes_), children_.resize(kept_nodes_), root_.resize(kept_nodes_), parent_.resize(kept_nodes_);
+  for (auto& c : children_)
+    if (c[0] >= kept_nodes_) c = {-1, -1};
+  vertices_.resize(kept_vertices_), vertex_root_.resize(kept_vertices_);
+  std::erase_if(midpoints_, [&](const auto& e) { return e.second >= kept_vertices_; });
+}
+
+void Forest::write(std::ostream& out) const {
+  std::vector<std::int32_t> splits;
+  for (int n = roots_; n < kept_nodes_; n += 2) splits.push_back(parent_[n]);
+  const std::int64_t count = std::int64_t(splits.size());
+  out.write(reinterpret_cast<const char*>(&count), sizeof count);
+  out.write(reinterpret_cast<const char*>(splits.data()), std::streamsize(splits.size() * sizeof(std::int32_t)));
+}
+
+Forest Forest::read(std::istream& in, const Mesh& coarsest) {
+  Forest f(coarsest);
+  std::int64_t count = 0;
+  in.read(reinterpret_cast<char*>(&count), sizeof count);
+  if (!in || count < 0 || count > (std::int64_t(1) << 28)) throw std::runtime_error("damaged forest");
+  std::vector<std::int32_t> splits(static_cast<std::size_t>(count));
+  in.read(reinterpret_cast<char*>(splits.data()), std::streamsize(splits.size() * sizeof(std::int32_t)));
+  if (!in) throw std::runtime_error("truncated forest");
+  for (std::int32_t n : splits) {
+    if (n < 0 || n >= f.node_count() || f.is_split(n)) throw std::runtime_error("damaged forest");
+    f.children(n);
+  }
+  f.keep_current();
+  return f;
 }
 
 int Forest::add_node(Triangle t, int root, int parent) {

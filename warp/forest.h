@@ -1,8 +1,9 @@
 // The multi-resolution forest of seed 000 §5.3: one tree per triangle of the coarsest mesh; a
 // node's two children come from splitting its longest edge at the midpoint. Stored as flat
-// arrays. Nodes are made on first request — the split of a node is always the same — so memory
-// follows what the views have visited rather than the image size (a gigapixel image's full
-// forest down to 250 px² would be millions of nodes).
+// arrays. At ingest the forest is built level by level down to the smallest triangles a view
+// asks for at 100 % (build_levels), within a node budget, and serialised with the image. Deeper
+// nodes — a gigapixel image's full forest would be millions — are made on first request (the
+// split of a node is always the same), and can be forgotten again to cap memory.
 //
 // Corners of every node are stored rotated so that (corners[0], corners[1]) is its longest edge;
 // ties are broken by vertex ids, so two triangles sharing an edge agree on it. Orientation is kept
@@ -11,6 +12,7 @@
 
 #include <array>
 #include <cstdint>
+#include <iosfwd>
 #include <unordered_map>
 #include <vector>
 
@@ -20,6 +22,7 @@ namespace zoomwarp::warp {
 
 class Forest {
  public:
+  Forest() = default;
   explicit Forest(const Mesh& coarsest);
 
   int root_count() const { return roots_; }
@@ -35,12 +38,31 @@ class Forest {
 
   // The two children (made now if they do not exist yet).
   std::array<int, 2> children(int node);
+  bool is_split(int node) const { return children_[node][0] >= 0; }
+
+  // Splits every leaf larger than `min_area` (source px²), level by level, but stops before a
+  // level that would take the forest past `max_nodes`. Then keeps what exists (see below).
+  void build_levels(double min_area, int max_nodes);
+
+  // The kept nodes (the roots, or what build_levels or read made) are never forgotten;
+  // forget_lazy_nodes() drops every node and vertex made after them, ids below stay valid.
+  int kept_nodes() const { return kept_nodes_; }
+  void forget_lazy_nodes();
+
+  // Serialisation of the kept nodes: the split nodes in the order they were split — children,
+  // corners and midpoints follow from it — so 4 bytes per two nodes. read() replays the splits
+  // on the forest of `coarsest` and throws std::runtime_error on damaged input.
+  void write(std::ostream& out) const;
+  static Forest read(std::istream& in, const Mesh& coarsest);
 
  private:
   int add_node(Triangle t, int root, int parent);
   int midpoint(int a, int b, int root);
 
+  void keep_current();
+
   int roots_ = 0;
+  int kept_nodes_ = 0, kept_vertices_ = 0;
   std::vector<Point> vertices_;
   std::vector<int> vertex_root_;
   std::vector<Triangle> corners_;

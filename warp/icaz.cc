@@ -121,37 +121,26 @@ Submesh submesh(const Mesh& mesh, const std::vector<char>& chosen) {
 
 }  // namespace
 
-ImageModel make_image_model(const tiles::Raster& reduced, double width, double height,
-                            const std::vector<Segment>& lines, const CoarseMeshOptions& mesh) {
-  ImageModel m;
-  m.width = width;
-  m.height = height;
-  m.lines = lines;
-  m.coarse = build_coarse_mesh(width, height, lines, mesh);
-  m.significance = compute_significance(reduced, int(std::lround(width)));
-  return m;
-}
-
 Icaz::Icaz(ImageModel model, const IcazOptions& options)
     : model_(std::move(model)),
       options_(options),
       coarse_(model_.coarse.mesh, triangle_weights(model_.coarse.mesh, model_.significance, model_.w_min),
               model_.width, model_.height, model_.coarse.line_vertices),
-      forest_(model_.coarse.mesh),
+      forest_(model_.forest),
       root_cut_(forest_) {
-  node_mean_.assign(std::size_t(forest_.root_count()), std::numeric_limits<double>::quiet_NaN());
+  node_mean_.assign(model_.node_mean.begin(), model_.node_mean.end());
+  node_mean_.resize(std::size_t(forest_.kept_nodes()), std::numeric_limits<double>::quiet_NaN());
+  // Significance is mapped to weights by the range of the coarsest triangles' means.
   sig_lo_ = std::numeric_limits<double>::infinity(), sig_hi_ = -sig_lo_;
   for (int r = 0; r < forest_.root_count(); ++r) {
-    const auto& t = forest_.corners(r);
-    const auto& v = forest_.vertices();
-    node_mean_[r] = mean_over_triangle(model_.significance, v[t[0]], v[t[1]], v[t[2]]);
-    sig_lo_ = std::min(sig_lo_, node_mean_[r]), sig_hi_ = std::max(sig_hi_, node_mean_[r]);
+    const double mean = node_mean(r);
+    sig_lo_ = std::min(sig_lo_, mean), sig_hi_ = std::max(sig_hi_, mean);
   }
 }
 
 Icaz::~Icaz() = default;
 
-double Icaz::node_weight(int node) {
+double Icaz::node_mean(int node) {
   if (node >= int(node_mean_.size())) node_mean_.resize(std::size_t(forest_.node_count()), std::numeric_limits<double>::quiet_NaN());
   double& mean = node_mean_[node];
   if (std::isnan(mean)) {
@@ -159,6 +148,11 @@ double Icaz::node_weight(int node) {
     const auto& v = forest_.vertices();
     mean = mean_over_triangle(model_.significance, v[t[0]], v[t[1]], v[t[2]]);
   }
+  return mean;
+}
+
+double Icaz::node_weight(int node) {
+  const double mean = node_mean(node);
   const double range = sig_hi_ - sig_lo_;
   const double unit = range > 0 ? std::clamp((mean - sig_lo_) / range, 0.0, 1.0) : 1.0;
   return model_.w_min + (1 - model_.w_min) * unit;
@@ -183,7 +177,25 @@ std::vector<Point> Icaz::coarse_positions(const ZoomGeometry& g, WarpResult* sta
 View Icaz::view(const ViewRequest& req) {
   check(req);
   std::lock_guard lock(mu_);
+  if (forest_.node_count() > options_.max_forest_nodes) {
+    forest_.forget_lazy_nodes();
+    node_mean_.resize(std::size_t(forest_.kept_nodes()));
+    ++forest_epoch_;
+  }
+  return view_locked(req);
+}
+
+Geomorph Icaz::geomorph(const ViewRequest& from, const ViewRequest& to) {
+  check(from);
+  check(to);
+  std::lock_guard lock(mu_);
+  const View a = view_locked(from), b = view_locked(to);
+  return geomorph_locked(a, b);
+}
+
+View Icaz::view_locked(const ViewRequest& req) {
   View out;
+  out.forest_epoch = forest_epoch_;
   const ZoomGeometry g = zoom_geometry(model_.width, model_.height, req.screen_width, req.screen_height, req.zoom, req.curve);
   out.geometry = g;
   const Point centre{std::clamp(req.cx, 0.0, model_.width), std::clamp(req.cy, 0.0, model_.height)};
@@ -334,6 +346,12 @@ View Icaz::retarget_zoom(const ViewRequest& r) {
 
 Geomorph Icaz::geomorph(const View& from, const View& to) {
   std::lock_guard lock(mu_);
+  if (from.forest_epoch != forest_epoch_ || to.forest_epoch != forest_epoch_)
+    throw std::invalid_argument("views from an earlier forest epoch");
+  return geomorph_locked(from, to);
+}
+
+Geomorph Icaz::geomorph_locked(const View& from, const View& to) {
   // Split, coarsest first, every node that is a strict ancestor of a node of either cut; the
   // dependents that refine() adds keep the result conforming.
   std::vector<int> ancestors;

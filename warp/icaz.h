@@ -17,27 +17,12 @@
 #include <mutex>
 #include <vector>
 
-#include "warp/coarse_mesh.h"
-#include "warp/forest.h"
+#include "warp/image_model.h"
 #include "warp/lod_cut.h"
 #include "warp/shape_warp.h"
-#include "warp/significance.h"
 #include "warp/zoom_curve.h"
 
 namespace zoomwarp::warp {
-
-// What the operator knows about one image version.
-struct ImageModel {
-  double width = 0, height = 0;
-  CoarseMesh coarse;            // built with `lines`
-  std::vector<Segment> lines;   // line constraints, image pixels
-  SignificanceMap significance;
-  double w_min = 0.2;           // weight floor (DESIGN.md §4: 0.2 avoided fold-overs where 0.05 did not)
-};
-
-// Builds the model from a reduced-resolution copy of the image (≤ kSignificanceMaxSide).
-ImageModel make_image_model(const tiles::Raster& reduced, double width, double height,
-                            const std::vector<Segment>& lines = {}, const CoarseMeshOptions& mesh = {});
 
 struct ViewRequest {
   double zoom = 0;
@@ -58,6 +43,7 @@ struct View {
   std::vector<int> nodes;          // per triangle, its forest node (the LOD cut)
   std::vector<int> visible;        // triangles that touch the screen
   WarpResult coarse_stats, fine_stats;
+  int forest_epoch = 0;            // forest_vertex and nodes are valid while the epoch holds
 };
 
 // Geomorphing (§5.3): the common refinement of two views' LOD cuts, with both views' screen
@@ -74,6 +60,9 @@ struct IcazOptions {
   // visible vertices within ~1.3 screen px of solving the whole refined mesh (0.1: 2 px, 0.5:
   // 0.6 px; world map, 480×360) at a third of the cost; infinity solves it all.
   double solve_margin = 0.25;
+  // Nodes made lazily beyond the stored forest are forgotten once the forest grows past this
+  // (≈ 60 bytes a node), which starts a new forest epoch.
+  int max_forest_nodes = 1 << 20;
 };
 
 class Icaz {
@@ -86,6 +75,9 @@ class Icaz {
   // clamped to [0, 1] and the view centre to the image.
   View view(const ViewRequest& request);
 
+  // Both views and the geomorph between them, within one forest epoch.
+  Geomorph geomorph(const ViewRequest& from, const ViewRequest& to);
+
   // Baselines in the same interface (§1, §6.1), on the coarsest mesh:
   //  - traditional: uniform scaling and cropping; the magnification goes from "whole image fits
   //    the screen" (letterboxed) at z = 0 to 1:1 at z = 1, along the request's curve;
@@ -94,7 +86,8 @@ class Icaz {
   View traditional(const ViewRequest& request);
   View retarget_zoom(const ViewRequest& request);
 
-  // The common refinement of the cuts of `from` and `to` (both made by this object).
+  // The common refinement of the cuts of `from` and `to`, both made by this object in the
+  // current forest epoch (else std::invalid_argument).
   Geomorph geomorph(const View& from, const View& to);
 
   const ImageModel& model() const { return model_; }
@@ -102,7 +95,10 @@ class Icaz {
  private:
   static WarpOptions tolerance_for(const ZoomGeometry& g);
   std::vector<Point> coarse_positions(const ZoomGeometry& g, WarpResult* stats);
+  double node_mean(int node);
   double node_weight(int node);
+  View view_locked(const ViewRequest& request);
+  Geomorph geomorph_locked(const View& from, const View& to);
 
   ImageModel model_;
   IcazOptions options_;
@@ -110,6 +106,7 @@ class Icaz {
   double sig_lo_ = 0, sig_hi_ = 1;  // range of root means: maps significance to [w_min, 1]
   std::mutex mu_;
   Forest forest_;
+  int forest_epoch_ = 0;
   LodCut root_cut_;  // the coarsest mesh as a cut: every view's refinement starts from a copy
   std::vector<double> node_mean_;  // per forest node, NaN until computed
   std::map<std::pair<long long, long long>, std::vector<Point>> coarse_cache_;  // by target size (1/1000 px)

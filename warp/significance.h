@@ -42,6 +42,12 @@ SignificanceMap compute_significance(const tiles::Raster& image, int image_width
 // Faces found (in map pixels) by the Haar cascade: exposed for tests and for the viewer.
 std::vector<tiles::Rect> detect_faces(const tiles::Raster& image, const std::string& cascade);
 
+// A curator's edit: the significance inside `polygon` (image pixels) becomes `weight` ∈ [0, 1].
+struct SignificanceEdit {
+  std::vector<Point> polygon;
+  float weight = 1;
+};
+
 // Sets the significance inside a polygon (image pixels) to `weight` (curator edits).
 void paint_polygon(SignificanceMap& map, const std::vector<Point>& polygon, float weight);
 

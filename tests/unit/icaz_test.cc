@@ -228,6 +228,27 @@ TEST(IcazLocalSolve, VisibleVerticesMatchTheWholeSolve) {
   EXPECT_LT(worst, 2.0);
 }
 
+// Memory cap: nodes made lazily beyond the stored forest are forgotten once there are too many;
+// views keep working, and a geomorph across the trim is refused rather than wrong.
+TEST(IcazForestCap, LazyNodesAreForgottenAndOldViewsRefused) {
+  const auto shared = engine("boats_lake_sunset.jpg", false);
+  warp::ImageModel m = shared->model();
+  m.forest = warp::Forest(m.coarse.mesh);  // nothing stored below the roots: every node is lazy
+  m.node_mean.resize(std::size_t(m.forest.kept_nodes()));
+  warp::IcazOptions options;
+  options.max_forest_nodes = m.forest.kept_nodes() + 200;
+  warp::Icaz icaz(m, options);
+  warp::ViewRequest r;
+  r.zoom = 0.9, r.cx = 600, r.cy = 500;
+  const auto first = icaz.view(r);
+  r.cx = 2000;
+  const auto second = icaz.view(r);  // the forest grew past the cap during the first view
+  EXPECT_NE(first.forest_epoch, second.forest_epoch);
+  EXPECT_THROW(icaz.geomorph(first, second), std::invalid_argument);
+  const auto g = icaz.geomorph(r, r);
+  EXPECT_EQ(g.from.size(), g.source.vertices.size());
+}
+
 TEST(IcazZoomCurve, EndpointsAndMonotonicMagnification) {
   const auto g0 = warp::zoom_geometry(5400, 2500, 480, 360, 0);
   EXPECT_NEAR(g0.target_width / g0.target_height, 480.0 / 360, 1e-9);

@@ -99,39 +99,3 @@ TEST(Significance, AnEditChangesTheWarpWhereItShould) {
 
 }  // namespace
 }  // namespace zoomwarp
-
-#include <filesystem>
-
-#include "tiles/ingest.h"
-#include "warp/image_analysis.h"
-
-namespace zoomwarp {
-namespace {
-
-TEST(ImageAnalysis, PublishedWithTheImageAndReadBack) {
-  testing::TempDir dir;
-  tiles::Store store(dir.path() + "/store");
-  tiles::IngestOptions options;
-  options.analyse = warp::write_image_analysis;
-  tiles::ingest_image(store, testing::samples_dir() + "/boats_lake_sunset.jpg", "b", options);
-  const auto map = warp::read_significance(*store.find("b"));
-  EXPECT_EQ(map.width, 640);  // level 2 (640×400) is the first ≤ 1024 px
-  EXPECT_EQ(map.height, 400);
-  EXPECT_DOUBLE_EQ(map.scale, 0.25);
-  for (float v : map.values) ASSERT_TRUE(v >= 0 && v <= 1);
-}
-
-TEST(ImageAnalysis, AFailingAnalysisFailsTheIngestAndLeavesNothing) {
-  testing::TempDir dir;
-  tiles::Store store(dir.path() + "/store");
-  tiles::IngestOptions options;
-  options.analyse = [](const tiles::ImageEntry&) { throw std::runtime_error("analysis failed"); };
-  EXPECT_THROW(tiles::ingest_image(store, testing::samples_dir() + "/boats_lake_sunset.jpg", "b", options),
-               tiles::IngestError);
-  EXPECT_FALSE(store.find("b"));
-  EXPECT_TRUE(std::filesystem::is_empty(dir.path() + "/store/staging"));
-  EXPECT_TRUE(std::filesystem::is_empty(dir.path() + "/store/versions"));
-}
-
-}  // namespace
-}  // namespace zoomwarp
