@@ -3,6 +3,7 @@
 // image, 1 anything else.
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 
@@ -55,12 +56,24 @@ int ingest_command(const std::vector<std::string>& args) {
     tiles::Store store(o.str("store"));
     tiles::ProgressFn progress;
     if (bar) progress = [&](double f) { draw_progress(id, f); };
-    tiles::Manifest m = tiles::ingest_image(store, file, id, ingest_options(o), progress);
+    // Time the warp engine's analysis apart from the pyramid: it is the part that grows with
+    // the model, not with the pixels.
+    using Clock = std::chrono::steady_clock;
+    tiles::IngestOptions options = ingest_options(o);
+    double analysis_s = 0;
+    options.analyse = [&, analyse = options.analyse](const tiles::ImageEntry& staged) {
+      const auto t0 = Clock::now();
+      analyse(staged);
+      analysis_s = std::chrono::duration<double>(Clock::now() - t0).count();
+    };
+    const auto t0 = Clock::now();
+    tiles::Manifest m = tiles::ingest_image(store, file, id, options, progress);
+    const double total_s = std::chrono::duration<double>(Clock::now() - t0).count();
     if (bar) std::fputc('\n', stderr);
     if (quiet) std::printf("%s\n", m.id.c_str());
     else
-      std::printf("ingested %s: %dx%d, %d levels, version %s, in %s\n", m.id.c_str(), m.width, m.height,
-                  m.levels, m.version.c_str(), store.root().c_str());
+      std::printf("ingested %s: %dx%d, %d levels, version %s, in %s; %.2f s (warp analysis %.2f s)\n", m.id.c_str(),
+                  m.width, m.height, m.levels, m.version.c_str(), store.root().c_str(), total_s, analysis_s);
     return 0;
   } catch (const std::invalid_argument& e) {
     std::fprintf(stderr, "zoomwarp ingest: %s\n", e.what());

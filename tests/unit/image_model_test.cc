@@ -25,6 +25,12 @@ tiles::Raster reduced(const std::string& file) {
   return testing::resize(full, int(full.width * f), int(full.height * f));
 }
 
+void ingest_with_analysis(tiles::Store& store, const std::string& file, const std::string& id) {
+  tiles::IngestOptions options;
+  options.analyse = warp::write_image_analysis;
+  tiles::ingest_image(store, testing::samples_dir() + "/" + file, id, options);
+}
+
 bool same_corners(const warp::Forest& a, const warp::Forest& b, int n) {
   for (int k = 0; k < 3; ++k) {
     const Point &p = a.vertices()[a.corners(n)[k]], &q = b.vertices()[b.corners(n)[k]];
@@ -77,9 +83,7 @@ TEST(Forest, BuiltToTheRuntimeAreaSerialisedAndLazyBeyond) {
 TEST(ImageModel, WrittenAtIngestAndReadBackIdentically) {
   testing::TempDir dir;
   tiles::Store store(dir.path() + "/store");
-  tiles::IngestOptions options;
-  options.analyse = warp::write_image_analysis;
-  tiles::ingest_image(store, testing::samples_dir() + "/boats_lake_sunset.jpg", "b", options);
+  ingest_with_analysis(store, "boats_lake_sunset.jpg", "b");
   const auto entry = store.find("b");
   for (const char* f : {warp::kSignificanceFile, warp::kModelFile, warp::kModelJsonFile})
     EXPECT_TRUE(fs::exists(entry->dir + "/" + f)) << f;
@@ -131,9 +135,7 @@ std::string read_text(const std::string& path) {
 TEST(ImageModel, AnEditIsANewVersionConditionalOnTheOneItStartedFrom) {
   testing::TempDir dir;
   tiles::Store store(dir.path() + "/store");
-  tiles::IngestOptions options;
-  options.analyse = warp::write_image_analysis;
-  tiles::ingest_image(store, testing::samples_dir() + "/boats_lake_sunset.jpg", "b", options);
+  ingest_with_analysis(store, "boats_lake_sunset.jpg", "b");
   const auto v1 = store.find("b");
   const std::string v1_json = read_text(v1->dir + "/" + warp::kModelJsonFile);
 
