@@ -7,6 +7,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "tiles/manifest.h"
 #include "tiles/raster.h"
@@ -36,5 +37,17 @@ std::optional<DziTileName> parse_dzi_tile_name(std::string_view name);
 // The pixels of tile (col, row) at DZI level `level`, or nullopt if there is no such tile.
 std::optional<DziTile> dzi_tile(const tiles::Manifest& m, const DziLayout& layout, int level,
                                 int col, int row);
+
+// The DZI level whose resolution matches `magnification` screen pixels per full-resolution
+// pixel: the coarsest one that is still at least that fine (so a client never magnifies a tile
+// it could have had sharper).
+int dzi_level_for(const tiles::Manifest& m, double magnification);
+
+// The tiles of DZI level `level` that cover the full-resolution rectangle [u0, u1] × [v0, v1].
+struct DziTileRef {
+  int level = 0, col = 0, row = 0;
+};
+std::vector<DziTileRef> dzi_tiles_covering(const tiles::Manifest& m, const DziLayout& layout, int level, double u0,
+                                           double v0, double u1, double v1);
 
 }  // namespace zoomwarp::api

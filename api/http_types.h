@@ -17,6 +17,7 @@ struct Request {
   std::string host;           // Host header: IIIF ids are absolute URLs
   std::string forwarded_proto;  // X-Forwarded-Proto, when behind a proxy
   std::string if_none_match;
+  std::string if_match;       // edits: the image ETag (GET /v1/images/{id}) they were made against
   std::string accept;
   std::string body;           // small bodies (JSON)
   std::string body_file;      // uploads: a file the server streamed the body into

@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "api/errors.h"
+#include "api/responses.h"
 #include "api/http_caching.h"
 #include "api/url.h"
 #include "tiles/image_id.h"
@@ -22,22 +23,6 @@ Response json_response(int status, const json& body) {
   r.content_type = "application/json";
   r.body = std::make_shared<const std::string>(body.dump(2) + "\n");
   return r;
-}
-
-Response body_response(std::string content_type, std::string body) {
-  Response r;
-  r.content_type = std::move(content_type);
-  r.body = std::make_shared<const std::string>(std::move(body));
-  return r;
-}
-
-std::shared_ptr<const tiles::ImageEntry> find_image(const tiles::Store& store, const std::string& id) {
-  if (!tiles::is_valid_image_id(id))
-    throw ApiError(400, "invalid_id",
-                   "image ids are 1-128 characters from A-Z a-z 0-9 . _ - and start with a letter or digit");
-  auto entry = store.find(id);
-  if (!entry) throw ApiError(404, "image_not_found", "no image with id '" + id + "'");
-  return entry;
 }
 
 json image_json(const tiles::Manifest& m) {
@@ -91,7 +76,11 @@ tiles::Raster apply_quality(tiles::Raster r, IiifQuality q) {
 }  // namespace
 
 Router::Router(tiles::Store& store, tiles::PyramidReader& reader, RouterConfig config)
-    : store_(store), reader_(reader), config_(std::move(config)), cache_(config_.response_cache_bytes) {}
+    : store_(store),
+      reader_(reader),
+      config_(std::move(config)),
+      cache_(config_.response_cache_bytes),
+      engines_(reader, config_.warp_engines) {}
 
 bool Router::is_upload(std::string_view method, std::string_view path) {
   return method == "POST" && (path == "/v1/images" || path == "/v1/images/");
@@ -107,10 +96,10 @@ std::string Router::base_url(const Request& req) const {
   return scheme + "://" + (host_is_sane(req.host) ? req.host : std::string("localhost"));
 }
 
-template <class Compute>
 std::optional<Response> Router::image_response(const Request& req, const tiles::ImageEntry& entry,
                                                const std::string& route, const std::string& key_extra,
-                                               bool may_compute, Compute compute) {
+                                               bool may_compute,
+                                               const std::function<Response(const tiles::ImageEntry&)>& compute) {
   const tiles::Manifest& m = entry.manifest;
   const std::string key = req.path + "|" + key_extra;
   const std::string etag = make_etag(m.version, key);
@@ -133,10 +122,38 @@ std::optional<Response> Router::image_response(const Request& req, const tiles::
     return r;
   }
   if (!may_compute) return std::nullopt;
-  Response r = with_validators(compute(entry));
-  cache_.put(cache_key, std::make_shared<const Response>(r), r.body->size());
-  r.cache = "miss";
-  return r;
+  // Single flight: the first request for a key computes, identical ones arriving meanwhile wait
+  // for its answer (a burst of clients opening the same view costs one warp and one encode).
+  std::promise<std::shared_ptr<const Response>> promise;
+  std::shared_future<std::shared_ptr<const Response>> pending;
+  {
+    std::lock_guard lock(in_flight_mu_);
+    auto [it, first] = in_flight_.try_emplace(cache_key);
+    if (first) it->second = promise.get_future().share();
+    else pending = it->second;
+  }
+  if (pending.valid()) {
+    Response r = *pending.get();  // rethrows the first request's error
+    r.cache = "hit";
+    return r;
+  }
+  auto finish = [&] {
+    std::lock_guard lock(in_flight_mu_);
+    in_flight_.erase(cache_key);
+  };
+  try {
+    auto computed = std::make_shared<const Response>(with_validators(compute(entry)));
+    if (computed->status == 200) cache_.put(cache_key, computed, computed->body->size());
+    promise.set_value(computed);
+    finish();
+    Response r = *computed;
+    r.cache = "miss";
+    return r;
+  } catch (...) {
+    promise.set_exception(std::current_exception());
+    finish();
+    throw;
+  }
 }
 
 std::optional<Response> Router::dispatch(const Request& req, bool may_compute) {
@@ -171,6 +188,19 @@ std::optional<Response> Router::dispatch(const Request& req, bool may_compute) {
         if (get) return describe_image(s[2]);
         if (method == "DELETE") return delete_image(s[2]);
         return method_not_allowed("GET, HEAD, DELETE");
+      }
+      if (s.size() == 4 && (s[3] == "viewport" || s[3] == "mesh" || s[3] == "significance.png")) {
+        if (!get) return method_not_allowed("GET, HEAD");
+        return view_route(req, s[2], s[3], may_compute);
+      }
+      if (s.size() == 4 && s[3] == "lines") {
+        if (get) return view_route(req, s[2], s[3], true);
+        if (method == "PUT") return may_compute ? std::optional(edit_route(req, s[2], s[3])) : std::nullopt;
+        return method_not_allowed("GET, HEAD, PUT");
+      }
+      if (s.size() == 4 && s[3] == "significance") {
+        if (method == "PATCH") return may_compute ? std::optional(edit_route(req, s[2], s[3])) : std::nullopt;
+        return method_not_allowed("PATCH");
       }
     }
 

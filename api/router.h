@@ -1,10 +1,15 @@
-// The REST surface of the product: image management (/v1/images), Deep Zoom (/dzi) and
-// IIIF Image API 3.0 (/iiif/3). Operations endpoints (/healthz, /readyz, /metrics) belong to the
+// The REST surface of the product (api/openapi.json): image management (/v1/images), the warp
+// engine's views (/v1/images/{id}/viewport and /mesh) and curator edits (/lines, /significance),
+// Deep Zoom (/dzi) and IIIF Image API 3.0 (/iiif/3). Operations endpoints (/healthz, /readyz, /metrics) belong to the
 // server. Every answer is a pure function of the published image version and the request, which
 // is what makes the ETags strong and the encoded-response cache safe.
 #pragma once
 
 #include <cstddef>
+#include <functional>
+#include <future>
+#include <map>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -12,6 +17,8 @@
 #include "api/deepzoom.h"
 #include "api/http_types.h"
 #include "api/iiif.h"
+#include "api/view_query.h"
+#include "api/warp_engines.h"
 #include "tiles/byte_lru_cache.h"
 #include "tiles/encode.h"
 #include "tiles/ingest.h"
@@ -28,6 +35,7 @@ struct RouterConfig {
   tiles::IngestOptions ingest;
   std::string public_url;  // e.g. "https://tiles.example.org"; empty: from Host / X-Forwarded-Proto
   int cache_max_age = 60;  // Cache-Control max-age of image responses, seconds
+  std::size_t warp_engines = 16;  // image versions whose ICAZ operator stays in memory
 };
 
 class Router {
@@ -58,12 +66,17 @@ class Router {
   Response delete_image(const std::string& id);
   Response upload_image(const Request& req);
 
+  // /v1/images/{id}/… of the warp engine (router_views.cc)
+  std::optional<Response> view_route(const Request& req, const std::string& id, const std::string& what,
+                                     bool may_compute);
+  Response edit_route(const Request& req, const std::string& id, const std::string& what);
+
   // Image responses go through one path: check If-None-Match, look in the cache, and only then
-  // (if allowed) compute.
-  template <class Compute>
+  // (if allowed) compute — once for identical concurrent requests (single flight).
   std::optional<Response> image_response(const Request& req, const tiles::ImageEntry& entry,
                                          const std::string& route, const std::string& key_extra,
-                                         bool may_compute, Compute compute);
+                                         bool may_compute,
+                                         const std::function<Response(const tiles::ImageEntry&)>& compute);
 
   std::string base_url(const Request& req) const;
 
@@ -71,6 +84,9 @@ class Router {
   tiles::PyramidReader& reader_;
   RouterConfig config_;
   tiles::ByteLruCache<Response> cache_;
+  WarpEngines engines_;
+  std::mutex in_flight_mu_;
+  std::map<std::string, std::shared_future<std::shared_ptr<const Response>>> in_flight_;
 };
 
 }  // namespace zoomwarp::api

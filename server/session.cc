@@ -99,6 +99,7 @@ void Session::on_header(beast::error_code ec) {
   req_.host = std::string(h[http::field::host]);
   req_.forwarded_proto = std::string(h["X-Forwarded-Proto"]);
   req_.if_none_match = std::string(h[http::field::if_none_match]);
+  req_.if_match = std::string(h[http::field::if_match]);
   req_.accept = std::string(h[http::field::accept]);
   const bool expect_continue = beast::iequals(h[http::field::expect], "100-continue");
 

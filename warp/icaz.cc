@@ -185,12 +185,14 @@ View Icaz::view(const ViewRequest& req) {
   return view_locked(req);
 }
 
-Geomorph Icaz::geomorph(const ViewRequest& from, const ViewRequest& to) {
+Geomorph Icaz::geomorph(const ViewRequest& from, const ViewRequest& to, View* to_view) {
   check(from);
   check(to);
   std::lock_guard lock(mu_);
   const View a = view_locked(from), b = view_locked(to);
-  return geomorph_locked(a, b);
+  Geomorph g = geomorph_locked(a, b);
+  if (to_view) *to_view = b;
+  return g;
 }
 
 View Icaz::view_locked(const ViewRequest& req) {

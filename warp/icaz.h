@@ -75,8 +75,9 @@ class Icaz {
   // clamped to [0, 1] and the view centre to the image.
   View view(const ViewRequest& request);
 
-  // Both views and the geomorph between them, within one forest epoch.
-  Geomorph geomorph(const ViewRequest& from, const ViewRequest& to);
+  // Both views and the geomorph between them, within one forest epoch; the second view is also
+  // stored in `to_view` if given.
+  Geomorph geomorph(const ViewRequest& from, const ViewRequest& to, View* to_view = nullptr);
 
   // Baselines in the same interface (§1, §6.1), on the coarsest mesh:
   //  - traditional: uniform scaling and cropping; the magnification goes from "whole image fits

@@ -201,9 +201,9 @@ void validate(const ModelEdit& edit) {
 }
 
 std::shared_ptr<const tiles::ImageEntry> edit_image_model(tiles::Store& store, const tiles::ImageEntry& current,
-                                                          const ModelEdit& edit) {
+                                                          const ModelEdit& edit, std::optional<ImageModel> base) {
   validate(edit);
-  ImageModel model = read_image_model(current);
+  ImageModel model = base ? std::move(*base) : read_image_model(current);
   for (const SignificanceEdit& e : edit.significance) add_significance_edit(model, e);
   // New lines rebuild the mesh and the forest, whose node means then read the edited map.
   if (edit.lines) set_lines(model, *edit.lines);

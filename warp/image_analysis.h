@@ -47,10 +47,10 @@ struct ModelEdit {
 // weights in [0, 1], at most 1000 lines / edits of 1000 points. Throws std::invalid_argument.
 void validate(const ModelEdit& edit);
 
-// Publishes a new version of `current`'s image with the edit applied. Throws
-// std::invalid_argument for a bad edit and tiles::VersionConflict if the image changed since
-// `current` was read.
+// Publishes a new version of `current`'s image with the edit applied to `model` (current's
+// model; read from its files when not given). Throws std::invalid_argument for a bad edit and
+// tiles::VersionConflict if the image changed since `current` was read.
 std::shared_ptr<const tiles::ImageEntry> edit_image_model(tiles::Store& store, const tiles::ImageEntry& current,
-                                                          const ModelEdit& edit);
+                                                          const ModelEdit& edit, std::optional<ImageModel> model = {});
 
 }  // namespace zoomwarp::warp

@@ -1,0 +1,108 @@
+#include "api/view_query.h"
+
+#include <cmath>
+#include <cstdio>
+#include <set>
+
+#include "api/errors.h"
+#include "api/url.h"
+
+namespace zoomwarp::api {
+
+namespace {
+
+[[noreturn]] void bad(const std::string& message) { throw ApiError(400, "bad_request", message); }
+
+// A plain decimal, optionally negative (so "-1" is reported as out of range, not as malformed).
+double number(const std::string& name, const std::string& text) {
+  const bool negative = !text.empty() && text[0] == '-';
+  const auto v = parse_plain_decimal(negative ? std::string_view(text).substr(1) : std::string_view(text));
+  if (!v) bad(name + " must be a plain decimal number, not '" + text + "'");
+  return negative ? -*v : *v;
+}
+
+double in_range(const std::string& name, double v, double lo, double hi) {
+  if (v < lo || v > hi) {
+    char msg[160];
+    std::snprintf(msg, sizeof msg, "%s must be in [%g, %g], not %g", name.c_str(), lo, hi, v);
+    bad(msg);
+  }
+  return v;
+}
+
+int integer(const std::string& name, const std::string& text, int lo, int hi) {
+  const double v = number(name, text);
+  if (v != std::floor(v)) bad(name + " must be a whole number, not '" + text + "'");
+  return int(in_range(name, v, lo, hi));
+}
+
+}  // namespace
+
+std::string_view method_name(ViewMethod m) {
+  switch (m) {
+    case ViewMethod::kIcaz: return "icaz";
+    case ViewMethod::kTraditional: return "traditional";
+    case ViewMethod::kRetargetZoom: return "retarget-zoom";
+  }
+  return "icaz";
+}
+
+ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double W, double H) {
+  const auto pairs = parse_query(raw_query);
+  if (!pairs) bad("malformed query string");
+  ViewQuery q;
+  q.view.cx = W / 2, q.view.cy = H / 2;
+  bool have_w = false, have_h = false;
+  std::optional<double> from_zoom, from_cx, from_cy;
+  std::set<std::string> seen;
+  for (const auto& [name, value] : *pairs) {
+    if (!seen.insert(name).second) bad("parameter " + name + " given twice");
+    if (name == "zoom") q.view.zoom = in_range(name, number(name, value), 0, 1);
+    else if (name == "cx") q.view.cx = in_range(name, number(name, value), 0, W);
+    else if (name == "cy") q.view.cy = in_range(name, number(name, value), 0, H);
+    else if (name == "w") q.view.screen_width = integer(name, value, 16, 4096), have_w = true;
+    else if (name == "h") q.view.screen_height = integer(name, value, 16, 4096), have_h = true;
+    else if (name == "method") {
+      if (value == "icaz") q.method = ViewMethod::kIcaz;
+      else if (value == "traditional") q.method = ViewMethod::kTraditional;
+      else if (value == "retarget-zoom") q.method = ViewMethod::kRetargetZoom;
+      else bad("method must be icaz, traditional or retarget-zoom, not '" + value + "'");
+    } else if (name == "curve") {
+      if (value == "geometric") q.view.curve = warp::ZoomCurve::kGeometric;
+      else if (value == "linear") q.view.curve = warp::ZoomCurve::kLinear;
+      else bad("curve must be geometric or linear, not '" + value + "'");
+    } else if (route == ViewRoute::kMesh && name == "from_zoom") from_zoom = in_range(name, number(name, value), 0, 1);
+    else if (route == ViewRoute::kMesh && name == "from_cx") from_cx = in_range(name, number(name, value), 0, W);
+    else if (route == ViewRoute::kMesh && name == "from_cy") from_cy = in_range(name, number(name, value), 0, H);
+    else if (route == ViewRoute::kViewport && name == "format") {
+      const auto f = tiles::format_from_extension(value);
+      if (!f) bad("format must be jpg, png or webp, not '" + value + "'");
+      q.format = *f;
+    } else if (route == ViewRoute::kViewport && name == "quality") q.quality = integer(name, value, 1, 100);
+    else bad("unknown parameter '" + name + "'");
+  }
+  if (!have_w || !have_h) bad("w and h (screen size in pixels, 16…4096) are required");
+  if (from_zoom || from_cx || from_cy) {
+    q.from = q.view;
+    if (from_zoom) q.from->zoom = *from_zoom;
+    if (from_cx) q.from->cx = *from_cx;
+    if (from_cy) q.from->cy = *from_cy;
+  }
+  return q;
+}
+
+std::string ViewQuery::canonical() const {
+  char buf[320];
+  std::snprintf(buf, sizeof buf, "%s|%s|z=%.17g|c=%.17g,%.17g|s=%dx%d", std::string(method_name(method)).c_str(),
+                view.curve == warp::ZoomCurve::kLinear ? "linear" : "geometric", view.zoom, view.cx, view.cy,
+                view.screen_width, view.screen_height);
+  std::string out = buf;
+  if (from) {
+    std::snprintf(buf, sizeof buf, "|from=%.17g,%.17g,%.17g", from->zoom, from->cx, from->cy);
+    out += buf;
+  }
+  out += "|" + std::string(tiles::extension(format)) + "|q=" + std::to_string(quality);
+  return out;
+}
+
+}  // namespace zoomwarp::api

@@ -1,0 +1,43 @@
+// The common view parameters of /viewport and /mesh (api/openapi.json, "ViewParameters"):
+//
+//   zoom     0…1, default 0            cx, cy  view centre in full-resolution image pixels,
+//   w, h     screen pixels, 16…4096             0…width / 0…height, default the image centre
+//   method   icaz (default) | traditional | retarget-zoom
+//   curve    geometric (default) | linear
+//   from_zoom, from_cx, from_cy   (mesh only) the previous view, for the geomorph pair
+//   format   jpg (default) | png | webp,  quality 1…100   (viewport only)
+//
+// Parsing is strict: a missing w or h, a number that is not a plain finite decimal, a value out
+// of range, an unknown or repeated parameter is a 400 (ApiError), never a guess.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "tiles/encode.h"
+#include "warp/icaz.h"
+
+namespace zoomwarp::api {
+
+enum class ViewMethod { kIcaz, kTraditional, kRetargetZoom };
+
+struct ViewQuery {
+  warp::ViewRequest view;
+  ViewMethod method = ViewMethod::kIcaz;
+  std::optional<warp::ViewRequest> from;  // from_* given (all three optional, default: this view's)
+  tiles::ImageFormat format = tiles::ImageFormat::kJpeg;
+  int quality = 0;  // 0: the server's default
+
+  // A canonical form of everything that determines the answer, for cache keys and ETags.
+  std::string canonical() const;
+};
+
+enum class ViewRoute { kViewport, kMesh };
+
+// Throws ApiError(400) for anything malformed or out of range.
+ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double image_width, double image_height);
+
+std::string_view method_name(ViewMethod m);
+
+}  // namespace zoomwarp::api

@@ -1,0 +1,41 @@
+// One ICAZ operator (warp::Icaz) per image version, made from the model files kept with the
+// image on first use and shared by every request for that version: its forest and its coarse-warp
+// cache (per target size) are what make panning cheap. Identical concurrent first uses load once
+// (single flight). At most `capacity` versions are kept, least recently used first out; a new
+// version (an edit, a re-ingest) is simply another key, so an old one's engine is never used for
+// it.
+#pragma once
+
+#include <cstddef>
+#include <future>
+#include <list>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <unordered_map>
+
+#include "tiles/pyramid_reader.h"
+#include "tiles/store.h"
+#include "warp/icaz.h"
+
+namespace zoomwarp::api {
+
+class WarpEngines {
+ public:
+  WarpEngines(tiles::PyramidReader& reader, std::size_t capacity);
+
+  // Throws std::runtime_error if the model cannot be read or built.
+  std::shared_ptr<warp::Icaz> get(const tiles::ImageEntry& image);
+
+ private:
+  using Future = std::shared_future<std::shared_ptr<warp::Icaz>>;
+  std::shared_ptr<warp::Icaz> load(const tiles::ImageEntry& image);
+
+  tiles::PyramidReader& reader_;
+  std::size_t capacity_;
+  std::mutex mu_;
+  std::list<std::string> order_;  // most recently used first
+  std::unordered_map<std::string, std::pair<Future, std::list<std::string>::iterator>> engines_;
+};
+
+}  // namespace zoomwarp::api
