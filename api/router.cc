@@ -4,6 +4,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "api/assets.h"
 #include "api/errors.h"
 #include "api/responses.h"
 #include "api/http_caching.h"
@@ -175,6 +176,14 @@ std::optional<Response> Router::dispatch(const Request& req, bool may_compute) {
                                          {"readiness", "/readyz"},
                                          {"metrics", "/metrics"}}}});
       r.route = "index";
+      return r;
+    }
+
+    if (s.size() == 1 && s[0] == "openapi.json") {
+      if (!get) return method_not_allowed("GET, HEAD");
+      Response r = body_response("application/json", std::string(*asset("openapi.json")));
+      r.route = "openapi";
+      r.set_header("Cache-Control", "no-cache");
       return r;
     }
 
