@@ -157,138 +157,105 @@ std::optional<Response> Router::image_response(const Request& req, const tiles::
   }
 }
 
+// The route table: every path the api serves, by method, in OpenAPI path-template syntax.
+// api/openapi.json documents exactly these (RouterRoutes test) plus the server's /healthz,
+// /readyz and /metrics. A template segment may hold parameters between literals
+// ("{id}.dzi", "{quality}.{format}"); HEAD is answered as GET.
+const std::vector<Router::Route>& Router::routes() {
+  static const std::vector<Route> table = {
+      {"GET", "/", &Router::web_page},
+      {"GET", "/{file}.js", &Router::web_script},
+      {"GET", "/{file}.css", &Router::web_style},
+      {"GET", "/v1", &Router::index},
+      {"GET", "/openapi.json", &Router::openapi},
+      {"GET", "/v1/images", &Router::list_images},
+      {"POST", "/v1/images", &Router::upload_image},
+      {"GET", "/v1/images/{id}", &Router::describe_image},
+      {"DELETE", "/v1/images/{id}", &Router::delete_image},
+      {"GET", "/v1/images/{id}/viewport", &Router::view_route},
+      {"GET", "/v1/images/{id}/mesh", &Router::view_route},
+      {"GET", "/v1/images/{id}/significance.png", &Router::view_route},
+      {"GET", "/v1/images/{id}/lines", &Router::view_route},
+      {"PUT", "/v1/images/{id}/lines", &Router::edit_route},
+      {"PATCH", "/v1/images/{id}/significance", &Router::edit_route},
+      {"GET", "/dzi/{id}.dzi", &Router::dzi_descriptor_route},
+      {"GET", "/dzi/{id}_files/{level}/{tile}", &Router::dzi_tile_route},
+      {"GET", "/iiif/3/{id}", &Router::iiif_base},
+      {"GET", "/iiif/3/{id}/info.json", &Router::iiif_info},
+      {"GET", "/iiif/3/{id}/{region}/{size}/{rotation}/{quality}.{format}", &Router::iiif_image},
+  };
+  return table;
+}
+
+namespace {
+
+// Matches one decoded path segment against a template segment, appending its parameters. A
+// parameter takes at least one character and runs to the next literal (the last occurrence for
+// the template's last literal, so "a.b.png" against "{x}.{format}" gives x = "a.b").
+bool match_segment(std::string_view tmpl, std::string_view seg, Router::PathParams& params) {
+  std::size_t t = 0, pos = 0;
+  while (t < tmpl.size()) {
+    if (tmpl[t] != '{') {
+      const std::size_t lit_end = std::min(tmpl.find('{', t), tmpl.size());
+      const std::string_view lit = tmpl.substr(t, lit_end - t);
+      if (seg.substr(pos, lit.size()) != lit) return false;
+      pos += lit.size(), t = lit_end;
+      continue;
+    }
+    const std::size_t close = tmpl.find('}', t);
+    const std::string_view name = tmpl.substr(t + 1, close - t - 1);
+    t = close + 1;
+    std::size_t value_end = seg.size();
+    if (t < tmpl.size()) {
+      const std::size_t lit_end = std::min(tmpl.find('{', t), tmpl.size());
+      const std::string_view lit = tmpl.substr(t, lit_end - t);
+      const bool last_literal = tmpl.find('{', lit_end) == std::string_view::npos;
+      value_end = last_literal ? seg.rfind(lit) : seg.find(lit, pos + 1);
+      if (value_end == std::string_view::npos || value_end <= pos) return false;
+    }
+    if (value_end <= pos) return false;
+    params.emplace_back(name, std::string(seg.substr(pos, value_end - pos)));
+    pos = value_end;
+  }
+  return pos == seg.size();
+}
+
+bool match_path(std::string_view tmpl, const std::vector<std::string>& segments, Router::PathParams& params) {
+  params.clear();
+  std::size_t i = 0, t = 1;  // both start with '/'
+  while (t <= tmpl.size()) {
+    const std::size_t end = std::min(tmpl.find('/', t), tmpl.size());
+    if (i >= segments.size() || !match_segment(tmpl.substr(t, end - t), segments[i], params)) return false;
+    ++i, t = end + 1;
+  }
+  return i == segments.size();
+}
+
+}  // namespace
+
+const std::string& Router::param(const PathParams& params, std::string_view name) {
+  for (const auto& [k, v] : params)
+    if (k == name) return v;
+  throw std::logic_error("route parameter missing from the template");
+}
+
 std::optional<Response> Router::dispatch(const Request& req, bool may_compute) {
   try {
     auto segments = split_path(req.path);
     if (!segments) throw ApiError(400, "invalid_path", "the path is not well-formed");
-    const auto& s = *segments;
+    if (segments->size() > 1 && segments->back().empty()) segments->pop_back();  // "/v1/images/"
     const std::string method = req.method == "HEAD" ? "GET" : req.method;
-    const bool get = method == "GET";
-
-    if (s.size() == 1 && s[0].empty()) {  // "/": where to go from here
-      if (!get) return method_not_allowed("GET, HEAD");
-      Response r = json_response(200, {{"service", "zoomwarp"},
-                                       {"links",
-                                        {{"images", "/v1/images"},
-                                         {"dzi", "/dzi/{id}.dzi"},
-                                         {"iiif", "/iiif/3/{id}/info.json"},
-                                         {"health", "/healthz"},
-                                         {"readiness", "/readyz"},
-                                         {"metrics", "/metrics"}}}});
-      r.route = "index";
-      return r;
+    PathParams params;
+    std::string allowed;  // methods of the routes whose path matches
+    for (const Route& route : routes()) {
+      if (!match_path(route.path, *segments, params)) continue;
+      if (route.method == method) return (this->*route.handler)(req, params, may_compute);
+      allowed += (allowed.empty() ? "" : ", ") + std::string(route.method == "GET" ? "GET, HEAD" : route.method);
     }
-
-    if (s.size() == 1 && s[0] == "openapi.json") {
-      if (!get) return method_not_allowed("GET, HEAD");
-      Response r = body_response("application/json", std::string(*asset("openapi.json")));
-      r.route = "openapi";
-      r.set_header("Cache-Control", "no-cache");
-      return r;
-    }
-
-    if (s.size() >= 2 && s[0] == "v1" && s[1] == "images") {
-      if (s.size() == 2 || (s.size() == 3 && s[2].empty())) {
-        if (get) return list_images();
-        if (method == "POST") return may_compute ? std::optional(upload_image(req)) : std::nullopt;
-        return method_not_allowed("GET, HEAD, POST");
-      }
-      if (s.size() == 3) {
-        if (get) return describe_image(s[2]);
-        if (method == "DELETE") return delete_image(s[2]);
-        return method_not_allowed("GET, HEAD, DELETE");
-      }
-      if (s.size() == 4 && (s[3] == "viewport" || s[3] == "mesh" || s[3] == "significance.png")) {
-        if (!get) return method_not_allowed("GET, HEAD");
-        return view_route(req, s[2], s[3], may_compute);
-      }
-      if (s.size() == 4 && s[3] == "lines") {
-        if (get) return view_route(req, s[2], s[3], true);
-        if (method == "PUT") return may_compute ? std::optional(edit_route(req, s[2], s[3])) : std::nullopt;
-        return method_not_allowed("GET, HEAD, PUT");
-      }
-      if (s.size() == 4 && s[3] == "significance") {
-        if (method == "PATCH") return may_compute ? std::optional(edit_route(req, s[2], s[3])) : std::nullopt;
-        return method_not_allowed("PATCH");
-      }
-    }
-
-    if (s.size() >= 2 && s[0] == "dzi") {
-      if (!get) return method_not_allowed("GET, HEAD");
-      if (s.size() == 2 && s[1].ends_with(".dzi")) {
-        const std::string id = s[1].substr(0, s[1].size() - 4);
-        return image_response(req, *find_image(store_, id), "dzi_descriptor", "", true, [&](const tiles::ImageEntry& e) {
-          return body_response("application/xml",
-                               dzi_descriptor(e.manifest, config_.dzi, e.manifest.has_alpha() ? "png" : "jpg"));
-        });
-      }
-      if (s.size() == 4 && s[1].ends_with("_files")) {
-        const std::string id = s[1].substr(0, s[1].size() - 6);
-        auto level = parse_small_uint(s[2]);
-        auto name = parse_dzi_tile_name(s[3]);
-        if (!level || !name)
-          throw ApiError(400, "invalid_tile", "tile paths are /dzi/{id}_files/{level}/{col}_{row}.{jpg|png|webp}");
-        auto format = tiles::format_from_extension(name->extension);
-        if (!format) throw ApiError(400, "invalid_format", "tile format must be jpg, png or webp");
-        auto entry = find_image(store_, id);
-        auto tile = dzi_tile(entry->manifest, config_.dzi, *level, name->col, name->row);
-        if (!tile)
-          throw ApiError(404, "tile_not_found",
-                         "no tile " + std::to_string(name->col) + "_" + std::to_string(name->row) + " at level " +
-                             std::to_string(*level) + " (levels 0-" + std::to_string(entry->manifest.levels - 1) + ")");
-        return image_response(req, *entry, "dzi_tile", "", may_compute, [&](const tiles::ImageEntry& e) {
-          tiles::Raster pixels = reader_.read_level(e, tile->store_level, tile->rect);
-          return body_response(std::string(tiles::mime_type(*format)),
-                               tiles::encode_image(pixels, *format, config_.encode));
-        });
-      }
-    }
-
-    if (s.size() >= 3 && s[0] == "iiif" && s[1] == "3") {
-      if (!get) return method_not_allowed("GET, HEAD");
-      const std::string& id = s[2];
-      if (s.size() == 3) {  // base URI: redirect to the image information (§2.1)
-        find_image(store_, id);
-        Response r;
-        r.status = 303;
-        r.route = "iiif_base";
-        r.set_header("Location", req.path + "/info.json");
-        return r;
-      }
-      if (s.size() == 4 && s[3] == "info.json") {
-        const std::string base = base_url(req);
-        const bool ld = req.accept.find("application/ld+json") != std::string::npos;
-        return image_response(req, *find_image(store_, id), "iiif_info", base + (ld ? "|ld" : ""), true, [&](const tiles::ImageEntry& e) {
-          Response r = body_response(
-              ld ? "application/ld+json;profile=\"http://iiif.io/api/image/3/context.json\"" : "application/json",
-              iiif_info_json(e.manifest, base + "/iiif/3/" + e.manifest.id, config_.iiif));
-          r.set_header("Link", "<http://iiif.io/api/image/3/level2.json>;rel=\"profile\"");
-          return r;
-        });
-      }
-      if (s.size() == 7) {
-        auto entry = find_image(store_, id);
-        const IiifPlan plan = plan_iiif_request(s[3], s[4], s[5], s[6], entry->manifest.width,
-                                                entry->manifest.height, config_.iiif);
-        return image_response(req, *entry, "iiif_image", "", may_compute, [&](const tiles::ImageEntry& e) {
-          tiles::Raster pixels = reader_.read_scaled(e, plan.region, plan.width, plan.height);
-          if (plan.mirror) pixels = tiles::mirror_horizontally(pixels);
-          pixels = tiles::rotate_clockwise(pixels, plan.rotation);
-          pixels = apply_quality(std::move(pixels), plan.quality);
-          std::string body;
-          try {
-            body = tiles::encode_image(pixels, plan.format, config_.encode);
-          } catch (const std::invalid_argument& err) {
-            throw ApiError(400, "invalid_iiif_request", err.what());
-          }
-          Response r = body_response(std::string(tiles::mime_type(plan.format)), std::move(body));
-          r.set_header("Link", "<http://iiif.io/api/image/3/level2.json>;rel=\"profile\"");
-          return r;
-        });
-      }
+    if (!allowed.empty()) return method_not_allowed(allowed);
+    if (segments->size() > 3 && (*segments)[0] == "iiif" && (*segments)[1] == "3")
       throw ApiError(400, "invalid_iiif_request",
                      "IIIF image requests are /iiif/3/{id}/{region}/{size}/{rotation}/{quality}.{format}");
-    }
     throw ApiError(404, "not_found", "no such route; see /openapi.json");
   } catch (const ApiError& e) {
     Response r = error_response(e.status(), e.code(), e.what());
@@ -297,7 +264,129 @@ std::optional<Response> Router::dispatch(const Request& req, bool may_compute) {
   }
 }
 
-Response Router::list_images() const {
+// The web viewer (web/): its page at "/", its scripts and style sheet by file name. no-cache, so a
+// browser revalidates them and picks up a new server's viewer at once.
+namespace {
+Response web_file(const std::string& name, const std::string& content_type) {
+  const auto body = asset(name);
+  if (!body) throw ApiError(404, "not_found", "no such file: " + name);
+  Response r = body_response(content_type, std::string(*body));
+  r.route = "web";
+  r.set_header("Cache-Control", "no-cache");
+  return r;
+}
+}  // namespace
+
+std::optional<Response> Router::web_page(const Request&, const PathParams&, bool) {
+  return web_file("index.html", "text/html; charset=utf-8");
+}
+
+std::optional<Response> Router::web_script(const Request&, const PathParams& p, bool) {
+  return web_file(param(p, "file") + ".js", "text/javascript; charset=utf-8");
+}
+
+std::optional<Response> Router::web_style(const Request&, const PathParams& p, bool) {
+  return web_file(param(p, "file") + ".css", "text/css; charset=utf-8");
+}
+
+// "/v1": where to go from here.
+std::optional<Response> Router::index(const Request&, const PathParams&, bool) {
+  Response r = json_response(200, {{"service", "zoomwarp"},
+                                   {"links",
+                                    {{"viewer", "/"},
+                                     {"images", "/v1/images"},
+                                     {"openapi", "/openapi.json"},
+                                     {"dzi", "/dzi/{id}.dzi"},
+                                     {"iiif", "/iiif/3/{id}/info.json"},
+                                     {"health", "/healthz"},
+                                     {"readiness", "/readyz"},
+                                     {"metrics", "/metrics"}}}});
+  r.route = "index";
+  return r;
+}
+
+std::optional<Response> Router::openapi(const Request&, const PathParams&, bool) {
+  Response r = body_response("application/json", std::string(*asset("openapi.json")));
+  r.route = "openapi";
+  r.set_header("Cache-Control", "no-cache");
+  return r;
+}
+
+std::optional<Response> Router::dzi_descriptor_route(const Request& req, const PathParams& p, bool) {
+  return image_response(req, *find_image(store_, param(p, "id")), "dzi_descriptor", "", true,
+                        [&](const tiles::ImageEntry& e) {
+                          return body_response("application/xml", dzi_descriptor(e.manifest, config_.dzi,
+                                                                                 e.manifest.has_alpha() ? "png" : "jpg"));
+                        });
+}
+
+std::optional<Response> Router::dzi_tile_route(const Request& req, const PathParams& p, bool may_compute) {
+  auto level = parse_small_uint(param(p, "level"));
+  auto name = parse_dzi_tile_name(param(p, "tile"));
+  if (!level || !name)
+    throw ApiError(400, "invalid_tile", "tile paths are /dzi/{id}_files/{level}/{col}_{row}.{jpg|png|webp}");
+  auto format = tiles::format_from_extension(name->extension);
+  if (!format) throw ApiError(400, "invalid_format", "tile format must be jpg, png or webp");
+  auto entry = find_image(store_, param(p, "id"));
+  auto tile = dzi_tile(entry->manifest, config_.dzi, *level, name->col, name->row);
+  if (!tile)
+    throw ApiError(404, "tile_not_found",
+                   "no tile " + std::to_string(name->col) + "_" + std::to_string(name->row) + " at level " +
+                       std::to_string(*level) + " (levels 0-" + std::to_string(entry->manifest.levels - 1) + ")");
+  return image_response(req, *entry, "dzi_tile", "", may_compute, [&](const tiles::ImageEntry& e) {
+    tiles::Raster pixels = reader_.read_level(e, tile->store_level, tile->rect);
+    return body_response(std::string(tiles::mime_type(*format)), tiles::encode_image(pixels, *format, config_.encode));
+  });
+}
+
+// IIIF base URI: redirect to the image information (§2.1).
+std::optional<Response> Router::iiif_base(const Request& req, const PathParams& p, bool) {
+  find_image(store_, param(p, "id"));
+  Response r;
+  r.status = 303;
+  r.route = "iiif_base";
+  r.set_header("Location", req.path + "/info.json");
+  return r;
+}
+
+std::optional<Response> Router::iiif_info(const Request& req, const PathParams& p, bool) {
+  const std::string base = base_url(req);
+  const bool ld = req.accept.find("application/ld+json") != std::string::npos;
+  return image_response(req, *find_image(store_, param(p, "id")), "iiif_info", base + (ld ? "|ld" : ""), true,
+                        [&](const tiles::ImageEntry& e) {
+                          Response r = body_response(
+                              ld ? "application/ld+json;profile=\"http://iiif.io/api/image/3/context.json\""
+                                 : "application/json",
+                              iiif_info_json(e.manifest, base + "/iiif/3/" + e.manifest.id, config_.iiif));
+                          r.set_header("Link", "<http://iiif.io/api/image/3/level2.json>;rel=\"profile\"");
+                          return r;
+                        });
+}
+
+std::optional<Response> Router::iiif_image(const Request& req, const PathParams& p, bool may_compute) {
+  auto entry = find_image(store_, param(p, "id"));
+  const IiifPlan plan =
+      plan_iiif_request(param(p, "region"), param(p, "size"), param(p, "rotation"),
+                        param(p, "quality") + "." + param(p, "format"), entry->manifest.width, entry->manifest.height,
+                        config_.iiif);
+  return image_response(req, *entry, "iiif_image", "", may_compute, [&](const tiles::ImageEntry& e) {
+    tiles::Raster pixels = reader_.read_scaled(e, plan.region, plan.width, plan.height);
+    if (plan.mirror) pixels = tiles::mirror_horizontally(pixels);
+    pixels = tiles::rotate_clockwise(pixels, plan.rotation);
+    pixels = apply_quality(std::move(pixels), plan.quality);
+    std::string body;
+    try {
+      body = tiles::encode_image(pixels, plan.format, config_.encode);
+    } catch (const std::invalid_argument& err) {
+      throw ApiError(400, "invalid_iiif_request", err.what());
+    }
+    Response r = body_response(std::string(tiles::mime_type(plan.format)), std::move(body));
+    r.set_header("Link", "<http://iiif.io/api/image/3/level2.json>;rel=\"profile\"");
+    return r;
+  });
+}
+
+std::optional<Response> Router::list_images(const Request&, const PathParams&, bool) {
   json images = json::array();
   for (const auto& entry : store_.list()) images.push_back(image_json(entry->manifest));
   Response r = json_response(200, {{"images", images}});
@@ -306,7 +395,11 @@ Response Router::list_images() const {
   return r;
 }
 
-Response Router::describe_image(const std::string& id) const {
+std::optional<Response> Router::describe_image(const Request&, const PathParams& p, bool) {
+  return describe(param(p, "id"));
+}
+
+Response Router::describe(const std::string& id) const {
   auto entry = find_image(store_, id);
   Response r = json_response(200, image_json(entry->manifest));
   r.route = "image_get";
@@ -315,7 +408,8 @@ Response Router::describe_image(const std::string& id) const {
   return r;
 }
 
-Response Router::delete_image(const std::string& id) {
+std::optional<Response> Router::delete_image(const Request&, const PathParams& p, bool) {
+  const std::string& id = param(p, "id");
   auto entry = find_image(store_, id);
   if (!store_.remove(id)) throw ApiError(404, "image_not_found", "no image with id '" + id + "'");
   reader_.forget(*entry);
@@ -325,7 +419,8 @@ Response Router::delete_image(const std::string& id) {
   return r;
 }
 
-Response Router::upload_image(const Request& req) {
+std::optional<Response> Router::upload_image(const Request& req, const PathParams&, bool may_compute) {
+  if (!may_compute) return std::nullopt;
   auto query = parse_query(req.query);
   if (!query) throw ApiError(400, "invalid_query", "the query string is not well-formed");
   std::string id;

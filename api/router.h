@@ -13,6 +13,8 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 #include "api/deepzoom.h"
 #include "api/http_types.h"
@@ -57,19 +59,42 @@ class Router {
   tiles::ByteLruCache<Response>::Stats response_cache_stats() const { return cache_.stats(); }
   const RouterConfig& config() const { return config_; }
 
+ // A route: method and OpenAPI path template, and the member answering it. A handler returns
+  // nullopt when the answer must be computed and may_compute is false.
+  using PathParams = std::vector<std::pair<std::string_view, std::string>>;
+  using Handler = std::optional<Response> (Router::*)(const Request&, const PathParams&, bool may_compute);
+  struct Route {
+    std::string_view method;
+    std::string_view path;
+    Handler handler;
+  };
+  static const std::vector<Route>& routes();
+
  private:
   std::optional<Response> dispatch(const Request& req, bool may_compute);
+  static const std::string& param(const PathParams& params, std::string_view name);
 
+  std::optional<Response> index(const Request&, const PathParams&, bool);
+  // the web viewer (web/)
+  std::optional<Response> web_page(const Request&, const PathParams&, bool);
+  std::optional<Response> web_script(const Request&, const PathParams&, bool);
+  std::optional<Response> web_style(const Request&, const PathParams&, bool);
+  std::optional<Response> openapi(const Request&, const PathParams&, bool);
   // /v1/images
-  Response list_images() const;
-  Response describe_image(const std::string& id) const;
-  Response delete_image(const std::string& id);
-  Response upload_image(const Request& req);
-
+  std::optional<Response> list_images(const Request&, const PathParams&, bool);
+  std::optional<Response> describe_image(const Request&, const PathParams&, bool);
+  std::optional<Response> delete_image(const Request&, const PathParams&, bool);
+  std::optional<Response> upload_image(const Request&, const PathParams&, bool may_compute);
+  Response describe(const std::string& id) const;
   // /v1/images/{id}/… of the warp engine (router_views.cc)
-  std::optional<Response> view_route(const Request& req, const std::string& id, const std::string& what,
-                                     bool may_compute);
-  Response edit_route(const Request& req, const std::string& id, const std::string& what);
+  std::optional<Response> view_route(const Request&, const PathParams&, bool may_compute);
+  std::optional<Response> edit_route(const Request&, const PathParams&, bool may_compute);
+  // /dzi, /iiif/3
+  std::optional<Response> dzi_descriptor_route(const Request&, const PathParams&, bool);
+  std::optional<Response> dzi_tile_route(const Request&, const PathParams&, bool may_compute);
+  std::optional<Response> iiif_base(const Request&, const PathParams&, bool);
+  std::optional<Response> iiif_info(const Request&, const PathParams&, bool);
+  std::optional<Response> iiif_image(const Request&, const PathParams&, bool may_compute);
 
   // Image responses go through one path: check If-None-Match, look in the cache, and only then
   // (if allowed) compute — once for identical concurrent requests (single flight).

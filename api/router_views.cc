@@ -91,11 +91,14 @@ warp::ModelEdit significance_edit(const json& body, double W, double H) {
   return edit;
 }
 
+// The route's last path segment says which: viewport, mesh, significance.png or lines.
+std::string_view last_segment(const std::string& path) { return std::string_view(path).substr(path.rfind('/') + 1); }
+
 }  // namespace
 
-std::optional<Response> Router::view_route(const Request& req, const std::string& id, const std::string& what,
-                                           bool may_compute) {
-  auto entry = find_image(store_, id);
+std::optional<Response> Router::view_route(const Request& req, const PathParams& p, bool may_compute) {
+  auto entry = find_image(store_, param(p, "id"));
+  const std::string what(last_segment(req.path));
   if (what == "significance.png") {
     return image_response(req, *entry, "significance_png", "", may_compute, [&](const tiles::ImageEntry& e) {
       const warp::SignificanceMap map = engines_.get(e)->model().significance;
@@ -138,7 +141,10 @@ std::optional<Response> Router::view_route(const Request& req, const std::string
   });
 }
 
-Response Router::edit_route(const Request& req, const std::string& id, const std::string& what) {
+std::optional<Response> Router::edit_route(const Request& req, const PathParams& p, bool may_compute) {
+  if (!may_compute) return std::nullopt;
+  const std::string& id = param(p, "id");
+  const std::string what(last_segment(req.path));
   auto entry = find_image(store_, id);
   const std::string image_etag = make_etag(entry->manifest.version, "image");
   if (!req.if_match.empty() && !etag_matches(req.if_match, image_etag))
@@ -158,7 +164,7 @@ Response Router::edit_route(const Request& req, const std::string& id, const std
   } catch (const tiles::VersionConflict& err) {
     throw ApiError(409, "conflict", std::string(err.what()) + "; read the image again and retry");
   }
-  Response r = describe_image(id);
+  Response r = describe(id);
   r.route = what == "lines" ? "lines_put" : "significance_patch";
   return r;
 }
