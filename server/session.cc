@@ -129,6 +129,14 @@ void Session::on_header(beast::error_code ec) {
     header_parser_.reset();
     return answer();
   } else {
+    // Beast checks a Content-Length against the body limit while parsing the header, which was
+    // done under no limit; so a declared length is checked here (chunked bodies by the parser).
+    auto length = header_parser_->content_length();
+    if (length && *length > state_.options.max_body_bytes) {
+      keep_alive_ = false;  // the body is not read, so the connection cannot be reused
+      return send(api::error_response(413, "body_too_large",
+                                      "request bodies are limited to " + std::to_string(state_.options.max_body_bytes) + " bytes"));
+    }
     string_parser_.emplace(std::move(*header_parser_));
     string_parser_->body_limit(state_.options.max_body_bytes);
   }
