@@ -15,7 +15,7 @@
 #include <string>
 #include <string_view>
 
-#include "tiles/encode.h"
+#include "tiles/image_format.h"
 #include "warp/icaz.h"
 
 namespace zoomwarp::api {

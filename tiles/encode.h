@@ -2,20 +2,13 @@
 // Each takes a Raster of 1–4 channels; JPEG has no alpha, so RGBA is flattened onto white first.
 #pragma once
 
-#include <optional>
 #include <string>
 #include <string_view>
 
+#include "tiles/image_format.h"
 #include "tiles/raster.h"
 
 namespace zoomwarp::tiles {
-
-enum class ImageFormat { kJpeg, kPng, kWebp };
-
-// "jpg"/"jpeg", "png", "webp" -> format; anything else -> nullopt.
-std::optional<ImageFormat> format_from_extension(std::string_view ext);
-std::string_view mime_type(ImageFormat f);
-std::string_view extension(ImageFormat f);
 
 struct EncodeOptions {
   int jpeg_quality = 85;  // 1…100

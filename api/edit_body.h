@@ -1,0 +1,19 @@
+// The JSON bodies of curator edits (api/openapi.json, "Lines" and "SignificanceEdit"), parsed
+// strictly: exactly the documented members, finite numbers inside the image (W × H), polygons of
+// at least 3 points, weights in [0, 1], rectangles of positive size. Anything else is an
+// ApiError(400, "invalid_body") saying what was wrong.
+#pragma once
+
+#include <string_view>
+
+#include "warp/image_analysis.h"
+
+namespace zoomwarp::api {
+
+// {"lines": [[x0, y0, x1, y1], …]}
+warp::ModelEdit parse_lines_body(std::string_view body, double W, double H);
+
+// {"regions": [{"rect": [x, y, w, h], "weight": s} | {"polygon": [[x, y], …], "weight": s}, …]}
+warp::ModelEdit parse_significance_body(std::string_view body, double W, double H);
+
+}  // namespace zoomwarp::api

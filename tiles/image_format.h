@@ -1,0 +1,16 @@
+// The encoded formats the server answers in, by file extension and MIME type.
+#pragma once
+
+#include <optional>
+#include <string_view>
+
+namespace zoomwarp::tiles {
+
+enum class ImageFormat { kJpeg, kPng, kWebp };
+
+// "jpg"/"jpeg", "png", "webp" -> format; anything else -> nullopt.
+std::optional<ImageFormat> format_from_extension(std::string_view ext);
+std::string_view mime_type(ImageFormat f);
+std::string_view extension(ImageFormat f);
+
+}  // namespace zoomwarp::tiles
