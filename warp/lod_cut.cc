@@ -1,6 +1,7 @@
 #include "warp/lod_cut.h"
 
 #include <stdexcept>
+#include <unordered_map>
 
 namespace zoomwarp::warp {
 
@@ -14,8 +15,8 @@ void LodCut::activate(int node) {
   list_.push_back(node);
   const Triangle& t = forest_.corners(node);
   for (int k = 0; k < 3; ++k) {
-    auto [it, fresh] = edges_.emplace(edge_key(t[k], t[(k + 1) % 3]), std::array<int, 2>{node, -1});
-    if (!fresh) it->second[1] = node;
+    auto [nodes, fresh] = edges_.emplace(edge_key(t[k], t[(k + 1) % 3]), {node, -1});
+    if (!fresh) (*nodes)[1] = node;
   }
 }
 
@@ -23,18 +24,18 @@ void LodCut::deactivate(int node) {
   active_[node] = 0;
   const Triangle& t = forest_.corners(node);
   for (int k = 0; k < 3; ++k) {
-    auto it = edges_.find(edge_key(t[k], t[(k + 1) % 3]));
-    auto& pair = it->second;
+    const std::uint64_t key = edge_key(t[k], t[(k + 1) % 3]);
+    auto& pair = *edges_.find(key);
     if (pair[0] == node) pair[0] = pair[1];
     pair[1] = -1;
-    if (pair[0] < 0) edges_.erase(it);
+    if (pair[0] < 0) edges_.erase(key);
   }
 }
 
 int LodCut::across(int node, int a, int b) const {
-  auto it = edges_.find(edge_key(a, b));
-  if (it == edges_.end()) return -1;
-  return it->second[0] == node ? it->second[1] : it->second[0];
+  const auto* pair = edges_.find(edge_key(a, b));
+  if (!pair) return -1;
+  return (*pair)[0] == node ? (*pair)[1] : (*pair)[0];
 }
 
 void LodCut::refine(int node, std::vector<int>* split) {

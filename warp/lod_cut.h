@@ -5,9 +5,9 @@
 // (Rivara's longest-edge refinement), so the cut is always conforming: no T-junctions.
 #pragma once
 
-#include <unordered_map>
 #include <vector>
 
+#include "warp/edge_map.h"
 #include "warp/forest.h"
 
 namespace zoomwarp::warp {
@@ -37,7 +37,7 @@ class LodCut {
   Forest& forest_;
   std::vector<char> active_;
   std::vector<int> list_;  // active nodes, possibly with stale entries (checked against active_)
-  std::unordered_map<std::uint64_t, std::array<int, 2>> edges_;  // edge -> up to two active nodes
+  EdgeMap edges_;  // edge -> up to two active nodes
 };
 
 }  // namespace zoomwarp::warp

@@ -48,7 +48,7 @@ struct ShapeWarp::Impl {
 
   // Fast path: one factorization per axis, and the coupling A_FC of free to fixed unknowns: the
   // fixed values x_C (0, the target size, or a pinned position) enter the RHS as −A_FC x_C.
-  std::unique_ptr<Solver> solver_x, solver_y;
+  std::shared_ptr<const Solver> solver_x, solver_y;  // the same one when the systems are equal
   SpMat coupling_x, coupling_y;
 
   void classify(const std::vector<int>& pinned) {
@@ -102,13 +102,16 @@ struct ShapeWarp::Impl {
     Eigen::AMDOrdering<int>()(laplacian, elimination);
     number_unknowns({elimination.indices().data(), elimination.indices().data() + n});
 
-    auto build = [&](LineKind normal_kind, const std::vector<int>& free, int n_free, std::unique_ptr<Solver>& solver,
-                     SpMat& coupling) {
-      Triplets line_terms;
+    auto line_terms_of = [&](LineKind normal_kind) {
+      Triplets terms;
       for (const Line& l : lines)
         if (l.kind == normal_kind)
           for (std::size_t k = 1; k < l.vertices.size(); ++k)
-            add_square<2>(line_terms, {l.vertices[k], l.vertices[0]}, {1.0, -1.0}, alpha);
+            add_square<2>(terms, {l.vertices[k], l.vertices[0]}, {1.0, -1.0}, alpha);
+      return terms;
+    };
+    auto build = [&](const Triplets& line_terms, const std::vector<int>& free, int n_free,
+                     std::shared_ptr<const Solver>& solver, SpMat& coupling) {
       SpMat with_lines;
       if (!line_terms.empty()) {
         with_lines.resize(n, n);
@@ -131,15 +134,24 @@ struct ShapeWarp::Impl {
       a.setFromTriplets(ff.begin(), ff.end());
       coupling.resize(n_free, n);
       coupling.setFromTriplets(fc.begin(), fc.end());
-      solver = std::make_unique<Solver>();
-      solver->cholmod().nmethods = 1;
-      solver->cholmod().method[0].ordering = CHOLMOD_NATURAL;
-      solver->compute(a);
-      if (solver->info() != Eigen::Success) throw std::runtime_error("CHOLMOD could not factor the warp system");
+      auto factor = std::make_shared<Solver>();
+      factor->cholmod().nmethods = 1;
+      factor->cholmod().method[0].ordering = CHOLMOD_NATURAL;
+      factor->compute(a);
+      if (factor->info() != Eigen::Success) throw std::runtime_error("CHOLMOD could not factor the warp system");
+      solver = std::move(factor);
     };
     // x: vertical lines keep their x (normal (1,0)); y: horizontal lines keep their y.
-    build(LineKind::kVertical, free_x, n_free_x, solver_x, coupling_x);
-    build(LineKind::kHorizontal, free_y, n_free_y, solver_y, coupling_y);
+    const Triplets x_lines = line_terms_of(LineKind::kVertical), y_lines = line_terms_of(LineKind::kHorizontal);
+    build(x_lines, free_x, n_free_x, solver_x, coupling_x);
+    // When both axes fix the same vertices and carry no line terms — a local solve away from the
+    // image border, the usual case for a pan — their systems are the same matrix: factor it once.
+    if (x_lines.empty() && y_lines.empty() && free_x == free_y) {
+      solver_y = solver_x;
+      coupling_y = coupling_x;
+    } else {
+      build(y_lines, free_y, n_free_y, solver_y, coupling_y);
+    }
   }
 
   // Optimal isotropic scale of each triangle for the current positions (the "local" step).

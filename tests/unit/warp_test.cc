@@ -5,8 +5,11 @@
 
 #include <cmath>
 #include <map>
+#include <random>
+#include <unordered_map>
 
 #include "warp/coarse_mesh.h"
+#include "warp/edge_map.h"
 #include "warp/shape_warp.h"
 
 namespace zoomwarp {
@@ -118,6 +121,34 @@ void expect_valid_warp(const warp::Mesh& m, const std::vector<Point>& p, double 
     }
     if (m.vertices[i].y == h) {
       EXPECT_NEAR(p[i].y, th, 1e-9);
+    }
+  }
+}
+
+// EdgeMap against std::unordered_map under a random mix of inserts and erases (erase shifts
+// entries back, which is where open addressing goes wrong if it does).
+TEST(EdgeMap, BehavesLikeAMap) {
+  warp::EdgeMap map;
+  std::unordered_map<std::uint64_t, std::array<int, 2>> reference;
+  std::mt19937_64 rng(7);
+  for (int step = 0; step < 200000; ++step) {
+    const std::uint64_t key = rng() % 5000;
+    if (rng() % 3 == 0 && reference.count(key)) {
+      map.erase(key);
+      reference.erase(key);
+    } else {
+      const std::array<int, 2> value{int(step), int(key)};
+      const bool fresh = map.emplace(key, value).second;
+      ASSERT_EQ(fresh, reference.emplace(key, value).second);
+    }
+    if (step % 997 == 0) {
+      ASSERT_EQ(map.size(), reference.size());
+      for (const auto& [k, v] : reference) {
+        const auto* found = map.find(k);
+        ASSERT_TRUE(found);
+        ASSERT_EQ(*found, v);
+      }
+      for (std::uint64_t k = 5000; k < 5100; ++k) ASSERT_FALSE(map.find(k));
     }
   }
 }

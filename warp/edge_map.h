@@ -1,0 +1,77 @@
+// A hash map from an undirected edge (forest.h's edge_key) to the up to two LOD-cut nodes on it,
+// with open addressing and linear probing in one flat array. LodCut does a few lookups per split
+// and every view starts from a copy of the coarsest cut: a flat array copies with one memcpy and
+// probes without chasing the per-element allocations of std::unordered_map (which made the cut
+// ~a fifth of a pan's time).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace zoomwarp::warp {
+
+class EdgeMap {
+ public:
+  using Nodes = std::array<int, 2>;
+
+  // The nodes on `key`, or null.
+  Nodes* find(std::uint64_t key) {
+    for (std::size_t i = slot(key);; i = (i + 1) & mask_) {
+      if (keys_[i] == kEmpty) return nullptr;
+      if (keys_[i] == key) return &values_[i];
+    }
+  }
+  const Nodes* find(std::uint64_t key) const { return const_cast<EdgeMap*>(this)->find(key); }
+
+  // The entry for `key`, made with `value` if missing; second: whether it was made.
+  std::pair<Nodes*, bool> emplace(std::uint64_t key, const Nodes& value) {
+    if (2 * (size_ + 1) > keys_.size()) grow();
+    std::size_t i = slot(key);
+    for (; keys_[i] != kEmpty; i = (i + 1) & mask_)
+      if (keys_[i] == key) return {&values_[i], false};
+    keys_[i] = key, values_[i] = value, ++size_;
+    return {&values_[i], true};
+  }
+
+  // Removes `key` (which must be present). Backward-shift deletion keeps every probe sequence
+  // unbroken without tombstones.
+  void erase(std::uint64_t key) {
+    std::size_t hole = slot(key);
+    while (keys_[hole] != key) hole = (hole + 1) & mask_;
+    for (std::size_t i = (hole + 1) & mask_; keys_[i] != kEmpty; i = (i + 1) & mask_) {
+      const std::size_t home = slot(keys_[i]);
+      // Move i into the hole unless its home lies cyclically in (hole, i].
+      if (((i - home) & mask_) >= ((i - hole) & mask_)) {
+        keys_[hole] = keys_[i], values_[hole] = values_[i];
+        hole = i;
+      }
+    }
+    keys_[hole] = kEmpty;
+    --size_;
+  }
+
+  std::size_t size() const { return size_; }
+
+ private:
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t(0);  // no edge has this key
+
+  std::size_t slot(std::uint64_t key) const {
+    return std::size_t((key * 0x9E3779B97F4A7C15ull) >> 20) & mask_;  // Fibonacci hashing
+  }
+
+  void grow() {
+    std::vector<std::uint64_t> keys(std::max<std::size_t>(64, 2 * keys_.size()), kEmpty);
+    std::vector<Nodes> values(keys.size());
+    keys.swap(keys_), values.swap(values_);
+    mask_ = keys_.size() - 1, size_ = 0;
+    for (std::size_t i = 0; i < keys.size(); ++i)
+      if (keys[i] != kEmpty) emplace(keys[i], values[i]);
+  }
+
+  std::vector<std::uint64_t> keys_;
+  std::vector<Nodes> values_;
+  std::size_t mask_ = 0, size_ = 0;
+};
+
+}  // namespace zoomwarp::warp
