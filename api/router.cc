@@ -81,7 +81,7 @@ Router::Router(tiles::Store& store, tiles::PyramidReader& reader, RouterConfig c
       reader_(reader),
       config_(std::move(config)),
       cache_(config_.response_cache_bytes),
-      engines_(reader, config_.warp_engines) {}
+      engines_(reader, config_.warp_cache_bytes) {}
 
 bool Router::is_upload(std::string_view method, std::string_view path) {
   return method == "POST" && (path == "/v1/images" || path == "/v1/images/");
@@ -269,7 +269,7 @@ std::optional<Response> Router::dispatch(const Request& req, bool may_compute) {
 namespace {
 Response web_file(const std::string& name, const std::string& content_type) {
   const auto body = asset(name);
-  if (!body) throw ApiError(404, "not_found", "no such file: " + name);
+  if (!body) throw ApiError(404, "file_not_found", "the web viewer has no file " + name);
   Response r = body_response(content_type, std::string(*body));
   r.route = "web";
   r.set_header("Cache-Control", "no-cache");

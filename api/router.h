@@ -37,7 +37,7 @@ struct RouterConfig {
   tiles::IngestOptions ingest;
   std::string public_url;  // e.g. "https://tiles.example.org"; empty: from Host / X-Forwarded-Proto
   int cache_max_age = 60;  // Cache-Control max-age of image responses, seconds
-  std::size_t warp_engines = 16;  // image versions whose ICAZ operator stays in memory
+  std::size_t warp_cache_bytes = 256u << 20;  // ICAZ operators (models, forests, coarse warps) kept in memory
 };
 
 class Router {
@@ -57,6 +57,7 @@ class Router {
   static bool is_upload(std::string_view method, std::string_view path);
 
   tiles::ByteLruCache<Response>::Stats response_cache_stats() const { return cache_.stats(); }
+  std::size_t warp_cache_bytes() { return engines_.memory_bytes(); }
   const RouterConfig& config() const { return config_; }
 
  // A route: method and OpenAPI path template, and the member answering it. A handler returns

@@ -1,11 +1,13 @@
 #include "api/warp_engines.h"
 
+#include <algorithm>
+
 #include "warp/image_analysis.h"
 
 namespace zoomwarp::api {
 
-WarpEngines::WarpEngines(tiles::PyramidReader& reader, std::size_t capacity)
-    : reader_(reader), capacity_(std::max<std::size_t>(1, capacity)) {}
+WarpEngines::WarpEngines(tiles::PyramidReader& reader, std::size_t budget_bytes)
+    : reader_(reader), budget_(budget_bytes) {}
 
 std::shared_ptr<warp::Icaz> WarpEngines::load(const tiles::ImageEntry& image) {
   warp::ImageModel model;
@@ -16,43 +18,69 @@ std::shared_ptr<warp::Icaz> WarpEngines::load(const tiles::ImageEntry& image) {
     model = warp::make_image_model(warp::read_reduced_image(image, reader_), image.manifest.width,
                                    image.manifest.height);
   }
-  return std::make_shared<warp::Icaz>(std::move(model));
+  warp::IcazOptions options;
+  constexpr std::size_t kBytesPerLazyNode = 64;
+  options.max_forest_nodes = int(std::clamp<std::size_t>(model.forest.kept_nodes() + budget_ / 4 / kBytesPerLazyNode,
+                                                         model.forest.kept_nodes() + 10000, 1u << 22));
+  return std::make_shared<warp::Icaz>(std::move(model), options);
+}
+
+void WarpEngines::evict_over_budget(const std::string& keep) {
+  std::size_t total = 0;
+  for (const auto& [key, entry] : engines_) total += entry.bytes;
+  while (total > budget_ && order_.size() > 1) {
+    const std::string victim = order_.back() == keep ? *std::next(order_.rbegin()) : order_.back();
+    auto it = engines_.find(victim);
+    total -= it->second.bytes;
+    order_.erase(it->second.position);
+    engines_.erase(it);
+  }
 }
 
 std::shared_ptr<warp::Icaz> WarpEngines::get(const tiles::ImageEntry& image) {
   const std::string key = image.dir;  // one folder per version
   std::promise<std::shared_ptr<warp::Icaz>> promise;
-  Future future;
+  Future existing;
   {
     std::lock_guard lock(mu_);
     if (auto it = engines_.find(key); it != engines_.end()) {
-      order_.splice(order_.begin(), order_, it->second.second);
-      future = it->second.first;
+      order_.splice(order_.begin(), order_, it->second.position);
+      existing = it->second.engine;
     } else {
-      future = promise.get_future().share();
       order_.push_front(key);
-      engines_.emplace(key, std::make_pair(future, order_.begin()));
-      while (engines_.size() > capacity_) {
-        engines_.erase(order_.back());
-        order_.pop_back();
+      engines_.emplace(key, Entry{promise.get_future().share(), order_.begin(), 0});
+    }
+  }
+  std::shared_ptr<warp::Icaz> engine;
+  if (existing.valid()) {
+    engine = existing.get();  // rethrows the loader's error
+  } else {
+    try {
+      engine = load(image);
+      promise.set_value(engine);
+    } catch (...) {
+      promise.set_exception(std::current_exception());
+      std::lock_guard lock(mu_);
+      if (auto it = engines_.find(key); it != engines_.end()) {
+        order_.erase(it->second.position);
+        engines_.erase(it);
       }
-      future = Future();  // this caller loads
+      throw;
     }
   }
-  if (future.valid()) return future.get();
-  try {
-    auto engine = load(image);
-    promise.set_value(engine);
-    return engine;
-  } catch (...) {
-    promise.set_exception(std::current_exception());
-    std::lock_guard lock(mu_);
-    if (auto it = engines_.find(key); it != engines_.end()) {
-      order_.erase(it->second.second);
-      engines_.erase(it);
-    }
-    throw;
-  }
+  // The engine grows as views visit it (lazy forest nodes, coarse warps): measure it again.
+  const std::size_t bytes = engine->memory_bytes();
+  std::lock_guard lock(mu_);
+  if (auto it = engines_.find(key); it != engines_.end()) it->second.bytes = bytes;
+  evict_over_budget(key);
+  return engine;
+}
+
+std::size_t WarpEngines::memory_bytes() {
+  std::lock_guard lock(mu_);
+  std::size_t total = 0;
+  for (const auto& [key, entry] : engines_) total += entry.bytes;
+  return total;
 }
 
 }  // namespace zoomwarp::api

@@ -29,6 +29,7 @@ std::vector<OptionSpec> serve_specs() {
       {"ingest-queue", "4", "uploads that may wait to be ingested before new ones get 503"},
       {"tile-cache", "256M", "decoded-tile cache size (bytes, K/M/G)"},
       {"response-cache", "256M", "encoded-response cache size (bytes, K/M/G)"},
+      {"warp-cache", "256M", "memory for the warp engines of recently viewed images (bytes, K/M/G)"},
       {"max-upload", "512M", "largest upload body (bytes, K/M/G)"},
       {"iiif-max-width", "8192", "IIIF maxWidth: widest image returned"},
       {"iiif-max-height", "8192", "IIIF maxHeight: tallest image returned"},
@@ -71,6 +72,7 @@ int serve_command(const std::vector<std::string>& args) {
 
     api::RouterConfig rc;
     rc.response_cache_bytes = o.bytes("response-cache", 0, 1ULL << 40);
+    rc.warp_cache_bytes = o.bytes("warp-cache", 1ULL << 20, 1ULL << 40);
     rc.encode.jpeg_quality = int(o.integer("jpeg-quality", 1, 100));
     rc.encode.webp_quality = int(o.integer("webp-quality", 1, 100));
     rc.iiif.max_width = int(o.integer("iiif-max-width", 1, 65535));
@@ -105,8 +107,10 @@ int serve_command(const std::vector<std::string>& args) {
           {"zoomwarp_cache_misses_total", "", "counter", R"(cache="tile")", double(ts.tiles_read)},
           {"zoomwarp_cache_bytes", "Bytes held by a cache.", "gauge", R"(cache="response")", double(rs.bytes)},
           {"zoomwarp_cache_bytes", "", "gauge", R"(cache="tile")", double(ts.bytes_used)},
+          {"zoomwarp_cache_bytes", "", "gauge", R"(cache="warp")", double(router.warp_cache_bytes())},
           {"zoomwarp_cache_limit_bytes", "Byte limit of a cache.", "gauge", R"(cache="response")", double(rs.max_bytes)},
           {"zoomwarp_cache_limit_bytes", "", "gauge", R"(cache="tile")", double(ts.bytes_limit)},
+          {"zoomwarp_cache_limit_bytes", "", "gauge", R"(cache="warp")", double(rc.warp_cache_bytes)},
           {"zoomwarp_queue_depth", "Jobs waiting for a worker.", "gauge", R"(pool="cpu")", double(cpu.queued())},
           {"zoomwarp_queue_depth", "", "gauge", R"(pool="ingest")", double(ingest.queued())},
           {"zoomwarp_workers_busy", "Workers running a job.", "gauge", R"(pool="cpu")", double(cpu.running())},
@@ -115,7 +119,8 @@ int serve_command(const std::vector<std::string>& args) {
       };
     });
     log_event("info", "starting", {{"store", store.root()}, {"workers", workers}, {"tile_cache", tile_cache},
-                                   {"response_cache", rc.response_cache_bytes}, {"gc_removed", removed}});
+                                   {"response_cache", rc.response_cache_bytes}, {"warp_cache", rc.warp_cache_bytes},
+                                   {"gc_removed", removed}});
     HttpServer server(http, store, router, cpu, ingest, metrics);
     return server.run();
   } catch (const std::invalid_argument& e) {

@@ -49,6 +49,13 @@ void Forest::forget_lazy_nodes() {
   std::erase_if(midpoints_, [&](const auto& e) { return e.second >= kept_vertices_; });
 }
 
+std::size_t Forest::memory_bytes() const {
+  constexpr std::size_t kPerNode = sizeof(Triangle) + sizeof(std::array<int, 2>) + 2 * sizeof(int);
+  constexpr std::size_t kPerVertex = sizeof(Point) + sizeof(int);
+  constexpr std::size_t kPerMidpoint = 48;  // unordered_map node + bucket
+  return corners_.capacity() * kPerNode + vertices_.capacity() * kPerVertex + midpoints_.size() * kPerMidpoint;
+}
+
 void Forest::write(std::ostream& out) const {
   std::vector<std::int32_t> splits;
   for (int n = roots_; n < kept_nodes_; n += 2) splits.push_back(parent_[n]);

@@ -49,6 +49,9 @@ class Forest {
   int kept_nodes() const { return kept_nodes_; }
   void forget_lazy_nodes();
 
+  // Bytes held (an estimate of the arrays and the midpoint map).
+  std::size_t memory_bytes() const;
+
   // Serialisation of the kept nodes: the split nodes in the order they were split — children,
   // corners and midpoints follow from it — so 4 bytes per two nodes. read() replays the splits
   // on the forest of `coarsest` and throws std::runtime_error on damaged input.

@@ -140,6 +140,17 @@ Icaz::Icaz(ImageModel model, const IcazOptions& options)
 
 Icaz::~Icaz() = default;
 
+std::size_t Icaz::memory_bytes() {
+  std::lock_guard lock(mu_);
+  std::size_t coarse = 0;
+  for (const auto& [size, positions] : coarse_cache_) coarse += positions.capacity() * sizeof(Point);
+  const ImageModel& m = model_;
+  return m.significance.values.capacity() * sizeof(float) + m.forest.memory_bytes() +
+         m.node_mean.capacity() * sizeof(float) + m.coarse.mesh.vertices.capacity() * sizeof(Point) +
+         m.coarse.mesh.triangles.capacity() * sizeof(Triangle) + forest_.memory_bytes() +
+         node_mean_.capacity() * sizeof(double) + coarse;
+}
+
 double Icaz::node_mean(int node) {
   if (node >= int(node_mean_.size())) node_mean_.resize(std::size_t(forest_.node_count()), std::numeric_limits<double>::quiet_NaN());
   double& mean = node_mean_[node];

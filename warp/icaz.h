@@ -93,6 +93,9 @@ class Icaz {
 
   const ImageModel& model() const { return model_; }
 
+  // Bytes held: the model, the forest with its lazy nodes, node means, cached coarse warps.
+  std::size_t memory_bytes();
+
  private:
   static WarpOptions tolerance_for(const ZoomGeometry& g);
   std::vector<Point> coarse_positions(const ZoomGeometry& g, WarpResult* stats);
