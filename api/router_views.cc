@@ -52,7 +52,7 @@ std::optional<Response> Router::view_route(const Request& req, const PathParams&
     });
   }
   if (what == "lines") {
-    return image_response(req, *entry, "lines_get", "", true, [&](const tiles::ImageEntry& e) {
+    return image_response(req, *entry, "lines_get", "", may_compute, [&](const tiles::ImageEntry& e) {
       return body_response("application/json", json{{"lines", lines_json(engines_.get(e)->model().lines)}}.dump() + "\n");
     });
   }

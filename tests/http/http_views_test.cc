@@ -129,6 +129,18 @@ TEST_F(Views, ViewportAtZoomOneIsTheIiifCrop) {
   }
 }
 
+// Zoomed out, each triangle is drawn from the pyramid level that fits its scale: the traditional
+// method's letterboxed z = 0 view is (between the bands) the IIIF downscale of the whole image.
+TEST_F(Views, ZoomedOutViewportIsFilteredNotAliased) {
+  const tiles::Raster viewport =
+      testing::decode_image(http.get("/v1/images/boats/viewport?zoom=0&w=480&h=360&method=traditional&format=png").body);
+  const tiles::Raster reference = testing::decode_image(http.get("/iiif/3/boats/full/480,300/0/default.png").body);
+  const double db = testing::psnr(testing::crop(viewport, {0, 30, 480, 300}), reference);
+  std::printf("[ figures ] zoomed-out viewport vs IIIF downscale: %.1f dB\n", db);
+  EXPECT_GE(db, 35);
+  for (int x : {0, 240, 479}) EXPECT_EQ(viewport.row(5)[x * 3], 0) << "the letterbox band is black";
+}
+
 TEST_F(Views, GeomorphPairStartsWhereThePreviousViewWas) {
   const std::string common = "&cx=1200&cy=700&w=480&h=360";
   const json before = mesh("boats", "zoom=0.5" + common);
