@@ -141,6 +141,58 @@ TEST_F(Views, ZoomedOutViewportIsFilteredNotAliased) {
   for (int x : {0, 240, 479}) EXPECT_EQ(viewport.row(5)[x * 3], 0) << "the letterbox band is black";
 }
 
+// DESIGN.md §7, measured from the mesh JSON: the image's most significant tenth (by the
+// served significance map) is less distorted than uniform stretching would distort it, and is
+// shown larger than traditional zooming shows it. Boats (16:10) on a 9:16 phone screen, z = 0.
+TEST_F(Views, SalientRegionsAreLargerAndLessDistorted) {
+  const tiles::Raster sig = testing::decode_image(http.get("/v1/images/boats/significance.png").body);
+  const double W = 2560, H = 1600, w = 360, h = 640;
+  struct Measure {
+    double salient_area = 0, distortion = 0;
+  };
+  auto measure = [&](const json& m) {
+    const auto& v = m["vertices"];
+    std::vector<std::pair<double, int>> by_significance;  // (significance at the centroid, triangle)
+    for (std::size_t f = 0; f < m["triangles"].size(); ++f) {
+      const auto& t = m["triangles"][f];
+      double u = 0, vv = 0;
+      for (int k = 0; k < 3; ++k) u += v[t[k].get<int>()][0].get<double>() / 3, vv += v[t[k].get<int>()][1].get<double>() / 3;
+      const int x = std::clamp(int(u / W * sig.width), 0, sig.width - 1), y = std::clamp(int(vv / H * sig.height), 0, sig.height - 1);
+      by_significance.emplace_back(sig.row(y)[x * sig.channels], int(f));
+    }
+    std::sort(by_significance.rbegin(), by_significance.rend());
+    Measure out;
+    double weight = 0;
+    for (std::size_t i = 0; i < by_significance.size() / 10; ++i) {
+      const auto& t = m["triangles"][by_significance[i].second];
+      auto p = [&](int k, int c) { return v[t[k].get<int>()][c].get<double>(); };
+      // The triangle's affine map: source edges (e1, e2) → screen edges; its singular values'
+      // ratio is the anisotropy (1: shape kept).
+      const double a = p(1, 0) - p(0, 0), b = p(2, 0) - p(0, 0), c = p(1, 1) - p(0, 1), d = p(2, 1) - p(0, 1);
+      const double X1 = p(1, 2) - p(0, 2), X2 = p(2, 2) - p(0, 2), Y1 = p(1, 3) - p(0, 3), Y2 = p(2, 3) - p(0, 3);
+      const double det = a * d - b * c;
+      const double m11 = (X1 * d - X2 * c) / det, m12 = (X2 * a - X1 * b) / det;
+      const double m21 = (Y1 * d - Y2 * c) / det, m22 = (Y2 * a - Y1 * b) / det;
+      const double fro = m11 * m11 + m12 * m12 + m21 * m21 + m22 * m22, dj = std::abs(m11 * m22 - m12 * m21);
+      const double s1 = std::sqrt((fro + std::sqrt(std::max(0.0, fro * fro - 4 * dj * dj))) / 2), s2 = dj / s1;
+      const double area = std::abs(X1 * Y2 - X2 * Y1) / 2;
+      out.salient_area += area;
+      out.distortion += area * s1 / s2;
+      weight += area;
+    }
+    out.distortion /= weight;
+    return out;
+  };
+  const std::string view = "zoom=0&w=360&h=640";
+  const Measure icaz = measure(mesh("boats", view));
+  const Measure traditional = measure(mesh("boats", view + "&method=traditional"));
+  const double uniform_stretch = (W / H) / (w / h);  // anisotropy of squeezing the image onto the screen
+  std::printf("[ figures ] salient tenth: anisotropy %.2f (uniform stretch %.2f); screen area %.0f px² vs traditional %.0f px²\n",
+              icaz.distortion, uniform_stretch, icaz.salient_area, traditional.salient_area);
+  EXPECT_LT(icaz.distortion, uniform_stretch * 0.75);
+  EXPECT_GT(icaz.salient_area, traditional.salient_area * 1.5);
+}
+
 TEST_F(Views, GeomorphPairStartsWhereThePreviousViewWas) {
   const std::string common = "&cx=1200&cy=700&w=480&h=360";
   const json before = mesh("boats", "zoom=0.5" + common);
