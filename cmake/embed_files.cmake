@@ -13,6 +13,7 @@ function(zoomwarp_embed target function)
     COMMAND ${CMAKE_COMMAND} -DOUT=${out} -DFUNCTION=${function} "-DFILES=${ARG_FILES}"
             -P ${PROJECT_SOURCE_DIR}/cmake/embed_files_script.cmake
     DEPENDS ${ARG_FILES} ${PROJECT_SOURCE_DIR}/cmake/embed_files_script.cmake
-    COMMENT "Embedding ${target}")
+    COMMENT "Embedding ${target}"
+    VERBATIM)  # FILES is a ;-list: quoted for the shell, not split into commands
   add_library(${target} STATIC ${out})
 endfunction()

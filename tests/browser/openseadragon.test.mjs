@@ -7,25 +7,23 @@
 // Needs: a built zoomwarp (ZOOMWARP_BINARY), /usr/bin/chromium, oiiotool, Node >= 18.
 
 import assert from 'node:assert/strict';
-import { execFile, spawn } from 'node:child_process';
 import { once } from 'node:events';
 import fs from 'node:fs/promises';
 import http from 'node:http';
-import os from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
-import { promisify } from 'node:util';
 import { after, before, test } from 'node:test';
 
-import { chromium } from 'playwright-core';
 import { PNG } from 'pngjs';
 
+import {
+  Cleanups, SAMPLES, compareRgb, execFileP, ingest, launchChromium, startZoomwarp, tempDir,
+} from './support.mjs';
+
 const __dirname = path.dirname(fileURLToPath(import.meta.url));
-const ZOOMWARP = process.env.ZOOMWARP_BINARY || path.resolve(__dirname, '../../build/bin/zoomwarp');
-const SAMPLE = path.resolve(__dirname, '../../samples/boats_lake_sunset.jpg');
+const SAMPLE = path.join(SAMPLES, 'boats_lake_sunset.jpg');
 const OSD_SCRIPT = path.join(__dirname, 'node_modules/openseadragon/build/openseadragon/openseadragon.min.js');
 const OUT_DIR = path.join(__dirname, 'out');
-const CHROMIUM = '/usr/bin/chromium';
 const IMAGE_ID = 'boats';
 
 // Same aspect ratio as the 2560x1600 sample, so OpenSeadragon's home view fills the viewport
@@ -118,59 +116,32 @@ const PAGE_HTML = `<!doctype html>
 </html>
 `;
 
-const execFileP = promisify(execFile);
-
-// Children get no ZOOMWARP_* variables: each is also a zoomwarp option (ZOOMWARP_PUBLIC_URL,
-// ZOOMWARP_STORE, ...), and one left in a developer's shell must not change what is tested.
-const childEnv = Object.fromEntries(Object.entries(process.env).filter(([k]) => !k.startsWith('ZOOMWARP_')));
-
-// Teardown steps, run last-registered first, each even when an earlier one failed.
-const cleanups = [];
+const cleanups = new Cleanups();
 let browser;
 let zoomwarpBase;
 let pageUrl;
 let reference;
 
 before(async () => {
-  const tmp = await fs.mkdtemp(path.join(os.tmpdir(), 'zoomwarp-browser-'));
-  cleanups.push(() => fs.rm(tmp, { recursive: true, force: true }));
-  await fs.rm(OUT_DIR, { recursive: true, force: true });
+  const tmp = await tempDir(cleanups);
+  // Not emptied first: node --test runs the test files at the same time, and out/ is shared.
   await fs.mkdir(OUT_DIR, { recursive: true });
 
   const store = path.join(tmp, 'store');
   const referencePath = path.join(OUT_DIR, 'reference.png');
   await Promise.all([
-    execFileP(ZOOMWARP, ['ingest', SAMPLE, '--store', store, '--id', IMAGE_ID, '--quiet'], { env: childEnv }),
+    ingest(store, SAMPLE, IMAGE_ID),
     execFileP('oiiotool', [SAMPLE, '--resize', `${VIEWPORT.width}x${VIEWPORT.height}`, '-o', referencePath]),
   ]);
   reference = PNG.sync.read(await fs.readFile(referencePath));
 
-  const port = await startZoomwarp(store);
+  const port = await startZoomwarp(store, cleanups);
   zoomwarpBase = `http://127.0.0.1:${port}`;
   pageUrl = await startPageServer();
-
-  browser = await chromium.launch({
-    executablePath: CHROMIUM,
-    // Playwright gives each launch a fresh temporary profile and deletes it on close.
-    args: [
-      '--headless=new', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-      '--disable-background-networking', '--disable-component-update', '--disable-sync',
-    ],
-  });
-  cleanups.push(() => browser.close());
+  browser = await launchChromium(cleanups);
 }, { timeout: 60_000 });
 
-after(async () => {
-  const errors = [];
-  while (cleanups.length > 0) {
-    try {
-      await cleanups.pop()();
-    } catch (err) {
-      errors.push(err);
-    }
-  }
-  if (errors.length > 0) throw new AggregateError(errors, 'cleanup failed');
-});
+after(() => cleanups.run());
 
 for (const mode of MODES) {
   test(`OpenSeadragon shows the image via ${mode.name}`, { timeout: 60_000 }, async () => {
@@ -205,52 +176,6 @@ for (const mode of MODES) {
   });
 }
 
-// Starts `zoomwarp serve` on a free loopback port and returns that port, read from the
-// server's JSON 'listening' log line.
-async function startZoomwarp(store) {
-  const server = spawn(ZOOMWARP, ['serve', '--host', '127.0.0.1', '--port', '0', '--store', store,
-                                  '--log-requests', '0'],
-                       { env: childEnv, stdio: ['ignore', 'ignore', 'pipe'] });
-  // The log is read to the end (not just up to 'listening') so that the server never blocks
-  // on a full pipe, and is kept for error messages.
-  let log = '';
-  server.stderr.setEncoding('utf8');
-  server.stderr.on('data', (chunk) => { log += chunk; });
-  const exited = new Promise((resolve) => server.on('exit', (code, signal) => resolve(code ?? signal)));
-
-  const port = await new Promise((resolve, reject) => {
-    const timer = setTimeout(() => reject(new Error(`zoomwarp serve did not start listening:\n${log}`)), 20_000);
-    const onData = () => {
-      const line = log.split('\n').find((l) => l.includes('"msg":"listening"'));
-      if (line === undefined) return;
-      server.stderr.off('data', onData);
-      clearTimeout(timer);
-      resolve(JSON.parse(line).port);
-    };
-    server.stderr.on('data', onData);
-    server.on('error', (err) => {
-      clearTimeout(timer);
-      reject(err);
-    });
-    exited.then((status) => {
-      clearTimeout(timer);
-      reject(new Error(`zoomwarp serve exited with ${status} at start:\n${log}`));
-    });
-  }).catch((err) => {
-    server.kill('SIGKILL');
-    throw err;
-  });
-
-  cleanups.push(async () => {
-    server.kill('SIGTERM');
-    const timer = setTimeout(() => server.kill('SIGKILL'), 10_000);
-    const status = await exited;
-    clearTimeout(timer);
-    assert.equal(status, 0, `zoomwarp serve exited with ${status} on SIGTERM:\n${log}`);
-  });
-  return port;
-}
-
 // Serves the test page and OpenSeadragon from node_modules on a free loopback port; returns
 // the page's URL.
 async function startPageServer() {
@@ -271,22 +196,4 @@ async function startPageServer() {
     return new Promise((resolve) => server.close(resolve));
   });
   return `http://127.0.0.1:${server.address().port}/`;
-}
-
-// PSNR (dB) and mean absolute difference over the R, G and B samples of two same-sized
-// RGBA images (pngjs always decodes to RGBA); alpha is ignored.
-function compareRgb(a, b) {
-  assert.deepEqual([a.width, a.height], [b.width, b.height], 'screenshot and reference sizes differ');
-  let sumSq = 0;
-  let sumAbs = 0;
-  for (let i = 0; i < a.data.length; i += 4) {
-    for (let c = 0; c < 3; c++) {
-      const d = a.data[i + c] - b.data[i + c];
-      sumSq += d * d;
-      sumAbs += Math.abs(d);
-    }
-  }
-  const n = a.width * a.height * 3;
-  const mse = sumSq / n;
-  return { psnr: mse === 0 ? Infinity : 10 * Math.log10((255 * 255) / mse), mad: sumAbs / n };
 }

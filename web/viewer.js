@@ -1,0 +1,347 @@
+// The zoomwarp web viewer (served at /): one image full-window, warped by the server's
+// content-aware zoom (ICAZ) and drawn with WebGL from its Deep Zoom tiles. The view is
+// {zoom 0…1, cx, cy in full-resolution pixels}; every change asks the server for the mesh of the
+// new view as a geomorph from the drawn one and animates between the two. Curator tools mark
+// regions important and draw line constraints; compare shows ICAZ beside traditional zooming.
+//
+// For tests and scripts, window.zoomwarp = {ready, setView, getView, imageId, meshRequests, frames}
+// (web/README.md).
+
+import { TileCache } from './atlas.js';
+import { fetchLines, insideImage, markImportant, outlineInSource, putLines } from './curator.js';
+import { Overlay } from './overlay.js';
+import { Pane, VIEW_DIGITS } from './pane.js';
+import { Renderer } from './renderer.js';
+
+// Zoom per wheel notch; a notch is 100 pixels or 3 lines of deltaY, so a touchpad's many small
+// events zoom smoothly by the same amount per distance.
+const ZOOM_STEP = 0.05;
+const PIXELS_PER_NOTCH = 100;
+const LINES_PER_NOTCH = 3;
+// A pointer that moved less than this (CSS pixels) made a click, not a rectangle or a segment.
+const MIN_SKETCH = 3;
+
+class Viewer {
+  constructor({ canvas, overlayCanvas, status, image }) {
+    this.canvas = canvas;
+    this.status = status;
+    this.image = image;
+    this.renderer = new Renderer(canvas);
+    this.overlay = new Overlay(overlayCanvas);
+    this.tiles = new TileCache();
+    this.counters = { meshRequests: 0, frames: 0 };
+    this.view = { zoom: 0, cx: image.width / 2, cy: image.height / 2 };
+    this.panes = [];
+    this.lines = [];
+    this.tool = 'pan';
+    this.pointers = new Map();  // pointerId → [x, y], canvas CSS pixels
+    this.gesture = null;        // the pan/pinch or the sketch under way
+    this.waiters = [];          // setView() promises waiting for the viewer to be idle
+    this.frameRequested = false;
+    let firstFrame;
+    this.ready = new Promise((resolve) => { firstFrame = resolve; });
+    this.firstFrame = firstFrame;
+    this.setCompare(false);
+    this.listen();
+    new ResizeObserver(() => this.layout()).observe(canvas);
+    this.reloadLines();
+  }
+
+  // --- view -------------------------------------------------------------------------------
+
+  getView() {
+    return { ...this.view };
+  }
+
+  // The API's setView: the change, and a promise of it drawn.
+  setView(view) {
+    this.changeView(view);
+    return this.whenIdle();
+  }
+
+  // Fields left out (or not numbers) stay as they are. Clamped to what the server accepts and
+  // rounded as it is sent, so getView() is what is shown.
+  changeView(view) {
+    const value = (key, hi) => {
+      const wanted = Number.isFinite(view[key]) ? view[key] : this.view[key];
+      return Number(Math.min(hi, Math.max(0, wanted)).toFixed(VIEW_DIGITS[key]));
+    };
+    this.view = { zoom: value('zoom', 1), cx: value('cx', this.image.width), cy: value('cy', this.image.height) };
+    for (const pane of this.panes) pane.show(this.view);
+  }
+
+  // Resolves with the view once it is fetched and fully drawn (tiles loaded, animation over);
+  // rejects if a pane could not load it.
+  whenIdle() {
+    const idle = new Promise((resolve, reject) => this.waiters.push({ resolve, reject }));
+    this.requestFrame();
+    return idle;
+  }
+
+  settle(now) {
+    if (this.waiters.length === 0 || !this.panes.every((pane) => pane.idle(now))) return;
+    const failed = this.panes.find((pane) => pane.failure);
+    for (const { resolve, reject } of this.waiters.splice(0)) {
+      if (failed) reject(failed.failure.error);
+      else resolve(this.getView());
+    }
+  }
+
+  // One pane, or ICAZ and traditional zooming side by side, each with its own mesh of half the
+  // width.
+  setCompare(on) {
+    for (const pane of this.panes) pane.dispose();
+    this.panes = (on ? ['icaz', 'traditional'] : ['icaz']).map((method) => new Pane({
+      method,
+      image: this.image,
+      renderer: this.renderer,
+      tiles: this.tiles,
+      counters: this.counters,
+      onChange: () => this.paneChanged(),
+    }));
+    this.layout();
+  }
+
+  layout() {
+    const width = Math.round(this.canvas.clientWidth);
+    const height = Math.round(this.canvas.clientHeight);
+    const share = Math.floor(width / this.panes.length);
+    this.panes.forEach((pane, k) => {
+      const x = k * share;
+      pane.rect = { x, y: 0, width: k === this.panes.length - 1 ? width - x : share, height };
+      pane.show(this.view);
+    });
+    this.requestFrame();
+  }
+
+  paneChanged() {
+    const failed = this.panes.find((pane) => pane.failure);
+    if (failed) this.say(failed.failure.error.message);
+    this.requestFrame();
+  }
+
+  // --- drawing ----------------------------------------------------------------------------
+
+  requestFrame() {
+    if (this.frameRequested) return;
+    this.frameRequested = true;
+    requestAnimationFrame((now) => this.frame(now));
+  }
+
+  frame(now) {
+    this.frameRequested = false;
+    const width = this.canvas.clientWidth;
+    const height = this.canvas.clientHeight;
+    const pixelRatio = window.devicePixelRatio || 1;
+    this.renderer.beginFrame(width, height, pixelRatio);
+    for (const pane of this.panes) pane.draw(now);
+    this.overlay.draw({ width, height, pixelRatio, panes: this.panes, lines: this.lines, sketch: this.sketch(), now });
+    this.counters.frames++;
+    if (this.panes.some((pane) => pane.shown)) this.firstFrame();
+    if (this.panes.some((pane) => pane.progress(now) < 1)) this.requestFrame();
+    this.settle(now);
+  }
+
+  // --- input ------------------------------------------------------------------------------
+
+  listen() {
+    const c = this.canvas;
+    c.addEventListener('wheel', (e) => this.wheel(e), { passive: false });
+    c.addEventListener('pointerdown', (e) => this.pointerDown(e));
+    c.addEventListener('pointermove', (e) => this.pointerMove(e));
+    c.addEventListener('pointerup', (e) => this.pointerUp(e));
+    c.addEventListener('pointercancel', (e) => this.pointerUp(e));
+  }
+
+  wheel(e) {
+    e.preventDefault();
+    const perNotch = e.deltaMode === WheelEvent.DOM_DELTA_LINE ? LINES_PER_NOTCH
+                   : e.deltaMode === WheelEvent.DOM_DELTA_PAGE ? 1 : PIXELS_PER_NOTCH;
+    this.changeView({ zoom: this.view.zoom - (e.deltaY / perNotch) * ZOOM_STEP });
+  }
+
+  pointerDown(e) {
+    if (e.pointerType === 'mouse' && e.button !== 0) return;
+    this.canvas.setPointerCapture(e.pointerId);
+    this.pointers.set(e.pointerId, [e.offsetX, e.offsetY]);
+    this.gesture = this.tool === 'pan' ? this.startPan() : this.startSketch();
+  }
+
+  pointerMove(e) {
+    if (!this.pointers.has(e.pointerId)) return;
+    this.pointers.set(e.pointerId, [e.offsetX, e.offsetY]);
+    if (this.gesture?.kind === 'pan') this.movePan(this.gesture);
+    if (this.gesture?.kind === 'sketch') {
+      this.gesture.end = [e.offsetX, e.offsetY];
+      this.requestFrame();
+    }
+  }
+
+  pointerUp(e) {
+    if (!this.pointers.delete(e.pointerId)) return;
+    const gesture = this.gesture;
+    // A pinch that loses a finger goes on as a pan of the other one, from where it is now.
+    this.gesture = gesture?.kind === 'pan' && this.pointers.size > 0 ? this.startPan() : null;
+    if (gesture?.kind === 'sketch') this.finishSketch(gesture);
+  }
+
+  // Pan and pinch from the view and pointers at the gesture's start. Moving the centre by the
+  // pointer distance over the local magnification keeps the content under the pointer.
+  startPan() {
+    const points = [...this.pointers.values()];
+    const centre = centroid(points);
+    const pane = this.paneAt(centre) ?? this.panes[0];
+    return { kind: 'pan', view: this.getView(), centre, spread: spread(points), pane,
+             magnification: pane.magnificationAt(centre) };
+  }
+
+  movePan(g) {
+    const points = [...this.pointers.values()];
+    const centre = centroid(points);
+    const pinch = points.length >= 2 && g.spread > 0 ? g.pane.zoomChange(spread(points) / g.spread) : 0;
+    this.changeView({
+      zoom: g.view.zoom + pinch,
+      cx: g.view.cx - (centre[0] - g.centre[0]) / g.magnification,
+      cy: g.view.cy - (centre[1] - g.centre[1]) / g.magnification,
+    });
+  }
+
+  startSketch() {
+    if (this.pointers.size !== 1) return null;
+    const [start] = this.pointers.values();
+    const pane = this.paneAt(start);
+    return pane?.shown ? { kind: 'sketch', tool: this.tool, pane, start, end: start } : null;
+  }
+
+  sketch() {
+    return this.gesture?.kind === 'sketch' ? this.gesture : null;
+  }
+
+  async finishSketch({ tool, pane, start, end }) {
+    this.requestFrame();  // clears the sketch
+    if (Math.hypot(end[0] - start[0], end[1] - start[1]) < MIN_SKETCH) return;
+    const toSource = (p) => pane.toSource(p, performance.now());
+    try {
+      if (tool === 'important') await this.markRegion(start, end, toSource);
+      else await this.addLine(start, end, toSource);
+    } catch (error) {
+      this.say(error.message);
+    }
+  }
+
+  async markRegion(start, end, toSource) {
+    const polygon = outlineInSource(start, end, toSource, this.image);
+    if (!polygon) return this.say('mark a region on the picture');
+    this.say('marking the region important…');
+    this.edited(await markImportant(this.image.id, polygon));
+  }
+
+  async addLine(start, end, toSource) {
+    const [a, b] = [toSource(start), toSource(end)];
+    if (!a || !b) return this.say('draw lines on the picture');
+    this.say('adding the line…');
+    const lines = await fetchLines(this.image.id);
+    lines.push([...insideImage(a, this.image), ...insideImage(b, this.image)]);
+    this.edited(await putLines(this.image.id, lines));
+  }
+
+  // A new image version: every pane fetches its view again, and the overlay the lines.
+  edited(image) {
+    this.image = { ...this.image, version: image.version };
+    this.say(`saved: version ${image.version}`);
+    for (const pane of this.panes) pane.invalidate();
+    this.reloadLines();
+  }
+
+  async reloadLines() {
+    try {
+      this.lines = await fetchLines(this.image.id);
+      this.requestFrame();
+    } catch (error) {
+      this.say(error.message);
+    }
+  }
+
+  paneAt(point) {
+    return this.panes.find((pane) => pane.contains(point));
+  }
+
+  setTool(tool) {
+    this.tool = tool;
+    this.canvas.dataset.tool = tool;
+  }
+
+  say(message) {
+    this.status.textContent = message;
+  }
+}
+
+function centroid(points) {
+  const sum = points.reduce(([x, y], [px, py]) => [x + px, y + py], [0, 0]);
+  return [sum[0] / points.length, sum[1] / points.length];
+}
+
+// Mean distance of the points from their centroid: its ratio between two moments is the pinch.
+function spread(points) {
+  const [cx, cy] = centroid(points);
+  return points.reduce((sum, [x, y]) => sum + Math.hypot(x - cx, y - cy), 0) / points.length;
+}
+
+// --- page ---------------------------------------------------------------------------------
+
+async function listImages() {
+  const response = await fetch('/v1/images', { cache: 'no-cache' });
+  if (!response.ok) throw new Error(`image list: HTTP ${response.status}`);
+  return (await response.json()).images;
+}
+
+// The picker reloads the page for another image: each image starts from a clean viewer.
+function fillPicker(picker, images, selected) {
+  for (const image of images) picker.add(new Option(`${image.id} (${image.width}×${image.height})`, image.id));
+  picker.value = selected.id;
+  picker.addEventListener('change', () => {
+    const url = new URL(location.href);
+    url.searchParams.set('image', picker.value);
+    location.assign(url);
+  });
+}
+
+function wireControls(viewer) {
+  for (const input of document.querySelectorAll('input[name="tool"]')) {
+    input.addEventListener('change', () => input.checked && viewer.setTool(input.value));
+  }
+  document.getElementById('compare').addEventListener('change', (e) => viewer.setCompare(e.target.checked));
+}
+
+async function start() {
+  const status = document.getElementById('status');
+  const images = await listImages();
+  if (images.length === 0) throw new Error('no images yet: add one with POST /v1/images');
+  const wanted = new URLSearchParams(location.search).get('image');
+  const image = images.find((i) => i.id === wanted) ?? images[0];
+  if (wanted && image.id !== wanted) status.textContent = `no image '${wanted}'; showing ${image.id}`;
+  fillPicker(document.getElementById('image-picker'), images, image);
+  const viewer = new Viewer({
+    canvas: document.getElementById('view'),
+    overlayCanvas: document.getElementById('overlay'),
+    status,
+    image,
+  });
+  wireControls(viewer);
+  return viewer;
+}
+
+// The test API exists from the first moment; ready settles when the first frame is drawn (or
+// the viewer could not start).
+let viewerNow = null;
+const booting = start();
+window.zoomwarp = {
+  ready: booting.then((viewer) => viewer.ready),
+  setView: async (view) => (await booting).setView(view),
+  getView: () => viewerNow?.getView(),
+  get imageId() { return viewerNow?.image.id; },
+  get meshRequests() { return viewerNow?.counters.meshRequests ?? 0; },
+  get frames() { return viewerNow?.counters.frames ?? 0; },
+};
+booting.then((viewer) => { viewerNow = viewer; },
+             (error) => { document.getElementById('status').textContent = error.message; });
