@@ -26,7 +26,7 @@ std::vector<std::string> imports(const std::string& module) {
   return out;
 }
 
-TEST(Web, ServesThePageAndEveryModuleItImports) {
+TEST(Web, ServesThePageEveryModuleItImportsAndTheIndex) {
   testing::TempDir dir;
   testing::ServerProcess server(dir.path() + "/store");
   HttpClient http(server.port());
@@ -60,12 +60,8 @@ TEST(Web, ServesThePageAndEveryModuleItImports) {
   EXPECT_EQ(missing.status, 404);
   EXPECT_EQ(nlohmann::json::parse(missing.body)["error"]["code"], "file_not_found");
   EXPECT_EQ(http.request("POST", "/viewer.js", "").status, 405);
-}
 
-TEST(Web, TheJsonIndexIsAtV1) {
-  testing::TempDir dir;
-  testing::ServerProcess server(dir.path() + "/store");
-  HttpClient http(server.port());
+  // The JSON index moved to /v1.
   const auto index = http.get("/v1");
   ASSERT_EQ(index.status, 200);
   EXPECT_EQ(index.header("content-type"), "application/json");
