@@ -1,0 +1,439 @@
+// `zoomwarp replay PATH…`: replays view paths (server/view_path.h) against a running server's
+// /mesh and /viewport routes with concurrent keep-alive clients, and prints latency percentiles per
+// (endpoint, action) and the throughput. For load tests: tests/load/README.md has the shipped
+// paths and how to run them. Exit codes: 0 the run completed (also when requests failed: the
+// summary counts them), 1 it could not run (server unreachable, unknown image), 2 usage or a
+// malformed path, 3 with --fail-on-error when any request failed.
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <regex>
+#include <thread>
+
+#include "server/commands.h"
+#include "server/http_client.h"
+#include "server/options.h"
+#include "server/view_path.h"
+#include "tiles/image_id.h"
+
+namespace zoomwarp::server {
+
+namespace {
+
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+constexpr auto kPauseAfterFailure = std::chrono::milliseconds(100);
+constexpr auto kProgressInterval = std::chrono::milliseconds(250);
+
+enum class Endpoint { kMesh, kViewport };
+constexpr std::array<const char*, 2> kEndpointNames = {"mesh", "viewport"};
+constexpr std::array<ViewAction::Kind, 2> kKinds = {ViewAction::Kind::kZoom, ViewAction::Kind::kPan};
+
+// Statistics are kept per series: one endpoint × one action kind.
+constexpr int kSeries = 4;
+int series_of(Endpoint e, ViewAction::Kind k) { return int(e) * 2 + int(k); }
+
+struct BaseUrl {
+  std::string host, port, prefix;  // prefix: "" or "/path", without a trailing slash
+};
+
+struct Config {
+  BaseUrl url;
+  std::string image;
+  int clients = 4;
+  std::optional<std::int64_t> count;        // requests per client
+  std::optional<Clock::duration> duration;  // instead of a count
+  std::vector<Endpoint> endpoints;
+  std::string method, format;
+  std::chrono::milliseconds timeout{};
+  bool json = false, fail_on_error = false;
+  std::vector<std::string> paths;
+};
+
+std::vector<OptionSpec> replay_specs() {
+  return {
+      {"url", "http://127.0.0.1:8080", "the server, http://HOST[:PORT][/PREFIX]"},
+      {"image", "", "id of the image the paths explore (required)"},
+      {"clients", "4", "concurrent keep-alive connections; client i of N starts at action i/N of the path"},
+      {"count", "", "requests per client, wrapping around the path (default: the path once)"},
+      {"duration", "", "seconds to run, wrapping around the path (instead of --count)"},
+      {"endpoint", "both", "mesh, viewport, or both (each action requests its mesh, then its viewport)"},
+      {"method", "icaz", "icaz, traditional or retarget-zoom"},
+      {"format", "jpg", "viewport image format: jpg, png or webp"},
+      {"timeout", "30", "seconds a request may take before it counts as failed"},
+      {"json", "0", "print the summary as one JSON object", true},
+      {"fail-on-error", "0", "exit 3 when any request failed", true},
+  };
+}
+
+constexpr const char* kHelp =
+    "usage: zoomwarp replay PATH.jsonl... --image ID [OPTIONS]\n"
+    "\n"
+    "Replays view paths (JSON lines of zoom and pan actions, see tests/load/README.md) against a\n"
+    "running server: every client requests GET /v1/images/ID/mesh and /viewport for each action in\n"
+    "turn, as fast as the server answers, on one keep-alive connection (reconnecting after a failure).\n"
+    "Several paths are played one after the other. Prints per endpoint and action the requests, the\n"
+    "errors (non-2xx answers and connection failures) and the p50/p95/p99 latency of the successful\n"
+    "ones, then the throughput. Progress goes to stderr on a terminal.\n"
+    "\n"
+    "Exit codes: 0 the run completed (even with errors, which the summary reports), 1 it could not\n"
+    "run (server unreachable, unknown image), 2 usage or a malformed path, 3 with --fail-on-error\n"
+    "when any request failed.\n\n";
+
+BaseUrl parse_url(const std::string& url) {
+  static const std::regex form(R"(http://([^/:?#]+)(?::(\d{1,5}))?(/[^?#]*)?)");
+  std::smatch m;
+  if (!std::regex_match(url, m, form))
+    throw std::invalid_argument("--url must look like http://HOST[:PORT][/PREFIX], not '" + url + "'");
+  std::string prefix = m[3];
+  while (!prefix.empty() && prefix.back() == '/') prefix.pop_back();
+  return {m[1], m[2].matched ? m[2].str() : "80", prefix};
+}
+
+std::string choice(const Options& o, const std::string& name, const std::vector<std::string>& allowed) {
+  const std::string v = o.str(name);
+  if (std::find(allowed.begin(), allowed.end(), v) != allowed.end()) return v;
+  std::string list;
+  for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+  throw std::invalid_argument("--" + name + " must be one of " + list + ", not '" + v + "'");
+}
+
+Config config_from(const Options& o) {
+  Config c;
+  c.url = parse_url(o.str("url"));
+  c.image = o.str("image");
+  if (c.image.empty()) throw std::invalid_argument("give the image to explore with --image ID (see --help)");
+  if (!tiles::is_valid_image_id(c.image)) throw std::invalid_argument("invalid image id '" + c.image + "'");
+  c.clients = int(o.integer("clients", 1, 1024));
+  if (!o.str("count").empty() && !o.str("duration").empty())
+    throw std::invalid_argument("give --count or --duration, not both");
+  if (!o.str("count").empty()) c.count = o.integer("count", 1, 1'000'000'000);
+  if (!o.str("duration").empty()) c.duration = std::chrono::seconds(o.integer("duration", 1, 86400));
+  const std::string endpoint = choice(o, "endpoint", {"mesh", "viewport", "both"});
+  if (endpoint != "viewport") c.endpoints.push_back(Endpoint::kMesh);
+  if (endpoint != "mesh") c.endpoints.push_back(Endpoint::kViewport);
+  c.method = choice(o, "method", {"icaz", "traditional", "retarget-zoom"});
+  c.format = choice(o, "format", {"jpg", "png", "webp"});
+  c.timeout = std::chrono::seconds(o.integer("timeout", 1, 3600));
+  c.json = o.flag("json");
+  c.fail_on_error = o.flag("fail-on-error");
+  c.paths = o.positionals();
+  if (c.paths.empty()) throw std::invalid_argument("give at least one view path file (see --help)");
+  return c;
+}
+
+std::vector<ViewAction> read_paths(const std::vector<std::string>& files) {
+  std::vector<ViewAction> actions;
+  for (const auto& f : files) {
+    auto more = read_view_path(f);
+    actions.insert(actions.end(), more.begin(), more.end());
+  }
+  return actions;
+}
+
+// The server reads plain decimals only, no exponent: the shortest fixed notation that reads back
+// as the same number.
+std::string decimal(double v) {
+  char buf[400];  // DBL_MAX in fixed notation has 309 digits
+  return std::string(buf, std::to_chars(buf, buf + sizeof buf, v, std::chars_format::fixed).ptr);
+}
+
+// "/v1/images/{id}" under the URL's prefix.
+std::string image_target(const Config& c) { return c.url.prefix + "/v1/images/" + c.image; }
+
+struct ImageSize {
+  double width = 0, height = 0;
+};
+
+// The image's size from GET /v1/images/{id}; also proves the server is there before the clients
+// start. Throws std::runtime_error (exit 1) when it cannot tell.
+ImageSize image_size(const Config& c) {
+  HttpClient http(c.url.host, c.url.port, c.timeout);
+  const std::string target = image_target(c);
+  HttpClientResponse r = http.get(target);
+  while (!r.body.empty() && std::isspace(static_cast<unsigned char>(r.body.back()))) r.body.pop_back();
+  if (r.status != 200)
+    throw std::runtime_error("GET " + target + " answered " + std::to_string(r.status) + ": " + r.body);
+  const json j = json::parse(r.body, nullptr, /*allow_exceptions=*/false);
+  if (!j.is_object() || !j.value("width", json()).is_number() || !j.value("height", json()).is_number())
+    throw std::runtime_error("GET " + target + " does not describe an image: " + r.body);
+  return {j["width"].get<double>(), j["height"].get<double>()};
+}
+
+// The server refuses view centres outside the image: say so once, pointing at the line, rather
+// than replaying a path made for another image as a stream of 400s.
+void check_fits(const std::vector<ViewAction>& actions, ImageSize size, const std::string& image) {
+  for (const auto& a : actions)
+    if (a.cx > size.width || a.cy > size.height)
+      throw std::invalid_argument(a.where + ": the view centre (" + decimal(a.cx) + ", " + decimal(a.cy) +
+                                  ") lies outside image " + image + " (" + decimal(size.width) + "x" +
+                                  decimal(size.height) + ")");
+}
+
+struct PlannedRequest {
+  int series = 0;
+  std::string target;
+};
+
+// Every request of one pass over the path, action by action, in endpoint order.
+std::vector<PlannedRequest> plan_requests(const std::vector<ViewAction>& actions, const Config& c) {
+  std::vector<PlannedRequest> plan;
+  for (const auto& a : actions) {
+    const std::string query = "?zoom=" + decimal(a.zoom) + "&cx=" + decimal(a.cx) + "&cy=" + decimal(a.cy) +
+                              "&w=" + std::to_string(a.width) + "&h=" + std::to_string(a.height) +
+                              "&method=" + c.method;
+    for (Endpoint e : c.endpoints)
+      plan.push_back({series_of(e, a.kind), image_target(c) + "/" + kEndpointNames[int(e)] + query +
+                                                (e == Endpoint::kViewport ? "&format=" + c.format : "")});
+  }
+  return plan;
+}
+
+bool succeeded(int status) { return status >= 200 && status < 300; }
+
+struct SeriesStats {
+  std::int64_t requests = 0, errors = 0;
+  std::vector<float> ms;  // latencies of the successful requests; floats halve a long run's memory
+};
+
+// What a client measured. Each client keeps its own, so the hot loop shares nothing; the summary
+// merges them.
+struct Tally {
+  std::array<SeriesStats, kSeries> series;
+  std::map<std::string, std::int64_t> errors_by_status;  // "503", "connection", …
+
+  void record(int s, int status, double ms) {  // status 0: no answer, the connection failed
+    SeriesStats& st = series[s];
+    ++st.requests;
+    if (succeeded(status)) {
+      st.ms.push_back(float(ms));
+      return;
+    }
+    ++st.errors;
+    ++errors_by_status[status == 0 ? "connection" : std::to_string(status)];
+  }
+
+  void merge(const Tally& other) {
+    for (int s = 0; s < kSeries; ++s) {
+      series[s].requests += other.series[s].requests;
+      series[s].errors += other.series[s].errors;
+      series[s].ms.insert(series[s].ms.end(), other.series[s].ms.begin(), other.series[s].ms.end());
+    }
+    for (const auto& [status, n] : other.errors_by_status) errors_by_status[status] += n;
+  }
+};
+
+// What the clients share while they run.
+struct Run {
+  explicit Run(const std::vector<PlannedRequest>& p) : plan(p) {}
+  const std::vector<PlannedRequest>& plan;
+  std::int64_t per_client = 0;            // requests each client makes, without a deadline
+  std::optional<Clock::time_point> deadline;
+  std::atomic<std::int64_t> done{0}, failed{0};
+  std::mutex mu;  // guards what follows
+  std::condition_variable finished;
+  int running = 0;
+  std::string first_connection_error;
+};
+
+struct Outcome {
+  int status = 0;  // 0: no answer
+  double ms = 0;
+};
+
+Outcome timed_get(HttpClient& http, const std::string& target, Run& run) {
+  const auto t0 = Clock::now();
+  Outcome out;
+  std::optional<std::string> failure;
+  try {
+    out.status = http.get(target).status;
+  } catch (const HttpClientError& e) {
+    failure = e.what();
+  }
+  out.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  if (failure) {
+    {
+      std::lock_guard lock(run.mu);
+      if (run.first_connection_error.empty()) run.first_connection_error = *failure;
+    }
+    // The next get() reconnects; the pause keeps an unreachable server from turning the client
+    // into a busy loop of refused connections.
+    std::this_thread::sleep_for(kPauseAfterFailure);
+  }
+  return out;
+}
+
+// One client: its own connection, walking the plan from `start` and wrapping around. A reconnect
+// counts in the latency of the request that needed it, as a viewer would feel it.
+Tally replay_client(Run& run, const Config& c, std::size_t start) {
+  HttpClient http(c.url.host, c.url.port, c.timeout);
+  Tally tally;
+  for (std::int64_t i = 0; run.deadline ? Clock::now() < *run.deadline : i < run.per_client; ++i) {
+    const PlannedRequest& r = run.plan[(start + i) % run.plan.size()];
+    const Outcome o = timed_get(http, r.target, run);
+    tally.record(r.series, o.status, o.ms);
+    if (!succeeded(o.status)) ++run.failed;
+    ++run.done;
+  }
+  return tally;
+}
+
+void draw_progress(const Run& run, const Config& c, double elapsed_s) {
+  const auto done = run.done.load();
+  if (c.duration)
+    std::fprintf(stderr, "\rreplay: %.1f/%.0f s, %lld requests", elapsed_s,
+                 std::chrono::duration<double>(*c.duration).count(), (long long)done);
+  else
+    std::fprintf(stderr, "\rreplay: %lld/%lld requests", (long long)done, (long long)(run.per_client * c.clients));
+  std::fprintf(stderr, ", %lld failed, %.1f/s ", (long long)run.failed.load(), elapsed_s > 0 ? done / elapsed_s : 0.0);
+  std::fflush(stderr);
+}
+
+struct Summary {
+  Tally tally;  // all clients', latencies sorted
+  std::int64_t requests = 0, errors = 0;
+  double seconds = 0;
+  std::string first_connection_error;
+};
+
+// Client i of N starts at action ⌊i·n/N⌋ so that the clients ask for different views at the same
+// moment; all starting together would mostly measure the server's single flight and response
+// cache, not its warps.
+Summary run_clients(const std::vector<PlannedRequest>& plan, std::size_t actions, const Config& c) {
+  Run run(plan);
+  run.per_client = c.count.value_or(std::int64_t(plan.size()));
+  run.running = c.clients;
+  const auto t0 = Clock::now();
+  if (c.duration) run.deadline = t0 + *c.duration;
+  std::vector<Tally> tallies(c.clients);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < c.clients; ++i)
+    threads.emplace_back([&, i] {
+      tallies[i] = replay_client(run, c, (i * actions / c.clients) * c.endpoints.size());
+      std::lock_guard lock(run.mu);
+      --run.running;
+      run.finished.notify_all();
+    });
+  const bool progress = ::isatty(STDERR_FILENO);
+  {
+    std::unique_lock lock(run.mu);
+    while (!run.finished.wait_for(lock, kProgressInterval, [&] { return run.running == 0; }))
+      if (progress) draw_progress(run, c, std::chrono::duration<double>(Clock::now() - t0).count());
+  }
+  Summary s;
+  s.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  for (auto& t : threads) t.join();
+  if (progress) {
+    draw_progress(run, c, s.seconds);
+    std::fputc('\n', stderr);
+  }
+  for (const Tally& t : tallies) s.tally.merge(t);
+  for (auto& st : s.tally.series) {
+    std::sort(st.ms.begin(), st.ms.end());
+    s.requests += st.requests;
+    s.errors += st.errors;
+  }
+  s.first_connection_error = run.first_connection_error;
+  return s;
+}
+
+// Nearest rank, so that p50 ≤ p95 ≤ p99 always holds and every figure is a measured latency.
+double percentile(const std::vector<float>& sorted, double p) {
+  const auto rank = std::size_t(std::ceil(p / 100 * double(sorted.size())));
+  return sorted[std::max<std::size_t>(rank, 1) - 1];
+}
+
+constexpr std::array<double, 3> kPercentiles = {50, 95, 99};
+
+// Calls fn(endpoint, action, stats) for every series that saw requests, endpoint by endpoint.
+template <class Fn>
+void for_each_series(const Summary& s, const Config& c, Fn fn) {
+  for (Endpoint e : c.endpoints)
+    for (ViewAction::Kind k : kKinds)
+      if (const SeriesStats& st = s.tally.series[series_of(e, k)]; st.requests > 0)
+        fn(kEndpointNames[int(e)], std::string(kind_name(k)), st);
+}
+
+json summary_json(const Summary& s, const Config& c) {
+  json endpoints = json::object();
+  for_each_series(s, c, [&](const char* endpoint, const std::string& action, const SeriesStats& st) {
+    json row = {{"requests", st.requests}, {"errors", st.errors}};
+    for (double p : kPercentiles)
+      row["p" + std::to_string(int(p)) + "_ms"] =
+          st.ms.empty() ? json() : json(std::round(percentile(st.ms, p) * 1000) / 1000);  // to the µs
+    endpoints[endpoint][action] = row;
+  });
+  json out = {{"image", c.image},
+              {"paths", c.paths},
+              {"method", c.method},
+              {"clients", c.clients},
+              {"seconds", s.seconds},
+              {"requests", s.requests},
+              {"errors", s.errors},
+              {"requests_per_second", s.requests / s.seconds},
+              {"errors_by_status", s.tally.errors_by_status},
+              {"endpoints", endpoints}};
+  if (!s.first_connection_error.empty()) out["first_connection_error"] = s.first_connection_error;
+  return out;
+}
+
+void print_summary(const Summary& s, const Config& c, std::size_t actions) {
+  std::printf("replayed %zu path%s (%zu actions) over %s with %d client%s, method %s: %lld requests in %.2f s, "
+              "%.1f requests/s, %lld errors\n\n",
+              c.paths.size(), c.paths.size() == 1 ? "" : "s", actions, c.image.c_str(), c.clients,
+              c.clients == 1 ? "" : "s", c.method.c_str(), (long long)s.requests, s.seconds, s.requests / s.seconds,
+              (long long)s.errors);
+  std::printf("%-9s %-6s %9s %7s %8s %8s %8s\n", "endpoint", "action", "requests", "errors", "p50 ms", "p95 ms",
+              "p99 ms");
+  for_each_series(s, c, [](const char* endpoint, const std::string& action, const SeriesStats& st) {
+    std::printf("%-9s %-6s %9lld %7lld", endpoint, action.c_str(), (long long)st.requests, (long long)st.errors);
+    for (double p : kPercentiles)
+      if (st.ms.empty()) std::printf(" %8s", "-");
+      else std::printf(" %8.1f", percentile(st.ms, p));
+    std::printf("\n");
+  });
+  if (s.tally.errors_by_status.empty()) return;
+  std::printf("\nerrors:");
+  for (const auto& [status, n] : s.tally.errors_by_status) std::printf(" %s x%lld", status.c_str(), (long long)n);
+  std::printf("\n");
+  if (!s.first_connection_error.empty()) std::printf("first connection error: %s\n", s.first_connection_error.c_str());
+}
+
+}  // namespace
+
+int replay_command(const std::vector<std::string>& args) {
+  try {
+    Options o(replay_specs(), args);
+    if (o.help_requested()) {
+      std::printf("%s%s", kHelp, o.usage().c_str());
+      return 0;
+    }
+    const Config c = config_from(o);
+    const std::vector<ViewAction> actions = read_paths(c.paths);
+    check_fits(actions, image_size(c), c.image);
+    const Summary s = run_clients(plan_requests(actions, c), actions.size(), c);
+    if (c.json) std::printf("%s\n", summary_json(s, c).dump().c_str());
+    else print_summary(s, c, actions.size());
+    return c.fail_on_error && s.errors > 0 ? 3 : 0;
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "zoomwarp replay: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "zoomwarp replay: %s\n", e.what());
+    return 1;
+  }
+}
+
+}  // namespace zoomwarp::server
