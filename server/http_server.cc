@@ -7,7 +7,9 @@
 #include <boost/asio/signal_set.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <nlohmann/json.hpp>
+#include <memory>
 #include <thread>
+#include <vector>
 
 #include "server/listener.h"
 #include "server/log.h"
@@ -66,9 +68,15 @@ struct HttpServer::Impl {
   }
 
   void close_idle_sessions() {
-    std::lock_guard lock(state.sessions_mu);
-    for (auto& [ptr, weak] : state.sessions)
-      if (auto s = weak.lock()) net::post(s->get_executor(), [s] { s->close_if_idle(); });
+    // Collect first, post after unlocking: a posted close may run at once on another I/O thread
+    // and leave our copy as the last reference, and ~Session takes sessions_mu to unregister.
+    std::vector<std::shared_ptr<Session>> open;
+    {
+      std::lock_guard lock(state.sessions_mu);
+      for (auto& [ptr, weak] : state.sessions)
+        if (auto s = weak.lock()) open.push_back(std::move(s));
+    }
+    for (auto& s : open) net::post(s->get_executor(), [s] { s->close_if_idle(); });
   }
 
   void wait_for_sessions() {
