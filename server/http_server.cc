@@ -85,8 +85,9 @@ struct HttpServer::Impl {
       std::lock_guard lock(state.sessions_mu);
       open = state.sessions.size();
     }
-    if (open == 0 || std::chrono::steady_clock::now() > drain_deadline) {
-      log_event("info", "stopped", {{"open_connections", open}});
+    // Also until the listener has closed: it may still be accepting connections already made.
+    if ((open == 0 && listener->closed()) || std::chrono::steady_clock::now() > drain_deadline) {
+      log_event("info", "stopped", {{"open_connections", open}, {"connections_accepted", state.connections_accepted.load()}});
       work.reset();
       ioc.stop();
       return;

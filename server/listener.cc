@@ -11,6 +11,7 @@ namespace zoomwarp::server {
 namespace net = boost::asio;
 using tcp = net::ip::tcp;
 
+
 Listener::Listener(net::io_context& ioc, tcp::endpoint endpoint, ServerState& state)
     : ioc_(ioc), acceptor_(net::make_strand(ioc)), state_(state) {
   boost::system::error_code ec;
@@ -30,22 +31,39 @@ void Listener::run() {
 }
 
 void Listener::stop() {
-  net::post(acceptor_.get_executor(), [self = shared_from_this()] {
-    boost::system::error_code ec;
-    self->acceptor_.close(ec);
-  });
+  net::post(acceptor_.get_executor(), [self = shared_from_this()] { self->close_now(); });
+}
+
+void Listener::close_now() {
+  // Closing a listening socket resets the connections the kernel has completed but we have not
+  // accepted yet: their clients connected and sent a request, and would get a reset. So take
+  // them first (non-blocking, until none is left) and answer them like any other. (Handshakes
+  // that complete in the microseconds between the last accept and the close are still reset by
+  // the kernel: every server that closes its listener has that window.)
+  boost::system::error_code ec;
+  acceptor_.non_blocking(true, ec);
+  while (!ec && acceptor_.is_open()) {
+    tcp::socket socket(net::make_strand(ioc_));
+    acceptor_.accept(socket, ec);
+    if (!ec) start_session(std::move(socket));
+  }
+  acceptor_.close(ec);
+  closed_ = true;
+}
+
+void Listener::start_session(tcp::socket socket) {
+  ++state_.connections_accepted;
+  boost::system::error_code ec;
+  socket.set_option(tcp::no_delay(true), ec);
+  std::make_shared<Session>(std::move(socket), state_)->start();
 }
 
 void Listener::accept() {
   acceptor_.async_accept(net::make_strand(ioc_), [self = shared_from_this()](boost::system::error_code ec,
                                                                              tcp::socket socket) {
     if (ec == net::error::operation_aborted || !self->acceptor_.is_open()) return;
-    if (ec) {
-      log_event("warn", "accept failed", {{"error", ec.message()}});
-    } else {
-      socket.set_option(tcp::no_delay(true), ec);
-      std::make_shared<Session>(std::move(socket), self->state_)->start();
-    }
+    if (!ec) self->start_session(std::move(socket));
+    if (ec) log_event("warn", "accept failed", {{"error", ec.message()}});
     self->accept();
   });
 }

@@ -23,6 +23,7 @@ constexpr std::size_t kHeaderLimit = 16 * 1024;
 constexpr auto kUploadTimeout = std::chrono::minutes(10);
 constexpr auto kWriteTimeout = std::chrono::seconds(60);
 constexpr auto kLingerTimeout = std::chrono::seconds(2);
+constexpr auto kFreshConnectionGrace = std::chrono::seconds(1);
 
 // Errors that mean the client went away or stalled: there is nobody to answer.
 bool client_gone(beast::error_code ec) {
@@ -55,14 +56,20 @@ void Session::start() {
 
 void Session::close_if_idle() {
   if (!idle_ || buffer_.size() > 0) return;
+  // A connection accepted a moment ago has its first request on the way: closing it now would
+  // reset that request. It gets a short grace (the drain calls this again every 50 ms).
+  if (fresh_ && std::chrono::steady_clock::now() - accepted_ < kFreshConnectionGrace) return;
   beast::error_code ec;
   stream_.socket().shutdown(net::ip::tcp::socket::shutdown_both, ec);
   stream_.close();
 }
 
 void Session::read_header() {
+  // Also while draining: a new connection accepted during the drain delay, or one whose last
+  // response still said keep-alive, is owed an answer to the request it is sending (which will say
+  // "Connection: close"). Dropping it here reset those clients; close_if_idle() ends the
+  // connections that stay idle once the listener has closed.
   idle_ = true;
-  if (state_.draining.load() && buffer_.size() == 0) return;  // drained: let the connection go
   header_parser_.emplace();
   header_parser_->header_limit(kHeaderLimit);
   // The body's limit depends on the route and is set once the header is read. (Not boost::none:
@@ -86,6 +93,7 @@ void Session::on_header(beast::error_code ec) {
     return send(api::error_response(400, "bad_request", "malformed HTTP request: " + ec.message()));
   }
   idle_ = false;
+  fresh_ = false;
   started_ = std::chrono::steady_clock::now();
   auto& h = header_parser_->get();
   version_ = h.version();

@@ -35,6 +35,7 @@ struct ServerState {
   WorkerPool& ingest;
   Metrics& metrics;
   std::atomic<bool> draining{false};
+  std::atomic<std::uint64_t> connections_accepted{0};  // logged when the server stops
 
   std::mutex sessions_mu;
   std::unordered_map<Session*, std::weak_ptr<Session>> sessions;  // for draining
@@ -46,7 +47,8 @@ class Session : public std::enable_shared_from_this<Session> {
   ~Session();
 
   void start();
-  // Drain: closes the connection if it is waiting for a new request. Runs on the session's strand.
+  // Drain: closes the connection if it is waiting for a new request (a new connection only once
+  // it has had a second to send its first). Runs on the session's strand.
   void close_if_idle();
   auto get_executor() { return stream_.get_executor(); }
 
@@ -76,6 +78,8 @@ class Session : public std::enable_shared_from_this<Session> {
   unsigned version_ = 11;
   bool keep_alive_ = true;
   bool idle_ = true;
+  bool fresh_ = true;  // no request read yet
+  std::chrono::steady_clock::time_point accepted_ = std::chrono::steady_clock::now();
   std::string upload_dir_;
   std::chrono::steady_clock::time_point started_;
 

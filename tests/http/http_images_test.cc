@@ -1,6 +1,12 @@
 // /v1/images over a real server: upload, describe, list, delete, re-ingest while serving,
-// restart persistence, and every way an upload or an id can be bad.
+// restart persistence, an ingest killed half-way, and every way an upload or an id can be bad.
 #include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <filesystem>
@@ -228,6 +234,110 @@ TEST(IngestCli, ExitCodesAndMessages) {
                                   "--max-pixels", "1000"}).exit_code, 4);
   EXPECT_EQ(testing::run_command({bin, "ingest", "--bogus"}).exit_code, 2);
   expect_store_clean(store, 0);
+}
+
+// Starts a command without waiting for it (output to /dev/null); the caller reaps it.
+pid_t spawn_quietly(const std::vector<std::string>& argv) {
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, "/dev/null", O_WRONLY, 0);
+  std::vector<char*> args;
+  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  pid_t pid = -1;
+  const int rc = ::posix_spawn(&pid, args[0], &actions, nullptr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  return rc == 0 ? pid : -1;
+}
+
+// The staging folder of process `pid` (HOST.PID.RANDOM), or "".
+std::string staging_dir_of(const std::string& store, pid_t pid) {
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(store + "/staging", ec))
+    if (e.path().filename().string().find("." + std::to_string(pid) + ".") != std::string::npos) return e.path().string();
+  return "";
+}
+
+// Whether a pyramid level in `dir` has data in it yet.
+bool has_level_data(const std::string& dir) {
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind("level_", 0) == 0 && fs::file_size(e.path(), ec) > 0 && !ec) return true;
+  }
+  return false;
+}
+
+// `zoomwarp ingest` SIGKILLed half-way (no chance to clean up) leaves its staging folder behind and
+// nothing else: a server sharing the store never lists or serves the image; the folder stays until
+// the next server start, which removes it; then the same id ingests fine, and the server that was
+// running all along serves the image published by that other process at once, without a restart.
+TEST(Images, IngestKilledMidwayIsNeverServedAndIsCleanedUpAtStart) {
+  TempDir dir;
+  const std::string store = dir.path() + "/store";
+  const std::string source = dir.path() + "/big.jpg";
+  testing::write_image(source, testing::test_pattern(6000, 6000, 3));  // 36 MP: seconds to ingest
+  ServerProcess running(store);
+  HttpClient http(running.port());
+  ASSERT_EQ(http.get("/v1/images/big").status, 404);
+  const std::vector<std::string> ingest = {testing::zoomwarp_binary(), "ingest", source, "--store", store, "--id", "big", "--quiet"};
+
+  const pid_t pid = spawn_quietly(ingest);
+  ASSERT_GT(pid, 0);
+  std::string staging;
+  bool exited = false;
+  int status = 0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (::waitpid(pid, &status, WNOHANG) == pid) {
+      exited = true;
+      break;
+    }
+    staging = staging_dir_of(store, pid);
+    if (!staging.empty() && has_level_data(staging)) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  if (!exited) {
+    ::kill(pid, SIGKILL);
+    ::waitpid(pid, &status, 0);
+  }
+  ASSERT_FALSE(exited) << "the ingest finished (status " << status << ") before it could be killed mid-way";
+  ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL);
+  ASSERT_FALSE(staging.empty()) << "no staging folder with pyramid data appeared within 60 s";
+
+  // The partial image is nowhere to be seen, through any route.
+  EXPECT_TRUE(json::parse(http.get("/v1/images").body)["images"].empty());
+  expect_json_error(http.get("/v1/images/big"), 404, "image_not_found");
+  EXPECT_EQ(http.get("/dzi/big.dzi").status, 404);
+  EXPECT_EQ(http.get("/iiif/3/big/info.json").status, 404);
+  EXPECT_EQ(http.get("/v1/images/big/viewport?zoom=0&cx=10&cy=10&w=64&h=64").status, 404);
+  EXPECT_FALSE(fs::exists(store + "/images/big"));
+  EXPECT_TRUE(fs::is_empty(store + "/versions"));
+  // Its staging folder stays (the running server collects garbage only every minute)...
+  EXPECT_TRUE(has_level_data(staging)) << staging;
+
+  // ...until a server starts on the store: it removes the dead process's folder before listening.
+  {
+    ServerProcess restarted(store);
+    EXPECT_FALSE(fs::exists(staging)) << staging;
+    EXPECT_NE(restarted.log().find("\"gc_removed\":1"), std::string::npos) << restarted.log();
+    expect_store_clean(store, 0);
+    EXPECT_EQ(HttpClient(restarted.port()).get("/v1/images/big").status, 404);
+  }
+
+  // The same id ingests fine from another process, and the server running since before serves it
+  // at once: it reads the store's link on every request.
+  auto again = testing::run_command(ingest);
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  auto info = http.get("/v1/images/big");
+  ASSERT_EQ(info.status, 200) << info.body;
+  EXPECT_EQ(json::parse(info.body)["width"], 6000);
+  EXPECT_EQ(json::parse(http.get("/v1/images").body)["images"].size(), 1u);
+  auto tile = http.get("/dzi/big_files/12/3_2.jpg");
+  ASSERT_EQ(tile.status, 200);
+  EXPECT_EQ(testing::decode_image(tile.body).width, 254 + 2);  // an inner tile: 254 px and 1 px overlap each side
+  expect_store_clean(store, 1);
 }
 
 }  // namespace
