@@ -2,27 +2,47 @@
 # Installs every build and test dependency of zoomwarp from Debian 12 packages (and the npm
 # packages of the browser tests), non-interactively. Safe to run again: it installs only what is
 # missing. This is the only install step anyone, CI included, needs.
+#
+#   scripts/setup.sh               everything: build, tests, benchmarks, browser tests
+#   scripts/setup.sh --build-only  only what building the zoomwarp binary needs (-DBUILD_TESTING=OFF):
+#                                  the builder stage of deploy/Dockerfile, which should not carry
+#                                  a browser, Node, nginx or test libraries
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# Build: compiler, CMake, and the libraries fixed by DESIGN.md §3.
+build_only=0
+for arg in "$@"; do
+  case "$arg" in
+    --build-only) build_only=1 ;;
+    -h | --help) sed -n '2,/^set /s/^# \{0,1\}//p' "$0"; exit 0 ;;  # the comment above
+    *) echo "setup: unknown argument '$arg' (see --help)" >&2; exit 2 ;;
+  esac
+done
+
+# Build of the zoomwarp binary: compiler, CMake, and the libraries fixed by DESIGN.md §3.
+# openimageio-tools too: OpenImageIO's CMake package fails unless the tools it lists exist.
 build_pkgs=(
-  build-essential cmake ninja-build pkg-config git ca-certificates
+  build-essential cmake ninja-build pkg-config
   libopenimageio-dev openimageio-tools
   libeigen3-dev libsuitesparse-dev libcgal-dev libboost-dev
   nlohmann-json3-dev libturbojpeg0-dev libpng-dev libwebp-dev
-  libopencv-imgproc-dev libopencv-objdetect-dev opencv-data
-  libgtest-dev libgmock-dev libbenchmark-dev
+  libopencv-imgproc-dev libopencv-objdetect-dev
 )
+# Working on it: the face cascades the binary loads at run time (the container image gets them
+# from deploy/runtime-packages.txt), git, and the test and benchmark libraries.
+dev_pkgs=(opencv-data git ca-certificates libgtest-dev libgmock-dev libbenchmark-dev)
 # Tests and benchmarks: a browser for the viewer tests, Node for driving it, nginx and wrk to
-# measure against, curl for the scripts.
-test_pkgs=(chromium nodejs npm nginx-light wrk curl procps)
+# measure against and to front the replicas (tests/cluster/), curl and jq for the scripts,
+# PyYAML for the deployment files' test (tests/deploy/).
+test_pkgs=(chromium nodejs npm nginx-light wrk curl jq procps python3-yaml)
+pkgs=("${build_pkgs[@]}")
+if [ "$build_only" -eq 0 ]; then pkgs+=("${dev_pkgs[@]}" "${test_pkgs[@]}"); fi
 
 sudo_cmd=()
 if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
 
 missing=()
-for p in "${build_pkgs[@]}" "${test_pkgs[@]}"; do
+for p in "${pkgs[@]}"; do
   # nodejs/npm may come from elsewhere (a newer Node on the PATH is fine).
   case "$p" in nodejs) command -v node >/dev/null && continue ;; npm) command -v npm >/dev/null && continue ;; esac
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -37,7 +57,7 @@ else
 fi
 
 # npm packages of the browser tests (OpenSeadragon, playwright-core driving Debian's chromium).
-if [ -f tests/browser/package.json ]; then
+if [ "$build_only" -eq 0 ] && [ -f tests/browser/package.json ]; then
   if [ ! -d tests/browser/node_modules ] || [ tests/browser/package-lock.json -nt tests/browser/node_modules ]; then
     (cd tests/browser && npm ci --no-audit --no-fund --loglevel=error)
     touch tests/browser/node_modules

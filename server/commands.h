@@ -10,5 +10,6 @@ namespace zoomwarp::server {
 int serve_command(const std::vector<std::string>& args);
 int ingest_command(const std::vector<std::string>& args);
 int replay_command(const std::vector<std::string>& args);
+int health_command(const std::vector<std::string>& args);
 
 }  // namespace zoomwarp::server

@@ -1,5 +1,5 @@
 // A blocking HTTP/1.1 GET client on one keep-alive connection, with a time limit on every step,
-// for `zoomwarp replay`. One per thread. Beast stays inside http_client.cc.
+// for `zoomwarp replay` and `zoomwarp health`. One per thread. Beast stays inside http_client.cc.
 #pragma once
 
 #include <chrono>

@@ -13,6 +13,7 @@ constexpr const char* kUsage =
     "  serve     run the HTTP server (tiles, IIIF, Deep Zoom, REST API)\n"
     "  ingest    add an image file to the store as a tile pyramid\n"
     "  replay    replay view paths against a running server (load test of /mesh and /viewport)\n"
+    "  health    exit 0 if a running server answers /healthz with 200 (container health checks)\n"
     "\n"
     "'zoomwarp COMMAND --help' lists a command's options; each option --some-name can also be\n"
     "set with the environment variable ZOOMWARP_SOME_NAME.\n";
@@ -33,6 +34,7 @@ int main(int argc, char** argv) {
   if (command == "serve") return zoomwarp::server::serve_command(args);
   if (command == "ingest") return zoomwarp::server::ingest_command(args);
   if (command == "replay") return zoomwarp::server::replay_command(args);
+  if (command == "health") return zoomwarp::server::health_command(args);
   std::fprintf(stderr, "zoomwarp: unknown command '%s'\n\n%s", command.c_str(), kUsage);
   return 2;
 }

@@ -1,0 +1,660 @@
+#!/usr/bin/env python3
+"""The deployment files agree with each other, with deploy/README.md and with the binary.
+
+Nothing here can be exercised for real on a machine without Docker or a cluster, so this checks
+what a typo would break: every YAML file under deploy/ parses; the kustomize base lists files that
+exist; the Deployment has its probes, resources and restrictive security context, a grace period
+covering the drain, and agrees with the Service, HPA, PVC, PDB and ConfigMap; every ZOOMWARP_*
+variable named anywhere in deploy/ is a real option (from `zoomwarp serve|ingest|health --help`);
+the store path, port and uid are the same in the Dockerfile, compose.yaml and the k8s manifests;
+nginx.conf keeps its retry and cache directives and the lines tests/cluster substitutes; the
+Dockerfile installs from deploy/runtime-packages.txt and declares what a runtime image should; and
+deploy/README.md's table of variables is exactly what --help says.
+
+    python3 tests/deploy/manifests_test.py --binary build/bin/zoomwarp [--root .]
+    python3 tests/deploy/manifests_test.py --binary build/bin/zoomwarp --readme-table  # regenerate
+
+CTest runs it as deploy.manifests (label deploy). Needs PyYAML (Debian's python3-yaml).
+"""
+import argparse
+import os
+import re
+import shlex
+import shutil
+import subprocess
+import sys
+import tempfile
+import unittest
+
+import yaml
+
+ARGS = None  # filled in by main(): --binary, --root
+
+# Options whose default is the machine's CPU count: --help shows this machine's number, the README
+# says so in words.
+CPU_DEPENDENT = {"io-threads", "workers"}
+
+
+# ---- reading the binary ---------------------------------------------------------------------------
+
+HELP_COMMANDS = ("serve", "ingest", "health")
+_HELP = {}
+
+
+def help_text(command):
+    """`zoomwarp COMMAND --help`. The first call starts all three at once: loading the binary's
+    libraries takes a while on a busy machine, and this keeps the test at about a second."""
+    if not _HELP:
+        procs = {c: subprocess.Popen([ARGS.binary, c, "--help"], stdout=subprocess.PIPE, text=True)
+                 for c in HELP_COMMANDS}
+        for c, proc in procs.items():
+            out, _ = proc.communicate(timeout=30)
+            assert proc.returncode == 0, f"`zoomwarp {c} --help` exited {proc.returncode}"
+            _HELP[c] = out
+    return _HELP[command]
+
+
+def help_options(command):
+    """{option name: (variable, default or None, help text)} from `zoomwarp COMMAND --help`."""
+    out = help_text(command)
+    pattern = re.compile(r"^  --([a-z0-9-]+)(?: VALUE)?\s+(.*)\n\s+\[(ZOOMWARP_[A-Z0-9_]+)(?:; default (.*))?\]$",
+                         re.MULTILINE)
+    options = {m.group(1): (m.group(3), m.group(4), m.group(2).strip()) for m in pattern.finditer(out)}
+    assert options, f"no options found in `zoomwarp {command} --help`:\n{out}"
+    return options
+
+
+_OPTIONS = {}
+
+
+def options(command):
+    if command not in _OPTIONS:
+        _OPTIONS[command] = help_options(command)
+    return _OPTIONS[command]
+
+
+def variables(*commands):
+    """{ZOOMWARP_X: default} over the given commands."""
+    return {var: default for c in commands for var, default, _ in options(c).values()}
+
+
+def default_of(var):
+    return variables("serve", "ingest")[var]
+
+
+# ---- reading the files ----------------------------------------------------------------------------
+
+def path(*parts):
+    return os.path.join(ARGS.root, *parts)
+
+
+def read(*parts):
+    with open(path(*parts), encoding="utf-8") as f:
+        return f.read()
+
+
+def load_yaml(*parts):
+    docs = [d for d in yaml.safe_load_all(read(*parts)) if d is not None]
+    assert len(docs) == 1, f"{os.path.join(*parts)}: expected one YAML document, found {len(docs)}"
+    return docs[0]
+
+
+def k8s_resources():
+    """{kind: manifest} of the kustomize base, in deploy/k8s/kustomization.yaml's order."""
+    kustomization = load_yaml("deploy", "k8s", "kustomization.yaml")
+    out = {}
+    for name in kustomization["resources"]:
+        doc = load_yaml("deploy", "k8s", name)
+        assert doc["kind"] not in out, f"two {doc['kind']}s in the base"
+        out[doc["kind"]] = doc
+    return out
+
+
+def dockerfile_instructions():
+    """[(INSTRUCTION, arguments)] with continuation lines joined and comments dropped."""
+    lines, current = [], ""
+    for raw in read("deploy", "Dockerfile").splitlines():
+        stripped = raw.strip()
+        if not current and (not stripped or stripped.startswith("#")):
+            continue
+        if current and stripped.startswith("#"):
+            continue  # a comment inside a continued instruction
+        if stripped.endswith("\\"):
+            current += stripped[:-1] + " "
+            continue
+        current += stripped
+        lines.append(current)
+        current = ""
+    out = []
+    for line in lines:
+        word, _, rest = line.partition(" ")
+        out.append((word.upper(), rest.strip()))
+    return out
+
+
+def stages():
+    """The Dockerfile's stages: [[(INSTRUCTION, arguments)], ...], each starting with its FROM."""
+    result = []
+    for ins in dockerfile_instructions():
+        if ins[0] == "FROM":
+            result.append([])
+        assert result, "the Dockerfile must start with FROM"
+        result[-1].append(ins)
+    return result
+
+
+def dockerfile_env(stage):
+    env = {}
+    for word, rest in stage:
+        if word == "ENV":
+            for item in shlex.split(rest):
+                key, _, value = item.partition("=")
+                env[key] = value
+    return env
+
+
+def duration_seconds(text):
+    """Compose durations: 35s, 1m30s, 2m, 500ms."""
+    total, pos = 0.0, 0
+    for m in re.finditer(r"(\d+(?:\.\d+)?)(ms|us|h|m|s)", str(text)):
+        assert m.start() == pos, f"unreadable duration {text!r}"
+        total += float(m.group(1)) * {"h": 3600, "m": 60, "s": 1, "ms": 1e-3, "us": 1e-6}[m.group(2)]
+        pos = m.end()
+    assert pos == len(str(text)) and pos > 0, f"unreadable duration {text!r}"
+    return total
+
+
+def size_bytes(text):
+    """512M, 512m, 1g, 1024 -> bytes (K, M, G as powers of 1024, as both zoomwarp and nginx read them)."""
+    m = re.fullmatch(r"(\d+)([kKmMgG]?)", str(text).strip())
+    assert m, f"unreadable size {text!r}"
+    return int(m.group(1)) * {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30}[m.group(2).lower()]
+
+
+def nginx_directives(text):
+    """[(directive, arguments)] outside comments; block openings come as ('location', '~ ^/x {')."""
+    out = []
+    for statement in re.split(r"[;{}]\s*", re.sub(r"#[^\n]*", "", text)):
+        words = statement.split(None, 1)
+        if words:
+            out.append((words[0], words[1] if len(words) > 1 else ""))
+    return out
+
+
+def nginx_block(text, opening):
+    """The text of the first block whose opening line matches the regex `opening`, braces balanced."""
+    text = re.sub(r"#[^\n]*", "", text)
+    m = re.search(opening + r"\s*\{", text)
+    assert m, f"nginx.conf: no block {opening!r}"
+    depth, i = 1, m.end()
+    while depth:
+        depth += {"{": 1, "}": -1}.get(text[i], 0)
+        i += 1
+    return text[m.end():i - 1]
+
+
+def dockerignore_excludes(rel):
+    """Whether .dockerignore leaves `rel` (a path from the repository root) out of the build context."""
+    patterns = []
+    for line in read(".dockerignore").splitlines():
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        negated = line.startswith("!")
+        pat = os.path.normpath(line.lstrip("!").lstrip("/"))
+        regex = ""
+        i = 0
+        while i < len(pat):  # Docker's rules: ** any number of folders, * and ? within one name
+            if pat.startswith("**/", i):
+                regex, i = regex + "(?:.*/)?", i + 3
+            elif pat.startswith("**", i):
+                regex, i = regex + ".*", i + 2
+            elif pat[i] == "*":
+                regex, i = regex + "[^/]*", i + 1
+            elif pat[i] == "?":
+                regex, i = regex + "[^/]", i + 1
+            else:
+                regex, i = regex + re.escape(pat[i]), i + 1
+        patterns.append((negated, re.compile(regex + r"(?:/.*)?\Z")))  # a folder excludes its contents
+    excluded = False
+    for negated, regex in patterns:
+        if regex.match(rel):
+            excluded = not negated
+    return excluded
+
+
+# ---- the checks -----------------------------------------------------------------------------------
+
+class Files(unittest.TestCase):
+    def test_every_yaml_file_under_deploy_parses(self):
+        found = []
+        for folder, _, files in os.walk(path("deploy")):
+            for name in files:
+                if name.endswith((".yaml", ".yml")):
+                    rel = os.path.relpath(os.path.join(folder, name), ARGS.root)
+                    with self.subTest(file=rel):
+                        with open(os.path.join(folder, name), encoding="utf-8") as f:
+                            docs = [d for d in yaml.safe_load_all(f) if d is not None]
+                        self.assertTrue(docs, f"{rel} is empty")
+                        for d in docs:
+                            self.assertIsInstance(d, dict, rel)
+                    found.append(rel)
+        self.assertIn(os.path.join("deploy", "compose.yaml"), found)
+        self.assertIn(os.path.join("deploy", "k8s", "kustomization.yaml"), found)
+
+    def test_kustomization_lists_existing_files_and_every_manifest_of_the_base(self):
+        k = load_yaml("deploy", "k8s", "kustomization.yaml")
+        self.assertEqual(k["kind"], "Kustomization")
+        listed = set(k["resources"])
+        for name in listed:
+            self.assertTrue(os.path.isfile(path("deploy", "k8s", name)), f"kustomization lists missing {name}")
+        # A manifest left out of the list would silently not be deployed (examples/ is on purpose).
+        present = {n for n in os.listdir(path("deploy", "k8s"))
+                   if n.endswith(".yaml") and n != "kustomization.yaml"}
+        self.assertEqual(present - listed, set(), "manifests in deploy/k8s/ that kustomization.yaml leaves out")
+        kinds = set(k8s_resources())
+        self.assertEqual(kinds, {"ConfigMap", "PersistentVolumeClaim", "Deployment", "Service",
+                                 "HorizontalPodAutoscaler", "PodDisruptionBudget"})
+
+    def test_kustomize_builds_the_base(self):
+        kubectl = shutil.which("kubectl")
+        if not kubectl:
+            self.skipTest("kubectl not installed (its built-in kustomize renders the base)")
+        r = subprocess.run([kubectl, "kustomize", path("deploy", "k8s")], capture_output=True, text=True, timeout=30)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        kinds = [d["kind"] for d in yaml.safe_load_all(r.stdout) if d]
+        self.assertEqual(len(kinds), 6, kinds)
+
+
+class Kubernetes(unittest.TestCase):
+    def setUp(self):
+        self.r = k8s_resources()
+        self.deployment = self.r["Deployment"]
+        self.pod = self.deployment["spec"]["template"]
+        self.container = self.pod["spec"]["containers"][0]
+        self.config = self.r["ConfigMap"]["data"]
+
+    def setting(self, var):
+        """A variable's value in the ConfigMap, else the image's ENV, else the binary's default."""
+        if var in self.config:
+            return str(self.config[var])
+        runtime_env = dockerfile_env(stages()[-1])
+        return runtime_env.get(var, default_of(var))
+
+    def test_probes(self):
+        live, ready = self.container["livenessProbe"], self.container["readinessProbe"]
+        self.assertEqual(live["httpGet"]["path"], "/healthz")
+        self.assertEqual(ready["httpGet"]["path"], "/readyz")
+        for probe in (live, ready):
+            self.assertIn(probe["httpGet"]["port"], (8080, "http"))
+        ports = {p.get("name"): p["containerPort"] for p in self.container["ports"]}
+        self.assertEqual(list(ports.values()), [8080])
+        self.assertEqual(ports.get("http"), 8080)
+
+    def test_security_context(self):
+        pod, c = self.pod["spec"].get("securityContext", {}), self.container["securityContext"]
+        # Container fields win over the pod's; either place counts.
+        merged = {**pod, **c}
+        self.assertIs(merged.get("runAsNonRoot"), True)
+        self.assertEqual(merged.get("runAsUser"), 10001)
+        self.assertIs(c.get("readOnlyRootFilesystem"), True)
+        self.assertIs(c.get("allowPrivilegeEscalation"), False)
+        self.assertEqual(c.get("capabilities", {}).get("drop"), ["ALL"])
+        self.assertEqual(merged.get("seccompProfile", {}).get("type"), "RuntimeDefault")
+        self.assertEqual(pod.get("fsGroup"), 10001, "the store volume must be writable by uid 10001")
+        user = [rest for word, rest in stages()[-1] if word == "USER"]
+        self.assertEqual(user[-1].split(":")[0], str(merged["runAsUser"]), "Dockerfile USER vs runAsUser")
+
+    def test_resources(self):
+        res = self.container["resources"]
+        for kind in ("requests", "limits"):
+            for what in ("cpu", "memory"):
+                self.assertIn(what, res.get(kind, {}), f"resources.{kind}.{what}")
+
+    def test_grace_period_covers_the_drain(self):
+        drain = int(self.setting("ZOOMWARP_DRAIN_DELAY")) + int(self.setting("ZOOMWARP_DRAIN_TIMEOUT"))
+        grace = self.pod["spec"]["terminationGracePeriodSeconds"]
+        self.assertGreaterEqual(grace, drain, "terminationGracePeriodSeconds < drain delay + drain timeout")
+        # The drain delay is what keeps a stopping pod serving while endpoints update (no preStop).
+        self.assertGreater(int(self.setting("ZOOMWARP_DRAIN_DELAY")), 0)
+
+    def test_configuration_store_and_port(self):
+        refs = [e["configMapRef"]["name"] for e in self.container.get("envFrom", [])]
+        self.assertEqual(refs, [self.r["ConfigMap"]["metadata"]["name"]])
+        self.assertEqual(self.container.get("args", [])[:1], ["serve"])
+        self.assertEqual(self.setting("ZOOMWARP_PORT"), "8080")
+        self.assertEqual(self.setting("ZOOMWARP_HOST"), "0.0.0.0")
+        store = self.setting("ZOOMWARP_STORE")
+        mounts = {m["mountPath"]: m["name"] for m in self.container["volumeMounts"]}
+        self.assertIn(store, mounts, "the store path is not a mounted volume")
+        volumes = {v["name"]: v for v in self.pod["spec"]["volumes"]}
+        claim = volumes[mounts[store]]["persistentVolumeClaim"]["claimName"]
+        self.assertEqual(claim, self.r["PersistentVolumeClaim"]["metadata"]["name"])
+        # The root file system is read-only: every other writable path must be a volume too.
+        self.assertIn("/tmp", mounts)
+
+    def test_image_is_the_one_kustomize_sets(self):
+        images = {i["name"]: i for i in load_yaml("deploy", "k8s", "kustomization.yaml")["images"]}
+        self.assertIn(self.container["image"].split(":")[0], images)
+        version = re.search(r"project\(zoomwarp VERSION ([0-9.]+)", read("CMakeLists.txt")).group(1)
+        self.assertEqual(str(images[self.container["image"]]["newTag"]), version,
+                         "kustomization.yaml's image tag is not this release (project VERSION in CMakeLists.txt)")
+
+    def test_service(self):
+        svc = self.r["Service"]["spec"]
+        self.assertEqual([p["port"] for p in svc["ports"]], [8080])
+        target = svc["ports"][0].get("targetPort", 8080)
+        ports = {p.get("name"): p["containerPort"] for p in self.container["ports"]}
+        self.assertEqual(ports.get(target, target), 8080)
+        self.assertLessEqual(svc["selector"].items(), self.pod["metadata"]["labels"].items())
+
+    def test_selectors(self):
+        labels = self.pod["metadata"]["labels"]
+        selector = self.deployment["spec"]["selector"]["matchLabels"]
+        self.assertLessEqual(selector.items(), labels.items())
+        pdb = self.r["PodDisruptionBudget"]
+        self.assertEqual(pdb["apiVersion"], "policy/v1")
+        self.assertLessEqual(pdb["spec"]["selector"]["matchLabels"].items(), labels.items(),
+                             "the PodDisruptionBudget does not select the Deployment's pods")
+        self.assertTrue({"minAvailable", "maxUnavailable"} & pdb["spec"].keys())
+
+    def test_hpa(self):
+        hpa = self.r["HorizontalPodAutoscaler"]
+        self.assertEqual(hpa["apiVersion"], "autoscaling/v2")
+        ref = hpa["spec"]["scaleTargetRef"]
+        self.assertEqual((ref["apiVersion"], ref["kind"], ref["name"]),
+                         ("apps/v1", "Deployment", self.deployment["metadata"]["name"]))
+        cpu = [m for m in hpa["spec"]["metrics"] if m["type"] == "Resource" and m["resource"]["name"] == "cpu"]
+        self.assertTrue(cpu, "the HPA scales on CPU")
+        self.assertLessEqual(hpa["spec"]["minReplicas"], hpa["spec"]["maxReplicas"])
+        self.assertGreaterEqual(hpa["spec"]["minReplicas"], 2, "one replica cannot survive a disruption")
+        self.assertNotIn("replicas", self.deployment["spec"], "the HPA owns the replica count")
+
+    def test_pvc(self):
+        self.assertIn("ReadWriteMany", self.r["PersistentVolumeClaim"]["spec"]["accessModes"])
+
+    def test_ingest_job_example(self):
+        job = load_yaml("deploy", "k8s", "examples", "ingest-job.yaml")
+        self.assertEqual(job["kind"], "Job")
+        spec = job["spec"]["template"]["spec"]
+        c = spec["containers"][0]
+        self.assertEqual(c["args"][0], "ingest")
+        self.assertEqual(c["image"].split(":")[0], self.container["image"].split(":")[0])
+        self.assertEqual(c["envFrom"], self.container["envFrom"])
+        self.assertEqual(c["securityContext"], self.container["securityContext"])
+        mounts = {m["mountPath"]: m["name"] for m in c["volumeMounts"]}
+        volumes = {v["name"]: v for v in spec["volumes"]}
+        store = self.setting("ZOOMWARP_STORE")
+        self.assertEqual(volumes[mounts[store]]["persistentVolumeClaim"]["claimName"],
+                         self.r["PersistentVolumeClaim"]["metadata"]["name"])
+
+
+class Variables(unittest.TestCase):
+    def test_every_variable_in_deploy_is_a_real_option(self):
+        # The deployment's configuration and its documentation; not scripts, whose variables
+        # (ZOOMWARP_BINARY, say) are their own.
+        known = set(variables("serve", "ingest", "health"))
+        files = [os.path.join("deploy", n) for n in ("Dockerfile", "compose.yaml", "nginx.conf", "README.md")]
+        files += [os.path.relpath(os.path.join(d, n), ARGS.root)
+                  for d, _, names in os.walk(path("deploy", "k8s")) for n in names if n.endswith(".yaml")]
+        for rel in files:
+            with self.subTest(file=rel):
+                used = set(re.findall(r"ZOOMWARP_[A-Z0-9_]*[A-Z0-9]", read(rel)))
+                self.assertEqual(used - known, set(), f"{rel} names variables no command has")
+
+    def test_configured_variables_belong_to_serve_or_ingest(self):
+        known = set(variables("serve", "ingest"))
+        compose = load_yaml("deploy", "compose.yaml")["services"]["zoomwarp"].get("environment", {})
+        sources = {
+            "compose.yaml": set(compose),
+            "k8s ConfigMap": set(k8s_resources()["ConfigMap"]["data"]),
+            "Dockerfile ENV": set(dockerfile_env(stages()[-1])),
+        }
+        for name, used in sources.items():
+            self.assertEqual(used - known, set(), f"{name} sets variables `serve` and `ingest` do not read")
+
+    def test_readme_table_is_the_help_output(self):
+        readme = read("deploy", "README.md")
+        rows = {}
+        for m in re.finditer(r"^\| `(ZOOMWARP_[A-Z0-9_]+)` \| `--([a-z0-9-]+)` \| ([^|]+) \| ([^|]*) \|", readme, re.MULTILINE):
+            rows[m.group(1)] = (m.group(2), m.group(3).strip(), m.group(4).strip())
+        expected = expected_table_rows()
+        self.assertEqual(sorted(rows), sorted(expected),
+                         "deploy/README.md's variable table differs from --help; regenerate it with "
+                         "--readme-table:\n" + readme_table())
+        for var, row in expected.items():
+            self.assertEqual(rows[var], row, f"{var}: regenerate the table with --readme-table")
+
+
+class Consistency(unittest.TestCase):
+    """One store path, one port, one health check, one drain across the Dockerfile, compose and k8s."""
+
+    def setUp(self):
+        self.runtime = stages()[-1]
+        self.env = dockerfile_env(self.runtime)
+        self.compose = load_yaml("deploy", "compose.yaml")
+        self.server = self.compose["services"]["zoomwarp"]
+        self.k8s = k8s_resources()
+
+    def test_store_path(self):
+        store = self.env["ZOOMWARP_STORE"]
+        volume = [rest for word, rest in self.runtime if word == "VOLUME"]
+        self.assertEqual(volume, [store])
+        compose_targets = [v.split(":")[1] for v in self.server["volumes"]]
+        self.assertIn(store, compose_targets)
+        self.assertEqual(self.server.get("environment", {}).get("ZOOMWARP_STORE", store), store)
+        self.assertEqual(self.k8s["ConfigMap"]["data"].get("ZOOMWARP_STORE", store), store)
+        mounts = [m["mountPath"] for m in self.k8s["Deployment"]["spec"]["template"]["spec"]["containers"][0]["volumeMounts"]]
+        self.assertIn(store, mounts)
+        # The store is a named volume shared by every replica, declared at the top level.
+        name = [v.split(":")[0] for v in self.server["volumes"] if v.split(":")[1] == store][0]
+        self.assertIn(name, self.compose.get("volumes", {}))
+
+    def test_port(self):
+        self.assertEqual(self.env["ZOOMWARP_PORT"], "8080")
+        self.assertEqual([rest for word, rest in self.runtime if word == "EXPOSE"], ["8080"])
+        self.assertEqual(str(self.server.get("environment", {}).get("ZOOMWARP_PORT", "8080")), "8080")
+        self.assertEqual(str(self.k8s["ConfigMap"]["data"]["ZOOMWARP_PORT"]), "8080")
+        conf = read("deploy", "nginx.conf")
+        self.assertIn("server zoomwarp:8080 ", nginx_block(conf, r"upstream\s+zoomwarp"))
+        nginx = self.compose["services"]["nginx"]
+        self.assertEqual(nginx["ports"], ["8080:8080"])
+
+    def test_compose(self):
+        self.assertEqual(self.server["build"]["dockerfile"], "deploy/Dockerfile")
+        self.assertTrue(os.path.isfile(path("deploy", self.server["build"]["context"], "deploy", "Dockerfile")))
+        self.assertGreaterEqual(self.server.get("deploy", {}).get("replicas", 1), 2, "scale-out needs replicas")
+        self.assertEqual(self.server["healthcheck"]["test"], ["CMD", "zoomwarp", "health"])
+        env = self.server.get("environment", {})
+        drain = int(env.get("ZOOMWARP_DRAIN_DELAY", default_of("ZOOMWARP_DRAIN_DELAY"))) + \
+            int(env.get("ZOOMWARP_DRAIN_TIMEOUT", default_of("ZOOMWARP_DRAIN_TIMEOUT")))
+        self.assertGreaterEqual(duration_seconds(self.server["stop_grace_period"]), drain,
+                                "stop_grace_period < drain delay + drain timeout")
+        health_timeout = int(options("health")["timeout"][1])
+        self.assertGreater(duration_seconds(self.server["healthcheck"]["timeout"]), health_timeout,
+                           "Docker would kill `zoomwarp health` before its own timeout reports")
+        nginx = self.compose["services"]["nginx"]
+        self.assertIn("./nginx.conf:/etc/nginx/nginx.conf:ro", nginx["volumes"])
+        self.assertEqual(nginx["depends_on"]["zoomwarp"]["condition"], "service_healthy")
+
+    def test_upload_limit(self):
+        conf = read("deploy", "nginx.conf")
+        uploads = nginx_directives(nginx_block(conf, r"location\s+~\s+\^/v1/images/\?\$"))
+        limit = [args for d, args in uploads if d == "client_max_body_size"]
+        self.assertEqual(len(limit), 1)
+        for name, value in (("compose.yaml", self.server.get("environment", {}).get("ZOOMWARP_MAX_UPLOAD")),
+                            ("ConfigMap", self.k8s["ConfigMap"]["data"].get("ZOOMWARP_MAX_UPLOAD"))):
+            value = value or default_of("ZOOMWARP_MAX_UPLOAD")
+            self.assertEqual(size_bytes(limit[0]), size_bytes(value),
+                             f"nginx client_max_body_size for uploads vs ZOOMWARP_MAX_UPLOAD in {name}")
+        self.assertIn(("proxy_request_buffering", "off"), uploads)
+
+
+class Nginx(unittest.TestCase):
+    def setUp(self):
+        self.conf = read("deploy", "nginx.conf")
+        self.directives = nginx_directives(self.conf)
+
+    def values(self, name):
+        return [args for d, args in self.directives if d == name]
+
+    def test_retries(self):
+        retry = self.values("proxy_next_upstream")
+        self.assertEqual(len(retry), 1)
+        words = retry[0].split()
+        for w in ("error", "timeout", "http_502", "http_503", "http_504"):
+            self.assertIn(w, words)
+        self.assertNotIn("non_idempotent", words, "POST and PATCH must not be retried")
+
+    def test_cache(self):
+        self.assertEqual(len(self.values("proxy_cache_path")), 1)
+        self.assertIn("zoomwarp", self.values("proxy_cache"))
+        self.assertIn("on", self.values("proxy_cache_revalidate"))
+        self.assertIn("on", self.values("proxy_cache_lock"))
+        self.assertTrue(any(a.startswith("X-Cache-Status $upstream_cache_status") for a in self.values("add_header")))
+        # Our Cache-Control decides what is cached; a proxy_cache_valid would cache no-cache JSON.
+        self.assertEqual(self.values("proxy_cache_valid"), [])
+        self.assertEqual(self.values("proxy_ignore_headers"), [])
+
+    def test_upstream_keepalive(self):
+        upstream = nginx_directives(nginx_block(self.conf, r"upstream\s+zoomwarp"))
+        self.assertTrue([a for d, a in upstream if d == "keepalive"])
+        self.assertIn("1.1", self.values("proxy_http_version"))
+        self.assertIn('Connection ""', self.values("proxy_set_header"))
+
+    def test_lines_tests_cluster_substitutes(self):
+        # tests/cluster/cluster_test.sh rewrites exactly these (see nginx.conf's header comment).
+        self.assertEqual(len(re.findall(r"^[ \t]*server[ \t]+zoomwarp:8080([ \t][^;]*)?;", self.conf, re.MULTILINE)), 1)
+        self.assertEqual(len(re.findall(r"^[ \t]*listen[ \t]+8080;", self.conf, re.MULTILINE)), 1)
+        paths = [a for d, a in self.directives if d.endswith("_path")]
+        self.assertEqual(len(paths), 6, "the cache path and the five temp paths")
+        for a in paths:
+            self.assertTrue(a.startswith("/var/cache/nginx/"), a)
+        for d in ("pid", "user", "daemon"):
+            self.assertEqual(self.values(d), [], f"`{d}` is the caller's to set")
+
+    def test_nginx_accepts_it(self):
+        nginx = shutil.which("nginx") or ("/usr/sbin/nginx" if os.path.exists("/usr/sbin/nginx") else None)
+        if not nginx:
+            self.skipTest("nginx not installed")
+        with tempfile.TemporaryDirectory() as d:
+            conf = re.sub(r"^([ \t]*)server[ \t]+zoomwarp:8080 ", r"\1server 127.0.0.1:8081 ", self.conf, flags=re.MULTILINE)
+            conf = conf.replace("/var/cache/nginx", d)
+            with open(os.path.join(d, "nginx.conf"), "w", encoding="utf-8") as f:
+                f.write(conf)
+            r = subprocess.run([nginx, "-t", "-q", "-p", d, "-e", "stderr", "-c", os.path.join(d, "nginx.conf"),
+                                "-g", f"pid {d}/nginx.pid;"], capture_output=True, text=True, timeout=20)
+            self.assertEqual(r.returncode, 0, r.stderr)
+
+
+class Dockerfile(unittest.TestCase):
+    def setUp(self):
+        self.stages = stages()
+        self.build, self.runtime = self.stages[0], self.stages[-1]
+
+    def runs(self, stage):
+        return " && ".join(rest for word, rest in stage if word == "RUN")
+
+    def test_builder(self):
+        self.assertEqual(len(self.stages), 2)
+        self.assertRegex(self.build[0][1], r"^debian:bookworm\s+AS\s+\w+", "builder FROM")
+        run = self.runs(self.build)
+        self.assertIn("scripts/setup.sh --build-only", run)
+        self.assertIn("-DBUILD_TESTING=OFF", run)
+        self.assertIn("-DCMAKE_BUILD_TYPE=Release", run)
+        self.assertIn("--target zoomwarp", run)
+        setup = read("scripts", "setup.sh")
+        self.assertIn("--build-only)", setup, "scripts/setup.sh has no --build-only")
+
+    def test_runtime(self):
+        self.assertEqual(self.runtime[0][1], "debian:bookworm-slim")
+        copies = [rest for word, rest in self.runtime if word == "COPY"]
+        self.assertTrue(any(c.startswith("deploy/runtime-packages.txt ") for c in copies))
+        self.assertTrue(any(c.startswith("--from=") and "zoomwarp" in c for c in copies))
+        run = self.runs(self.runtime)
+        self.assertRegex(run, r"sed 's/#\.\*//' \S*runtime-packages.txt \| xargs apt-get install -y --no-install-recommends")
+        self.assertIn("rm -rf /var/lib/apt/lists/*", run)
+        self.assertEqual(run.count("apt-get install"), 1, "packages installed besides deploy/runtime-packages.txt")
+        packages = [l.strip() for l in read("deploy", "runtime-packages.txt").splitlines()
+                    if l.strip() and not l.startswith("#")]
+        for p in packages:
+            self.assertRegex(p, r"^[a-z0-9][a-z0-9.+-]+$", "one package per line, '#' for comments")
+
+    def test_runtime_declarations(self):
+        by = {}
+        for word, rest in self.runtime:
+            by.setdefault(word, []).append(rest)
+        self.assertEqual(by.get("EXPOSE"), ["8080"])
+        self.assertEqual(by.get("VOLUME"), ["/var/lib/zoomwarp"])
+        self.assertEqual(by.get("STOPSIGNAL"), ["SIGTERM"])
+        self.assertEqual(by.get("ENTRYPOINT"), ['["zoomwarp"]'])
+        self.assertEqual(by.get("CMD"), ['["serve"]'])
+        self.assertRegex(by["HEALTHCHECK"][0], r'CMD \["zoomwarp", "health"\]$')
+        timeout = re.search(r"--timeout=(\S+)", by["HEALTHCHECK"][0])
+        self.assertTrue(timeout)
+        self.assertGreater(duration_seconds(timeout.group(1)), int(options("health")["timeout"][1]))
+        user = by["USER"][-1].split(":")
+        self.assertTrue(user[0].isdigit() and int(user[0]) != 0, "USER must be a numeric non-root uid")
+        # Configuration by environment only, and only what a container changes.
+        self.assertEqual(dockerfile_env(self.runtime),
+                         {"ZOOMWARP_HOST": "0.0.0.0", "ZOOMWARP_PORT": "8080", "ZOOMWARP_STORE": "/var/lib/zoomwarp"})
+
+    def test_dockerignore(self):
+        for rel in (".git", "build", "build-deploy/bin/zoomwarp", "store", "tests/browser/node_modules",
+                    "tests/browser/out", "deploy/compose.yaml"):
+            self.assertTrue(dockerignore_excludes(rel), f".dockerignore should exclude {rel}")
+        # Everything the Dockerfile copies and CMake builds from must stay in the context.
+        needed = ["CMakeLists.txt", "scripts/setup.sh", "deploy/runtime-packages.txt"]
+        for folder in ("cmake", "tiles", "warp", "api", "server", "web"):
+            for d, _, names in os.walk(path(folder)):
+                needed += [os.path.relpath(os.path.join(d, n), ARGS.root) for n in names]
+        kept_out = [rel for rel in needed if dockerignore_excludes(rel)]
+        self.assertEqual(kept_out, [], ".dockerignore leaves out files the image build needs")
+
+
+# ---- the README table -----------------------------------------------------------------------------
+
+def expected_table_rows():
+    """{variable: (flag, commands, default cell)} for every option of serve and ingest."""
+    rows = {}
+    for command in ("serve", "ingest"):
+        for name, (var, default, _) in options(command).items():
+            if var in rows:
+                flag, commands, cell = rows[var]
+                rows[var] = (flag, commands + ", " + command, cell)
+                continue
+            if name in CPU_DEPENDENT:
+                cell = "number of CPUs"
+            else:
+                cell = f"`{default}`" if default else "—"
+            rows[var] = (name, command, cell)
+    return rows
+
+
+def readme_table():
+    helps = {var: h for c in ("serve", "ingest") for var, _, h in options(c).values()}
+    lines = ["| variable | flag | commands | default | meaning |", "|---|---|---|---|---|"]
+    for var, (flag, commands, cell) in expected_table_rows().items():
+        lines.append(f"| `{var}` | `--{flag}` | {commands} | {cell} | {helps[var].replace('|', '/')} |")
+    return "\n".join(lines)
+
+
+def main():
+    global ARGS
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--binary", required=True, help="the built zoomwarp")
+    parser.add_argument("--root", default=os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."),
+                        help="the repository (default: two folders up from this file)")
+    parser.add_argument("--readme-table", action="store_true",
+                        help="print deploy/README.md's table of variables from the binary's --help, and exit")
+    ARGS, rest = parser.parse_known_args()
+    ARGS.root = os.path.abspath(ARGS.root)
+    if ARGS.readme_table:
+        print(readme_table())
+        return 0
+    result = unittest.main(argv=[sys.argv[0], "-v"] + rest, exit=False).result
+    return 0 if result.wasSuccessful() else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
