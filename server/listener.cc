@@ -45,14 +45,16 @@ void Listener::close_now() {
   while (!ec && acceptor_.is_open()) {
     tcp::socket socket(net::make_strand(ioc_));
     acceptor_.accept(socket, ec);
-    if (!ec) start_session(std::move(socket));
+    if (!ec) {
+      ++state_.connections_accepted;
+      start_session(std::move(socket));
+    }
   }
   acceptor_.close(ec);
   closed_ = true;
 }
 
 void Listener::start_session(tcp::socket socket) {
-  ++state_.connections_accepted;
   boost::system::error_code ec;
   socket.set_option(tcp::no_delay(true), ec);
   std::make_shared<Session>(std::move(socket), state_)->start();
@@ -61,8 +63,13 @@ void Listener::start_session(tcp::socket socket) {
 void Listener::accept() {
   acceptor_.async_accept(net::make_strand(ioc_), [self = shared_from_this()](boost::system::error_code ec,
                                                                              tcp::socket socket) {
-    if (ec == net::error::operation_aborted || !self->acceptor_.is_open()) return;
-    if (!ec) self->start_session(std::move(socket));
+    if (ec == net::error::operation_aborted) return;
+    // A connection this accept took just before stop() closed the acceptor is answered too.
+    if (!ec) {
+      ++self->state_.connections_accepted;
+      self->start_session(std::move(socket));
+    }
+    if (!self->acceptor_.is_open()) return;
     if (ec) log_event("warn", "accept failed", {{"error", ec.message()}});
     self->accept();
   });
