@@ -18,19 +18,6 @@
 namespace zoomwarp {
 namespace {
 
-// A loopback port nobody listens on (free a moment ago).
-int unused_port() {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  socklen_t len = sizeof addr;
-  ::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr);
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
-  ::close(fd);
-  return ntohs(addr.sin_port);
-}
-
 testing::RunResult health(const std::vector<std::string>& args) {
   std::vector<std::string> argv = {testing::zoomwarp_binary(), "health"};
   argv.insert(argv.end(), args.begin(), args.end());
@@ -79,7 +66,7 @@ TEST(Health, Exits0WhenTheServerAnswers200) {
 
 TEST(Health, Exits1ForAClosedPortOrAnotherStatus) {
   const ScopedEnv no_url("ZOOMWARP_URL", std::nullopt);
-  auto r = health({"--port", std::to_string(unused_port()), "--timeout", "2"});
+  auto r = health({"--port", std::to_string(testing::unused_loopback_port()), "--timeout", "2"});
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("cannot connect"), std::string::npos) << r.output;
 

@@ -23,19 +23,6 @@ constexpr int kClients = 4;
 
 std::string view_path(const std::string& name) { return std::string(ZOOMWARP_VIEW_PATHS) + "/" + name; }
 
-// A loopback port nobody listens on (free a moment ago).
-int unused_port() {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  socklen_t len = sizeof addr;
-  ::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr);
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
-  ::close(fd);
-  return ntohs(addr.sin_port);
-}
-
 class Replay : public ::testing::Test {
  protected:
   // The three samples ingested through the CLI, under the ids named after their files.
@@ -113,7 +100,7 @@ TEST_F(Replay, MalformedPathExits2NamingFileAndLine) {
 
 TEST_F(Replay, UnreachableServerOrUnknownImageExits1) {
   auto r = replay({view_path("boats_explore.jsonl"), "--image", "boats_lake_sunset", "--url",
-                   "http://127.0.0.1:" + std::to_string(unused_port())});
+                   "http://127.0.0.1:" + std::to_string(testing::unused_loopback_port())});
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("cannot connect"), std::string::npos) << r.output;
   r = replay({view_path("boats_explore.jsonl"), "--image", "nowhere", "--url", url()});

@@ -52,6 +52,9 @@ class ServerProcess {
 
 std::string read_file(const std::string& path);
 
+// A loopback port nothing listens on (bound and released at once), for "unreachable" tests.
+int unused_loopback_port();
+
 // Runs a command to completion, returns its exit status; stdout/stderr go to `output` if given.
 struct RunResult {
   int exit_code = -1;
