@@ -3,5 +3,12 @@
 # Arguments name targets to build (default: everything, tests included), e.g. `scripts/build.sh zoomwarp`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE="${CMAKE_BUILD_TYPE:-RelWithDebInfo}" >/dev/null
+# ccache, where installed, makes rebuilds in other checkouts of the tree cheap (CCACHE_BASEDIR
+# keeps its keys independent of where the checkout lives).
+launcher=()
+if command -v ccache >/dev/null; then
+  export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$PWD}"
+  launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+fi
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE="${CMAKE_BUILD_TYPE:-RelWithDebInfo}" "${launcher[@]}" >/dev/null
 if [ "$#" -gt 0 ]; then cmake --build build --target "$@"; else cmake --build build; fi

@@ -20,6 +20,7 @@
 #include "warp/image_model.h"
 #include "warp/lod_cut.h"
 #include "warp/shape_warp.h"
+#include "warp/stop_token.h"
 #include "warp/zoom_curve.h"
 
 namespace zoomwarp::warp {
@@ -30,6 +31,9 @@ struct ViewRequest {
   int screen_width = 480, screen_height = 360;
   ZoomCurve curve = ZoomCurve::kGeometric;
   double max_screen_area = 500;  // px², the paper's runtime threshold (§6.1)
+  // The request's deadline and cancel flag, checked between steps (Stopped is thrown); none: runs
+  // to the end. Not owned.
+  const StopToken* stop = nullptr;
 };
 
 struct View {

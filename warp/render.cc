@@ -56,7 +56,7 @@ LevelPatch read_patch(const tiles::ImageEntry& image, tiles::PyramidReader& read
 }  // namespace
 
 tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEntry& image,
-                          tiles::PyramidReader& reader) {
+                          tiles::PyramidReader& reader, const StopToken* stop) {
   const tiles::Manifest& m = image.manifest;
   tiles::Raster out(sw, sh, m.channels);
   const Mesh& src = view.source;
@@ -82,8 +82,10 @@ tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEn
   }
 
   for (const auto& [level, g] : groups) {
+    check_stop(stop);
     const LevelPatch patch = read_patch(image, reader, level, g.u0, g.v0, g.u1, g.v1);
     for (int f : g.triangles) {
+      check_stop(stop);
       const Triangle& t = src.triangles[f];
       const Point &a = scr[t[0]], &b = scr[t[1]], &c = scr[t[2]];
       const double area = signed_area2(a, b, c);

@@ -12,8 +12,9 @@ namespace zoomwarp::warp {
 
 // The screen (screen_width × screen_height, the image's channels). Screen pixels that no
 // triangle covers (letterboxing of the traditional baseline) are black, or transparent for
-// images with alpha. Throws std::runtime_error if the pyramid cannot be read.
+// images with alpha. Throws std::runtime_error if the pyramid cannot be read, and Stopped when
+// `stop` says so (checked between triangles).
 tiles::Raster render_view(const View& view, int screen_width, int screen_height, const tiles::ImageEntry& image,
-                          tiles::PyramidReader& reader);
+                          tiles::PyramidReader& reader, const StopToken* stop = nullptr);
 
 }  // namespace zoomwarp::warp
