@@ -171,10 +171,11 @@ pick_port() {
 listening() { grep -q '"msg":"listening"' "$1" 2>/dev/null; }
 
 # start_replica I: starts replica I on its port (picking one the first time) with the server's
-# defaults but for the address, port, store, deploy/compose.yaml's drain delay and no request log
+# defaults but for the address, port, store, deploy/compose.yaml's drain delay, no request log
 # lines (nginx's access log has every request; a line per request would cost CPU and ~250 MB per
-# replica over 30 minutes), waits for its 'listening' line, and publishes its pid and port in
-# pids/I for the sampler and the slow clients.
+# replica over 30 minutes) and caches a quarter of their default size, so that they are full
+# well within the first third of the run and RSS growth after that means a leak; waits for its
+# 'listening' line, and publishes its pid and port in pids/I for the sampler and the slow clients.
 start_replica() {
   local i=$1 _
   for _ in 1 2 3 4 5; do
@@ -182,7 +183,8 @@ start_replica() {
     replica_starts=$((replica_starts + 1))
     replica_log[$i]="$work/replica$i.$replica_starts.log"
     "$zoomwarp_bin" serve --host 127.0.0.1 --port "${replica_port[$i]}" --store "$work/store" \
-      --drain-delay "$drain_delay" --log-requests 0 2>"${replica_log[$i]}" >/dev/null &
+      --drain-delay "$drain_delay" --log-requests 0 \
+      --tile-cache 64M --response-cache 64M --warp-cache 64M 2>"${replica_log[$i]}" >/dev/null &
     replica_pid[$i]=$!
     if wait_until 20 listening "${replica_log[$i]}"; then
       echo "${replica_pid[$i]} ${replica_port[$i]}" >"$work/pids/$i"
@@ -330,8 +332,10 @@ record_edit() {  # record_edit ID KIND: the answer in editor.body/headers is an 
     "${edit_etag[$id]}" "${edit_lines[$id]}" >>"$work/edits.tsv"
 }
 
-# After an answer that leaves open whether the edit was applied (no answer, 502, 504): read the
-# image back and record what it is now, so that the final check knows what to expect.
+# After an answer that leaves open whether the edit was applied (no answer, 502, 504), or a 409 or
+# 412 (nothing else edits these images, so an earlier edit was applied unacknowledged, e.g. a PUT
+# that nginx retried on another replica after the first one applied it and died): read the image
+# back and record what it is now, so that the final check knows what to expect.
 editor_resync() {
   local id=$1 status
   status=$(http editor GET "http://127.0.0.1:$nginx_port/v1/images/$id/lines")
@@ -374,7 +378,7 @@ editor() {
         200)
           [ "$kind" = significance ] || edit_lines[$id]=$(jq -c . <<<"$body")
           record_edit "$id" "$kind"; event editor "$kind" "$id" ;;
-        000|502|503|504)
+        000|409|412|502|503|504)
           event editor unexpected "$kind $id -> $status (resynced)"
           wait_until 30 editor_resync "$id" || event editor unexpected "cannot read $id back" ;;
         *)
@@ -450,7 +454,7 @@ slow_reader() {
 slow_clients() {
   trap '' PIPE   # a replica closing a slow connection ends that client, not this worker
   while running; do
-    trickle_header & trickle_header & stalled_upload & slow_reader &
+    trickle_header & trickle_header & trickle_header & stalled_upload & slow_reader &
     wait
     sleep 5
   done
@@ -582,9 +586,9 @@ access_table() {
 # count AWK_CONDITION: the requests in access.tsv that satisfy it ($2 status, $3 in a window).
 count() { awk -F'\t' "$1 { n++ } END { print n + 0 }" "$work/access.tsv"; }
 
-# RSS medians per replica and third: "replica first middle last growth" lines, MiB. The ratio
-# compares the thirds of the process alive at the end, if it was up before the middle third began
-# (a process started later is still filling its caches); otherwise it is "n/a".
+# RSS medians per replica and third: "replica first middle last growth" lines, MiB. The growth
+# compares the thirds of the process alive at the end, if it was sampled in the first third (a
+# process started later was still filling its caches in the middle third); otherwise "n/a".
 rss_plateau() {
   local third=$(( (deadline - t0) / 3 ))
   awk -F, -v t0="$t0" -v third="$third" -v n="$replicas" '
@@ -603,7 +607,7 @@ rss_plateau() {
       for (r = 0; r < n; r++) {
         f = median(r, 0, ""); mid = median(r, 1, ""); l = median(r, 2, "")
         ratio = "n/a"; pid = last_pid[r]
-        if (first_t[r, pid] <= t0 + third + 10) {
+        if (first_t[r, pid] < t0 + third) {
           pm = median(r, 1, pid); pl = median(r, 2, pid)
           if (pm > 0 && pl > 0) ratio = sprintf("%.3f", pl / pm)
         }
@@ -665,6 +669,7 @@ report_and_check() {
   echo "faults (kind replica window):"
   awk -F'\t' -v t0="$t0" '{ printf "  %-8s %s  %5d-%d s\n", $1, $2, $3 - t0, $4 - t0 }' "$work/faults.tsv"
   echo "lost edits: $lost (of $(wc -l <"$work/edits.tsv") acknowledged edits and read-backs)"
+  echo "store on disk: $(du -sm "$work/store" | cut -f1) MiB (superseded versions stay for the replicas' --gc-grace)"
   echo "crashes: $crashes unasked exits or failed drains, $log_crashes crash lines in the replica logs"
   [ "$crashes" -eq 0 ] || sed 's/^/  /' "$work/crashes.tsv"
   echo "requests through nginx: $requests, by status $by_status"
