@@ -18,8 +18,8 @@
 #
 # At the end it checks and prints: lost edits (every replica must return, for every edited image,
 # the version of the last acknowledged edit and the lines of the last acknowledged PUT), crashes
-# (replicas that died unasked, a SIGTERM that did not exit 0, "terminate", "Segmentation" or
-# "Aborted" in a replica's log), requests by status from nginx's access log (5xx fail the run
+# (replicas that died unasked, a SIGTERM that did not exit 0, "terminate called", "Segmentation
+# fault" or "Aborted" in a replica's log), requests by status from nginx's access log (5xx fail the run
 # unless they are 502/504 inside a fault window), the workers' unexpected answers, replay p50/p99,
 # and the RSS plateau per replica: the medians of the first, middle and last third of the run and
 # the growth from the middle to the last third, which fails the run above --rss-growth (a leak).
@@ -309,11 +309,15 @@ uploader() {
 editor_ids=(edit_boats edit_square)
 declare -A edit_etag edit_lines edit_w edit_h
 
-random_lines() {  # random_lines ID: 0 to 4 lines inside the image, as the body of PUT /lines
-  local id=$1 n i lines=()
+# random_lines ID: 0 to 4 lines inside the image, as the body of PUT /lines. The end's x differs
+# from the start's, so that no line is shorter than 1 px (a 400); 4 lines stay far inside the
+# limits on their number and total length (warp/limits.h).
+random_lines() {
+  local id=$1 n i x0 lines=() w=${edit_w[$1]} h=${edit_h[$1]}
   n=$(( RANDOM % 5 ))
   for ((i = 0; i < n; i++)); do
-    lines+=("[$((RANDOM % edit_w[$id])),$((RANDOM % edit_h[$id])),$((RANDOM % edit_w[$id])),$((RANDOM % edit_h[$id]))]")
+    x0=$(( RANDOM % w ))
+    lines+=("[$x0,$((RANDOM % h)),$(( (x0 + 1 + RANDOM % (w - 1)) % w )),$((RANDOM % h))]")
   done
   local IFS=,
   echo "{\"lines\":[${lines[*]}]}"
@@ -360,12 +364,16 @@ editor_setup() {
   done
 }
 
+# A third of the edits are significance edits, at most 512 per image: the server keeps the regions
+# of all edits and refuses more than 1024 in all (warp/limits.h kMaxStoredRegions).
 editor() {
   local id body status kind
+  declare -A patches
   while running; do
     for id in "${editor_ids[@]}"; do
       running || return 0
-      if [ $(( RANDOM % 3 )) -eq 0 ]; then
+      if [ $(( RANDOM % 3 )) -eq 0 ] && [ "${patches[$id]:-0}" -lt 512 ]; then
+        patches[$id]=$(( ${patches[$id]:-0} + 1 ))
         kind=significance; body=$(random_regions "$id")
         status=$(http editor PATCH "http://127.0.0.1:$nginx_port/v1/images/$id/significance" \
           -H "If-Match: ${edit_etag[$id]}" -H 'Content-Type: application/json' --data-binary "$body")
@@ -645,7 +653,7 @@ report_and_check() {
   stop_everything
 
   crashes=$(wc -l <"$work/crashes.tsv")
-  log_crashes=$(cat "$work"/replica*.log | grep -cE 'terminate|Segmentation|Aborted' || true)
+  log_crashes=$(cat "$work"/replica*.log | grep -cE 'terminate called|Segmentation fault|Aborted' || true)
   access_table
   requests=$(wc -l <"$work/access.tsv")
   by_status=$(cut -f2 "$work/access.tsv" | sort -n | uniq -c | awk '{ printf "%s\"%s\":%d", sep, $2, $1; sep = "," } END { print "" }')
