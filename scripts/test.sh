@@ -5,6 +5,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 scripts/build.sh
-# -LE container: the root-file-system test needs root and a Debian mirror; it is opt-in, run with
-# `ctest --test-dir build -L container` (deploy/ROOTFS.md).
-ctest --test-dir build --output-on-failure --no-tests=error -j "$(nproc)" -LE container "$@"
+# -LE: two opt-in labels. container: the root-file-system test needs root and a Debian mirror, run
+# it with `ctest --test-dir build -L container` (deploy/ROOTFS.md). soak: 30 minutes of load and
+# faults, run it alone with `ctest --test-dir build -L soak` (tests/README.md).
+ctest --test-dir build --output-on-failure --no-tests=error -j "$(nproc)" -LE 'container|soak' "$@"

@@ -28,6 +28,8 @@ set -euo pipefail
 
 script_dir=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 repo_dir=$(cd "$script_dir/../.." && pwd)
+# shellcheck source=../support/nginx.sh
+source "$repo_dir/tests/support/nginx.sh"
 
 # ---- defaults (see usage) -----------------------------------------------------------------------
 before=6          # seconds of load before the faults
@@ -114,20 +116,6 @@ starting_cluster=0
 nginx_pid=""
 replay_pid=""
 
-# SIGTERM, then SIGKILL if the process is still there after 5 s (nginx's workers too).
-stop_process() {
-  local pid=$1 children=() _
-  if [ -z "$pid" ] || ! kill -0 "$pid" 2>/dev/null; then return 0; fi
-  mapfile -t children < <(pgrep -P "$pid" 2>/dev/null || true)
-  kill -TERM "$pid" 2>/dev/null || true
-  for _ in $(seq 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
-  if kill -0 "$pid" 2>/dev/null; then
-    log "pid $pid ignored SIGTERM; killing it"
-    kill -KILL "$pid" "${children[@]}" 2>/dev/null || true
-  fi
-  wait "$pid" 2>/dev/null || true
-}
-
 cleanup() {
   local rc=$? i
   trap - EXIT INT TERM
@@ -147,27 +135,9 @@ cleanup() {
   exit "$rc"
 }
 
-# A port below the ephemeral range that nothing listens on. Outgoing connections never take one
-# of these as their local port, so a replica can be restarted on the port it had.
+# A free loopback port that none of our processes has (tests/support/nginx.sh).
 pick_port() {
-  local port _
-  for _ in $(seq 50); do
-    port=$(( 20000 + RANDOM % 12000 ))
-    if (exec 3<>"/dev/tcp/127.0.0.1/$port") 2>/dev/null; then continue; fi   # taken
-    if [[ " ${replica_port[*]:-} $nginx_port $nginx_bypass_port " == *" $port "* ]]; then continue; fi
-    echo "$port"; return 0
-  done
-  die "found no free port"
-}
-
-# Waits until "$@" succeeds, checking every 0.05 s, for at most $1 seconds (the rest is the command).
-wait_until() {
-  local timeout=$1; shift
-  local deadline=$(( $(date +%s%N) + timeout * 1000000000 ))
-  until "$@"; do
-    [ "$(date +%s%N)" -lt "$deadline" ] || return 1
-    sleep 0.05
-  done
+  pick_loopback_port "${replica_port[@]:-}" "$nginx_port" "$nginx_bypass_port" || die "found no free port"
 }
 
 # ---- replicas ----------------------------------------------------------------------------------
@@ -208,71 +178,27 @@ replica_busy() { [ "$(replica_requests "$1")" -ge "$2" ]; }
 nginx_port=""           # the deployment's behaviour: cache lookups and fills
 nginx_bypass_port=""    # the fault phases: no cache lookups, so every request reaches a replica
 
-# deploy/nginx.conf with the three substitutions its header comment names, checked to have
-# happened exactly as expected (a changed file fails the test rather than testing something else):
-#   `server zoomwarp:8080 PARAMS;`  -> one such line per replica, parameters kept
-#   `listen 8080;`                  -> our two loopback ports, and on the second one a cache bypass
-#   /var/cache/nginx                -> a folder in our temp folder
-# The bypass (test only) skips cache lookups on the second port: the fault phases wrap around the
-# path many times, and through the cache only their first pass would reach the replicas.
+# deploy/nginx.conf templated (tests/support/nginx.sh): the replicas as upstream servers, our two
+# ports, the cache in our temp folder. The bypass (test only) skips cache lookups on the second
+# port: the fault phases wrap around the path many times, and through the cache only their first
+# pass would reach the replicas.
 write_nginx_conf() {
-  local addresses="" i
-  for i in "${!replica_port[@]}"; do addresses+="127.0.0.1:${replica_port[$i]} "; done
-  mkdir -p "$work/nginx/var"
-  awk -v addresses="$addresses" -v port="$nginx_port" -v bypass="$nginx_bypass_port" -v var="$work/nginx/var" '
-    /^[[:space:]]*server[[:space:]]+zoomwarp:8080([[:space:]][^;]*)?;/ {
-      n = split(addresses, a, " ")
-      for (i = 1; i <= n; i++) { line = $0; sub(/zoomwarp:8080/, a[i], line); print line }
-      servers++; next
-    }
-    /^[[:space:]]*listen[[:space:]]+8080;/ {
-      indent = $0; sub(/[^[:space:]].*/, "", indent)
-      print indent "listen 127.0.0.1:" port ";"
-      print indent "# tests/cluster only: the second port skips cache lookups (the cache still fills)."
-      print indent "listen 127.0.0.1:" bypass ";"
-      print indent "set $cluster_cache_bypass 0;"
-      print indent "if ($server_port = " bypass ") { set $cluster_cache_bypass 1; }"
-      print indent "proxy_cache_bypass $cluster_cache_bypass;"
-      listens++; next
-    }
-    /\/var\/cache\/nginx/ { paths += gsub(/\/var\/cache\/nginx/, var) }
-    { print }
-    END {
-      if (servers != 1 || listens != 1 || paths < 1) {
-        printf "found %d upstream server lines (zoomwarp:8080), %d `listen 8080;` lines, %d /var/cache/nginx paths\n", \
-          servers, listens, paths > "/dev/stderr"
-        exit 1
-      }
-    }' "$nginx_conf" >"$work/nginx/nginx.conf" ||
-    die "$nginx_conf no longer has the lines this test substitutes (see its header comment)"
+  local addresses=() i
+  nginx_port=$(pick_port) || exit 1
+  nginx_bypass_port=$(pick_port) || exit 1
+  for i in "${!replica_port[@]}"; do addresses+=("127.0.0.1:${replica_port[$i]}"); done
+  nginx_template_deploy_conf "$nginx_conf" "$work/nginx/nginx.conf" "$work/nginx/var" \
+    "$nginx_port" "$nginx_bypass_port" "${addresses[@]}"
 }
 
 nginx_answers() {
   curl -s -o /dev/null "http://127.0.0.1:$nginx_port/healthz" && curl -s -o /dev/null "http://127.0.0.1:$nginx_bypass_port/healthz"
 }
 
+# Its access log goes to stdout and its error log to stderr, like the container's.
 start_nginx() {
-  local _ globals
-  # What deploy/nginx.conf leaves to the caller: in the foreground as our child, our pid file, and
-  # as root workers that run as root too (as 'nobody' they could not enter our 0700 temp folder).
-  globals="daemon off; pid $work/nginx/nginx.pid;"
-  [ "$(id -u)" -ne 0 ] || globals+=" user $(id -un) $(id -gn);"
-  for _ in 1 2 3 4 5; do
-    nginx_port=$(pick_port) || exit 1
-    nginx_bypass_port=$(pick_port) || exit 1
-    write_nginx_conf
-    # Its access log goes to stdout and its error log to stderr, like the container's.
-    "$nginx_bin" -p "$work/nginx" -e stderr -g "$globals" -c "$work/nginx/nginx.conf" \
-      >"$work/nginx/access.log" 2>"$work/nginx/error.log" &
-    nginx_pid=$!
-    if wait_until 10 nginx_answers && kill -0 "$nginx_pid" 2>/dev/null; then
-      log "nginx (pid $nginx_pid, $nginx_conf) on 127.0.0.1:$nginx_port, without cache lookups on 127.0.0.1:$nginx_bypass_port"
-      return 0
-    fi
-    stop_process "$nginx_pid"; nginx_pid=""
-    grep -qs "Address already in use" "$work/nginx/error.log" || { cat "$work/nginx/error.log" >&2; die "nginx did not start"; }
-  done
-  die "found no free ports for nginx"
+  nginx_start "$nginx_bin" "$work/nginx" write_nginx_conf nginx_answers || die "nginx did not start"
+  log "nginx (pid $nginx_pid, $nginx_conf) on 127.0.0.1:$nginx_port, without cache lookups on 127.0.0.1:$nginx_bypass_port"
 }
 
 access_lines() { wc -l <"$work/nginx/access.log"; }
