@@ -1,5 +1,7 @@
 #include "server/ops.h"
 
+#include <nlohmann/json.hpp>
+
 #include "api/errors.h"
 
 namespace zoomwarp::server {
@@ -26,11 +28,12 @@ std::optional<api::Response> answer_ops(const api::Request& req, const OpsContex
   }
   if (req.path == "/healthz") return text(200, "application/json", "{\"status\":\"ok\"}\n", "healthz");
   if (req.path == "/readyz") {
-    if (ctx.draining.load())
-      return text(503, "application/json", "{\"status\":\"draining\"}\n", "readyz");
-    if (!ctx.store.readable())
-      return text(503, "application/json", "{\"status\":\"store not readable\"}\n", "readyz");
-    return text(200, "application/json", "{\"status\":\"ready\"}\n", "readyz");
+    const bool store_ok = ctx.store.readable();
+    const nlohmann::json checks = {{"store", store_ok ? "ok" : "not readable"},
+                                   {"face_detection", std::string(ctx.face_detection)}};
+    const char* status = ctx.draining.load() ? "draining" : store_ok ? "ready" : "store not readable";
+    const int code = std::string_view(status) == "ready" ? 200 : 503;
+    return text(code, "application/json", nlohmann::json{{"status", status}, {"checks", checks}}.dump() + "\n", "readyz");
   }
   return text(200, "text/plain; version=0.0.4; charset=utf-8", ctx.metrics.render(), "metrics");
 }
