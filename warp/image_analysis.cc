@@ -336,7 +336,9 @@ std::shared_ptr<const tiles::ImageEntry> edit_image_model(tiles::Store& store, c
                                                           const ModelEdit& edit, std::optional<ImageModel> base) {
   validate(edit);
   ImageModel model = base ? std::move(*base) : read_image_model(current);
-  if (model.edits.size() + edit.significance.size() > std::size_t(limits::kMaxStoredRegions))
+  // Only edits that add regions are held to the cap: new lines stay possible on an image that
+  // an earlier version let keep more regions.
+  if (!edit.significance.empty() && model.edits.size() + edit.significance.size() > std::size_t(limits::kMaxStoredRegions))
     throw LimitExceeded("too_many_stored_regions", "an image keeps at most " + std::to_string(limits::kMaxStoredRegions) +
                         " significance regions over all its edits; it has " + std::to_string(model.edits.size()));
   add_significance_edits(model, edit.significance);
