@@ -28,12 +28,12 @@ std::optional<api::Response> answer_ops(const api::Request& req, const OpsContex
   }
   if (req.path == "/healthz") return text(200, "application/json", "{\"status\":\"ok\"}\n", "healthz");
   if (req.path == "/readyz") {
-    const bool store_ok = ctx.store.readable();
-    const nlohmann::json checks = {{"store", store_ok ? "ok" : "not readable"},
-                                   {"face_detection", std::string(ctx.face_detection)}};
-    const char* status = ctx.draining.load() ? "draining" : store_ok ? "ready" : "store not readable";
-    const int code = std::string_view(status) == "ready" ? 200 : 503;
-    return text(code, "application/json", nlohmann::json{{"status", status}, {"checks", checks}}.dump() + "\n", "readyz");
+    // Face detection is a detail: without it significance maps are coarser, views still work.
+    const bool store_ok = ctx.store.readable(), draining = ctx.draining.load();
+    const nlohmann::json body = {
+        {"status", draining ? "draining" : store_ok ? "ready" : "store not readable"},
+        {"checks", {{"store", store_ok ? "ok" : "not readable"}, {"face_detection", std::string(ctx.face_detection)}}}};
+    return text(!draining && store_ok ? 200 : 503, "application/json", body.dump() + "\n", "readyz");
   }
   return text(200, "text/plain; version=0.0.4; charset=utf-8", ctx.metrics.render(), "metrics");
 }
