@@ -55,7 +55,7 @@ class Reader {
  public:
   Reader(const char* file, std::string bytes) : file_(file), in_(std::move(bytes)) {}
 
-  [[noreturn]] void damaged(const std::string& why) const { throw ModelFileError(file_, false, why); }
+  [[noreturn]] void damaged(const std::string& why) const { throw ModelFileError(file_, why); }
 
   template <typename T>
   T get() {
@@ -105,7 +105,7 @@ void replace_file(const std::string& dir, const std::string& name, const std::st
 
 std::string read_whole(const tiles::ImageEntry& image, const char* file) {
   std::ifstream in(image.dir + "/" + file, std::ios::binary);
-  if (!in) throw ModelFileError(file, true, "missing");
+  if (!in) throw ModelFileError(file, "missing");
   std::ostringstream s;
   s << in.rdbuf();
   return s.str();
@@ -129,17 +129,17 @@ std::string with_trailer(std::string bytes) {
 // and which format it is. Throws ModelFileError when the magic or the trailer is wrong.
 std::pair<std::string, int> checked_payload(const char* file, std::string bytes, const Magic& magic1,
                                             const Magic& magic2) {
-  if (bytes.size() < magic1.size()) throw ModelFileError(file, false, "truncated");
+  if (bytes.size() < magic1.size()) throw ModelFileError(file, "truncated");
   if (std::equal(magic1.begin(), magic1.end(), bytes.begin())) return {std::move(bytes), 1};
-  if (!std::equal(magic2.begin(), magic2.end(), bytes.begin())) throw ModelFileError(file, false, "not a model file");
-  if (bytes.size() < magic2.size() + kTrailerBytes) throw ModelFileError(file, false, "truncated");
+  if (!std::equal(magic2.begin(), magic2.end(), bytes.begin())) throw ModelFileError(file, "not a model file");
+  if (bytes.size() < magic2.size() + kTrailerBytes) throw ModelFileError(file, "truncated");
   Trailer t;
   const std::size_t body = bytes.size() - kTrailerBytes;
   std::memcpy(&t.length, bytes.data() + body, sizeof t.length);
   std::memcpy(&t.crc, bytes.data() + body + sizeof t.length, sizeof t.crc);
-  if (t.length != body) throw ModelFileError(file, false, "truncated or extended");
+  if (t.length != body) throw ModelFileError(file, "truncated or extended");
   bytes.resize(body);
-  if (crc32_of(bytes) != t.crc) throw ModelFileError(file, false, "checksum mismatch");
+  if (crc32_of(bytes) != t.crc) throw ModelFileError(file, "checksum mismatch");
   return {std::move(bytes), 2};
 }
 
@@ -189,9 +189,9 @@ ModelEdit read_model_json(const tiles::ImageEntry& image) {
     }
     validate_shapes(stored);
   } catch (const json::exception& e) {
-    throw ModelFileError(kModelJsonFile, false, e.what());
+    throw ModelFileError(kModelJsonFile, e.what());
   } catch (const std::invalid_argument& e) {
-    throw ModelFileError(kModelJsonFile, false, e.what());
+    throw ModelFileError(kModelJsonFile, e.what());
   }
   return stored;
 }
@@ -266,8 +266,8 @@ void write_image_model(const std::string& dir, const ImageModel& model) {
   replace_file(dir, kModelJsonFile, model_json(model));
 }
 
-ModelFileError::ModelFileError(std::string file, bool missing, const std::string& why)
-    : std::runtime_error(file + ": " + why), file_(std::move(file)), missing_(missing) {}
+ModelFileError::ModelFileError(std::string file, const std::string& why)
+    : std::runtime_error(file + ": " + why), file_(std::move(file)) {}
 
 SignificanceMap read_significance(const tiles::ImageEntry& image) {
   auto [bytes, format] =

@@ -47,13 +47,11 @@ void write_image_model(const std::string& dir, const ImageModel& model);
 // or made for another image size. what() names the file, never the folder it is in.
 class ModelFileError : public std::runtime_error {
  public:
-  ModelFileError(std::string file, bool missing, const std::string& why);
+  ModelFileError(std::string file, const std::string& why);
   const std::string& file() const { return file_; }  // kSignificanceFile, kModelFile or kModelJsonFile
-  bool missing() const { return missing_; }
 
  private:
   std::string file_;
-  bool missing_;
 };
 
 // Reads them back; throws ModelFileError naming the first file that is missing or damaged.
