@@ -27,7 +27,7 @@ std::shared_ptr<warp::Icaz> WarpEngines::load(const tiles::ImageEntry& image) {
                        "work; an operator must restore the model files or re-ingest the image");
   }
   if (loaded.source == warp::ModelSource::kRebuiltWithEdits && log_)
-    log_("warning", "warp model file damaged, rebuilt with the curator's lines and edits",
+    log_("warn", "warp model file damaged, rebuilt with the curator's lines and edits",
          {{"image", id}, {"version", image.manifest.version}, {"file", loaded.damaged_file}, {"error", loaded.reason}});
   warp::ImageModel& model = loaded.model;
   warp::IcazOptions options;

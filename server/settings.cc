@@ -26,7 +26,7 @@ AnalysisSettings analysis_settings(const Options& o) {
   s.significance.face_cascade = cascade.path;
   if (cascade.path.empty()) {
     s.face_detection = "off: " + cascade.problem;
-    log_event("warning", "face detection is off: significance maps will not boost faces",
+    log_event("warn", "face detection is off: significance maps will not boost faces",
               {{"face_cascade", configured}, {"problem", cascade.problem}});
   } else {
     s.face_detection = "on";

@@ -136,7 +136,7 @@ TEST_F(DamagedStore, ADamagedBinaryModelFileIsRebuiltWithTheLinesAndEditsAndLogg
     EXPECT_EQ(map.pixels[std::size_t(100 * map.width + 480) * map.channels], 255) << "the region marked important";
     EXPECT_EQ(map.pixels[std::size_t(100 * map.width + 120) * map.channels], 0) << "the region marked unimportant";
     EXPECT_EQ(http.get(base + "/viewport?zoom=0.5&w=320&h=320").status, 200);
-    EXPECT_EQ(count_log_lines(server_->log(), "warning", "rebuilt with the curator's lines and edits",
+    EXPECT_EQ(count_log_lines(server_->log(), "warn", "rebuilt with the curator's lines and edits",
                               {{"image", c.id}, {"file", c.file}}),
               1);
   }
@@ -325,7 +325,7 @@ TEST(FaceCascade, AMissingCascadeIsLoggedAtStartAndShownByReadyzWhichStaysReady)
   const json j = json::parse(r.body);
   EXPECT_EQ(j["status"], "ready");
   EXPECT_EQ(j["checks"]["face_detection"], "off: cascade file not found");
-  EXPECT_EQ(count_log_lines(server.log(), "warning", "face detection is off", {{"problem", "cascade file not found"}}), 1);
+  EXPECT_EQ(count_log_lines(server.log(), "warn", "face detection is off", {{"problem", "cascade file not found"}}), 1);
 
   const std::string garbage_cascade = dir.path() + "/garbage.xml";
   std::ofstream(garbage_cascade) << "not a cascade";
