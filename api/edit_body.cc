@@ -1,9 +1,12 @@
 #include "api/edit_body.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <nlohmann/json.hpp>
 
 #include "api/errors.h"
+#include "warp/limits.h"
 
 namespace zoomwarp::api {
 
@@ -12,6 +15,14 @@ namespace {
 using nlohmann::json;
 
 [[noreturn]] void bad_body(const std::string& message) { throw ApiError(400, "invalid_body", message); }
+
+// Over a limit of warp/limits.h: 413, whose code names the limit (README "Limits").
+[[noreturn]] void over_limit(const std::string& code, const std::string& message) { throw ApiError(413, code, message); }
+
+// Checked before the items are parsed, so an oversized array costs no more than its JSON parse.
+void at_most(std::size_t n, long long limit, const char* code, const std::string& what) {
+  if (n > std::size_t(limit)) over_limit(code, "at most " + std::to_string(limit) + " " + what + ", not " + std::to_string(n));
+}
 
 // A finite number inside [lo, hi] from a JSON value.
 double coordinate(const json& j, double lo, double hi, const char* what) {
@@ -24,11 +35,23 @@ double coordinate(const json& j, double lo, double hi, const char* what) {
 warp::ModelEdit lines_edit(const json& body, double W, double H) {
   if (!body.is_object() || !body.contains("lines") || !body["lines"].is_array() || body.size() != 1)
     bad_body(R"(expected {"lines": [[x0, y0, x1, y1], …]})");
+  at_most(body["lines"].size(), warp::limits::kMaxLines, "too_many_lines", "lines");
   std::vector<warp::Segment> lines;
+  double total = 0;
   for (const json& l : body["lines"]) {
     if (!l.is_array() || l.size() != 4) bad_body("each line is [x0, y0, x1, y1]");
     lines.push_back({{coordinate(l[0], 0, W, "line ends"), coordinate(l[1], 0, H, "line ends")},
                      {coordinate(l[2], 0, W, "line ends"), coordinate(l[3], 0, H, "line ends")}});
+    total += std::hypot(lines.back().b.x - lines.back().a.x, lines.back().b.y - lines.back().a.y);
+  }
+  // [ICAZ §4.3] Every line adds its chain of mesh vertices to the coarsest mesh and its energy
+  // terms to every solve: the summed length bounds that cost.
+  const double max_total = warp::limits::kMaxTotalLineLength * std::max(W, H);
+  if (total > max_total) {
+    char msg[160];
+    std::snprintf(msg, sizeof msg, "the lines' total length is at most %g × the image's larger side (%g px), not %g px",
+                  warp::limits::kMaxTotalLineLength, max_total, total);
+    over_limit("lines_too_long", msg);
   }
   warp::ModelEdit edit;
   edit.lines = std::move(lines);
@@ -39,6 +62,7 @@ warp::ModelEdit significance_edit(const json& body, double W, double H) {
   if (!body.is_object() || !body.contains("regions") || !body["regions"].is_array() || body.size() != 1 ||
       body["regions"].empty())
     bad_body(R"(expected {"regions": [{"rect": [x, y, w, h], "weight": s} or {"polygon": [[x, y], …], "weight": s}, …]})");
+  at_most(body["regions"].size(), warp::limits::kMaxRegionsPerEdit, "too_many_regions", "regions per edit");
   warp::ModelEdit edit;
   for (const json& r : body["regions"]) {
     if (!r.is_object() || !r.contains("weight") || r.size() != 2 || (!r.contains("rect") && !r.contains("polygon")))
@@ -58,6 +82,7 @@ warp::ModelEdit significance_edit(const json& body, double W, double H) {
     } else {
       const json& polygon = r["polygon"];
       if (!polygon.is_array() || polygon.size() < 3) bad_body("a polygon needs at least 3 points");
+      at_most(polygon.size(), warp::limits::kMaxPolygonPoints, "too_many_points", "points per polygon");
       for (const json& p : polygon) {
         if (!p.is_array() || p.size() != 2) bad_body("polygon points are [x, y]");
         e.polygon.push_back({coordinate(p[0], 0, W, "polygon points"), coordinate(p[1], 0, H, "polygon points")});

@@ -12,11 +12,18 @@ Response body_response(std::string content_type, std::string body) {
   return r;
 }
 
-std::shared_ptr<const tiles::ImageEntry> find_image(const tiles::Store& store, const std::string& id) {
+void check_image_id(const std::string& id) {
   if (!tiles::is_valid_image_id(id))
     throw ApiError(400, "invalid_id",
                    "image ids are 1-128 characters from A-Z a-z 0-9 . _ - and start with a letter or digit");
+}
+
+std::shared_ptr<const tiles::ImageEntry> find_image(const tiles::Store& store, const std::string& id) {
+  check_image_id(id);
   auto entry = store.find(id);
+  if (!entry && store.published(id))
+    throw ApiError(500, "image_damaged",
+                   "image '" + id + "' is published but its manifest cannot be read; DELETE it or ingest it again");
   if (!entry) throw ApiError(404, "image_not_found", "no image with id '" + id + "'");
   return entry;
 }

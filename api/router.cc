@@ -81,7 +81,7 @@ Router::Router(tiles::Store& store, tiles::PyramidReader& reader, RouterConfig c
       reader_(reader),
       config_(std::move(config)),
       cache_(config_.response_cache_bytes),
-      engines_(reader, config_.warp_cache_bytes) {}
+      engines_(reader, config_.warp_cache_bytes, config_.significance, config_.log) {}
 
 bool Router::is_upload(std::string_view method, std::string_view path) {
   return method == "POST" && (path == "/v1/images" || path == "/v1/images/");
@@ -410,9 +410,11 @@ Response Router::describe(const std::string& id) const {
 
 std::optional<Response> Router::delete_image(const Request&, const PathParams& p, bool) {
   const std::string& id = param(p, "id");
-  auto entry = find_image(store_, id);
+  check_image_id(id);
+  // An image whose manifest is damaged cannot be found, but it can be removed.
+  const auto entry = store_.find(id);
   if (!store_.remove(id)) throw ApiError(404, "image_not_found", "no image with id '" + id + "'");
-  reader_.forget(*entry);
+  if (entry) reader_.forget(*entry);
   Response r;
   r.status = 204;
   r.route = "image_delete";

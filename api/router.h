@@ -38,6 +38,8 @@ struct RouterConfig {
   std::string public_url;  // e.g. "https://tiles.example.org"; empty: from Host / X-Forwarded-Proto
   int cache_max_age = 60;  // Cache-Control max-age of image responses, seconds
   std::size_t warp_cache_bytes = 256u << 20;  // ICAZ operators (models, forests, coarse warps) kept in memory
+  warp::SignificanceOptions significance;     // for models built from the pyramid (the face cascade)
+  EventLog log;                               // damaged models are reported here
 };
 
 class Router {

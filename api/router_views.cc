@@ -97,6 +97,8 @@ std::optional<Response> Router::edit_route(const Request& req, const PathParams&
   const warp::ModelEdit edit = what == "lines" ? parse_lines_body(req.body, W, H) : parse_significance_body(req.body, W, H);
   try {
     warp::edit_image_model(store_, *entry, edit, engines_.get(*entry)->model());
+  } catch (const warp::LimitExceeded& err) {
+    throw ApiError(413, err.limit(), err.what());
   } catch (const std::invalid_argument& err) {
     throw ApiError(400, "invalid_body", err.what());
   } catch (const tiles::VersionConflict& err) {

@@ -6,6 +6,7 @@
 
 #include "api/errors.h"
 #include "api/url.h"
+#include "warp/limits.h"
 
 namespace zoomwarp::api {
 
@@ -60,8 +61,8 @@ ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double W
     if (name == "zoom") q.view.zoom = in_range(name, number(name, value), 0, 1);
     else if (name == "cx") q.view.cx = in_range(name, number(name, value), 0, W);
     else if (name == "cy") q.view.cy = in_range(name, number(name, value), 0, H);
-    else if (name == "w") q.view.screen_width = integer(name, value, 16, 4096), have_w = true;
-    else if (name == "h") q.view.screen_height = integer(name, value, 16, 4096), have_h = true;
+    else if (name == "w") q.view.screen_width = integer(name, value, 16, warp::limits::kMaxScreenSide), have_w = true;
+    else if (name == "h") q.view.screen_height = integer(name, value, 16, warp::limits::kMaxScreenSide), have_h = true;
     else if (name == "method") {
       if (value == "icaz") q.method = ViewMethod::kIcaz;
       else if (value == "traditional") q.method = ViewMethod::kTraditional;
@@ -81,7 +82,10 @@ ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double W
     } else if (route == ViewRoute::kViewport && name == "quality") q.quality = integer(name, value, 1, 100);
     else bad("unknown parameter '" + name + "'");
   }
-  if (!have_w || !have_h) bad("w and h (screen size in pixels, 16…4096) are required");
+  if (!have_w || !have_h)
+    bad("w and h (screen size in pixels, 16…" + std::to_string(warp::limits::kMaxScreenSide) + ") are required");
+  if ((long long)q.view.screen_width * q.view.screen_height > warp::limits::kMaxScreenPixels)
+    bad("the screen (w × h) has at most " + std::to_string(warp::limits::kMaxScreenPixels) + " pixels");
   if (from_zoom || from_cx || from_cy) {
     q.from = q.view;
     if (from_zoom) q.from->zoom = *from_zoom;

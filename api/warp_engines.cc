@@ -1,23 +1,35 @@
 #include "api/warp_engines.h"
 
 #include <algorithm>
+#include <nlohmann/json.hpp>
 
+#include "api/errors.h"
 #include "warp/image_analysis.h"
 
 namespace zoomwarp::api {
 
-WarpEngines::WarpEngines(tiles::PyramidReader& reader, std::size_t budget_bytes)
-    : reader_(reader), budget_(budget_bytes) {}
+WarpEngines::WarpEngines(tiles::PyramidReader& reader, std::size_t budget_bytes, warp::SignificanceOptions significance,
+                         EventLog log)
+    : reader_(reader), budget_(budget_bytes), significance_(std::move(significance)), log_(std::move(log)) {}
 
 std::shared_ptr<warp::Icaz> WarpEngines::load(const tiles::ImageEntry& image) {
-  warp::ImageModel model;
+  const std::string& id = image.manifest.id;
+  warp::LoadedModel loaded;
   try {
-    model = warp::read_image_model(image);
-  } catch (const std::runtime_error&) {
-    // A version published before the model files existed: build the model from its pyramid.
-    model = warp::make_image_model(warp::read_reduced_image(image, reader_), image.manifest.width,
-                                   image.manifest.height);
+    loaded = warp::load_image_model(image, reader_, significance_);
+  } catch (const warp::ModelFileError& e) {
+    if (log_)
+      log_("error", "warp model damaged, curator edits unreadable",
+           {{"image", id}, {"version", image.manifest.version}, {"file", e.file()}, {"error", e.what()}});
+    throw ApiError(500, "model_damaged",
+                   "the warp model of image '" + id +
+                       "' is damaged and its curator edits (lines, significance) cannot be read; its tiles still "
+                       "work; an operator must restore the model files or re-ingest the image");
   }
+  if (loaded.source == warp::ModelSource::kRebuiltWithEdits && log_)
+    log_("warn", "warp model file damaged, rebuilt with the curator's lines and edits",
+         {{"image", id}, {"version", image.manifest.version}, {"file", loaded.damaged_file}, {"error", loaded.reason}});
+  warp::ImageModel& model = loaded.model;
   warp::IcazOptions options;
   constexpr std::size_t kBytesPerLazyNode = 64;
   options.max_forest_nodes = int(std::clamp<std::size_t>(model.forest.kept_nodes() + budget_ / 4 / kBytesPerLazyNode,

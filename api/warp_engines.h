@@ -5,14 +5,26 @@
 // first while the total is over the budget, and each engine's lazily grown forest is capped at a
 // quarter of it. A new version (an edit, a re-ingest) is simply another key, so an old one's
 // engine is never used for it.
+//
+// The model comes from warp::load_image_model: a damaged binary model file is rebuilt with the
+// curator's lines and edits (a warning is logged); a damaged or missing warp.json while other
+// model files exist makes the image's warp routes answer 500 "model_damaged" (an error is
+// logged) — never a model without the curator's work. Failures are not cached: the next
+// request tries again, so a repaired file is picked up without a restart (a failed load stops
+// at warp.json and costs one small read).
+//
+// Thread safety: all members may be called concurrently; the engines returned are shared.
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <future>
 #include <list>
 #include <memory>
 #include <mutex>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
+#include <string_view>
 #include <unordered_map>
 
 #include "tiles/pyramid_reader.h"
@@ -21,11 +33,17 @@
 
 namespace zoomwarp::api {
 
+// Where the api reports events worth an operator's attention (the server's structured log).
+using EventLog = std::function<void(std::string_view level, std::string_view msg, const nlohmann::json& fields)>;
+
 class WarpEngines {
  public:
-  WarpEngines(tiles::PyramidReader& reader, std::size_t budget_bytes);
+  // `significance` is used when a model has to be built from the pyramid; `log` may be empty.
+  WarpEngines(tiles::PyramidReader& reader, std::size_t budget_bytes, warp::SignificanceOptions significance = {},
+              EventLog log = {});
 
-  // Throws std::runtime_error if the model cannot be read or built.
+  // Throws ApiError(500, "model_damaged") if the curator's edits cannot be read, and
+  // std::runtime_error if the model cannot be built.
   std::shared_ptr<warp::Icaz> get(const tiles::ImageEntry& image);
 
   // The engines' bytes as last measured, and how many there are (for /metrics).
@@ -39,6 +57,8 @@ class WarpEngines {
 
   tiles::PyramidReader& reader_;
   std::size_t budget_;
+  warp::SignificanceOptions significance_;
+  EventLog log_;
   std::mutex mu_;
   std::list<std::string> order_;  // most recently used first
   struct Entry {

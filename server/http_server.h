@@ -29,6 +29,7 @@ struct HttpServerOptions {
   std::chrono::seconds gc_interval{60};       // store garbage collection
   std::chrono::seconds gc_grace{600};         // age of unreferenced versions before removal
   bool log_requests = true;
+  std::string face_detection = "on";          // "off: why" — a /readyz detail, not a readiness failure
 };
 
 class HttpServer {

@@ -59,7 +59,7 @@ int ingest_command(const std::vector<std::string>& args) {
     // Time the warp engine's analysis apart from the pyramid: it is the part that grows with
     // the model, not with the pixels.
     using Clock = std::chrono::steady_clock;
-    tiles::IngestOptions options = ingest_options(o);
+    tiles::IngestOptions options = ingest_options(o, analysis_settings(o).significance);
     double analysis_s = 0;
     options.analyse = [&, analyse = options.analyse](const tiles::ImageEntry& staged) {
       const auto t0 = Clock::now();

@@ -1,5 +1,7 @@
 #include "server/ops.h"
 
+#include <nlohmann/json.hpp>
+
 #include "api/errors.h"
 
 namespace zoomwarp::server {
@@ -26,11 +28,12 @@ std::optional<api::Response> answer_ops(const api::Request& req, const OpsContex
   }
   if (req.path == "/healthz") return text(200, "application/json", "{\"status\":\"ok\"}\n", "healthz");
   if (req.path == "/readyz") {
-    if (ctx.draining.load())
-      return text(503, "application/json", "{\"status\":\"draining\"}\n", "readyz");
-    if (!ctx.store.readable())
-      return text(503, "application/json", "{\"status\":\"store not readable\"}\n", "readyz");
-    return text(200, "application/json", "{\"status\":\"ready\"}\n", "readyz");
+    // Face detection is a detail: without it significance maps are coarser, views still work.
+    const bool store_ok = ctx.store.readable(), draining = ctx.draining.load();
+    const nlohmann::json body = {
+        {"status", draining ? "draining" : store_ok ? "ready" : "store not readable"},
+        {"checks", {{"store", store_ok ? "ok" : "not readable"}, {"face_detection", std::string(ctx.face_detection)}}}};
+    return text(!draining && store_ok ? 200 : 503, "application/json", body.dump() + "\n", "readyz");
   }
   return text(200, "text/plain; version=0.0.4; charset=utf-8", ctx.metrics.render(), "metrics");
 }

@@ -1,9 +1,12 @@
 // Operations endpoints: /healthz (the process answers), /readyz (the store can be read and we
-// are not draining), /metrics (Prometheus). Answered on the I/O thread; they never queue.
+// are not draining; its "checks" also report degraded features that do not make the replica
+// unready, such as face detection), /metrics (Prometheus). Answered on the I/O thread; they
+// never queue.
 #pragma once
 
 #include <atomic>
 #include <optional>
+#include <string_view>
 
 #include "api/http_types.h"
 #include "server/metrics.h"
@@ -15,6 +18,7 @@ struct OpsContext {
   const tiles::Store& store;
   const Metrics& metrics;
   const std::atomic<bool>& draining;
+  std::string_view face_detection;  // "on" or "off: why"
 };
 
 // The answer if `req` is an operations endpoint, else nullopt.

@@ -81,7 +81,13 @@ int serve_command(const std::vector<std::string>& args) {
     rc.cache_max_age = int(o.integer("cache-max-age", 0, 365 * 86400));
     rc.public_url = o.str("public-url");
     while (!rc.public_url.empty() && rc.public_url.back() == '/') rc.public_url.pop_back();
-    rc.ingest = ingest_options(o);
+    const AnalysisSettings analysis = analysis_settings(o);
+    rc.ingest = ingest_options(o, analysis.significance);
+    rc.significance = analysis.significance;
+    rc.log = [](std::string_view level, std::string_view msg, const nlohmann::json& fields) {
+      log_event(level, msg, fields);
+    };
+    http.face_detection = analysis.face_detection;
     const std::uint64_t tile_cache = o.bytes("tile-cache", 1ULL << 20, 1ULL << 40);
     const int workers = int(o.integer("workers", 1, 256));
     const auto queue = std::size_t(o.integer("queue", 1, 1 << 20));

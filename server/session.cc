@@ -197,7 +197,7 @@ void Session::answer() {
     return send(std::move(r));
   }
   try {
-    if (auto r = answer_ops(req_, OpsContext{state_.store, state_.metrics, state_.draining})) return send(std::move(*r));
+    if (auto r = answer_ops(req_, OpsContext{state_.store, state_.metrics, state_.draining, state_.options.face_detection})) return send(std::move(*r));
     if (auto r = state_.router.try_answer_now(req_)) return send(std::move(*r));
   } catch (const std::exception& e) {
     return send(api::error_response(500, "internal_error", e.what()));

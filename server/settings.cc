@@ -1,7 +1,9 @@
 #include "server/settings.h"
 
+#include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "server/log.h"
 #include "warp/image_analysis.h"
 
 namespace zoomwarp::server {
@@ -11,10 +13,28 @@ std::vector<OptionSpec> store_option_specs() {
       {"store", "./store", "folder of the image store (shared by all replicas)"},
       {"max-pixels", "1000000000", "largest image accepted, in pixels (width x height), checked before decoding"},
       {"tile-compression", "zip:1", "TIFF compression of stored pyramid levels: zip:1 … zip:9, zip (= zip:6), lzw, none"},
+      {"face-cascade", warp::kDefaultFaceCascade,
+       "OpenCV Haar cascade for faces in significance maps (the default is also looked for in OpenCV's data folders); "
+       "missing: face detection is off"},
   };
 }
 
-tiles::IngestOptions ingest_options(const Options& o) {
+AnalysisSettings analysis_settings(const Options& o) {
+  const std::string configured = o.str("face-cascade");
+  const warp::FaceCascade cascade = warp::find_face_cascade(configured);
+  AnalysisSettings s;
+  s.significance.face_cascade = cascade.path;
+  if (cascade.path.empty()) {
+    s.face_detection = "off: " + cascade.problem;
+    log_event("warn", "face detection is off: significance maps will not boost faces",
+              {{"face_cascade", configured}, {"problem", cascade.problem}});
+  } else {
+    s.face_detection = "on";
+  }
+  return s;
+}
+
+tiles::IngestOptions ingest_options(const Options& o, const warp::SignificanceOptions& significance) {
   tiles::IngestOptions opt;
   opt.limits.max_pixels = std::uint64_t(o.integer("max-pixels", 1, 1LL << 40));
   opt.pyramid.compression = o.str("tile-compression");
@@ -22,7 +42,8 @@ tiles::IngestOptions ingest_options(const Options& o) {
   const bool zip_level = c.size() == 5 && c.rfind("zip:", 0) == 0 && c[4] >= '1' && c[4] <= '9';
   if (c != "zip" && !zip_level && c != "lzw" && c != "none")
     throw std::invalid_argument("--tile-compression must be zip:1 … zip:9, zip, lzw or none, not '" + c + "'");
-  opt.analyse = warp::write_image_analysis;  // the warp engine's significance map, published with the image
+  // The warp engine's significance map, published with the image.
+  opt.analyse = [significance](const tiles::ImageEntry& staged) { warp::write_image_analysis(staged, significance); };
   return opt;
 }
 

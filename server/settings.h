@@ -1,15 +1,26 @@
 // Options shared by several subcommands, and how they turn into library settings.
 #pragma once
 
+#include <string>
 #include <vector>
 
 #include "server/options.h"
 #include "tiles/ingest.h"
+#include "warp/significance.h"
 
 namespace zoomwarp::server {
 
-// --store, --max-pixels, --tile-compression.
+// --store, --max-pixels, --tile-compression, --face-cascade.
 std::vector<OptionSpec> store_option_specs();
-tiles::IngestOptions ingest_options(const Options& o);
+
+// The warp engine's analysis settings: --face-cascade found (warp::find_face_cascade), and face
+// detection's state for /readyz: "on", or "off: " and why. Logs a warning when it is off.
+struct AnalysisSettings {
+  warp::SignificanceOptions significance;
+  std::string face_detection;
+};
+AnalysisSettings analysis_settings(const Options& o);
+
+tiles::IngestOptions ingest_options(const Options& o, const warp::SignificanceOptions& significance);
 
 }  // namespace zoomwarp::server

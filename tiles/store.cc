@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -120,6 +121,12 @@ std::shared_ptr<const ImageEntry> Store::find(const std::string& id) const {
   t.remove_prefix(prefix.size());
   if (t.find('/') != std::string_view::npos) return nullptr;
   return load_version(id, std::string(t));
+}
+
+bool Store::published(const std::string& id) const {
+  if (!is_valid_image_id(id)) return false;
+  struct stat st;
+  return ::lstat((root_ + "/images/" + id).c_str(), &st) == 0;
 }
 
 std::vector<std::shared_ptr<const ImageEntry>> Store::list() const {

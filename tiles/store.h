@@ -44,7 +44,11 @@ class Store {
   // so a version published by another process is seen at once; manifests are cached per version.
   std::shared_ptr<const ImageEntry> find(const std::string& id) const;
 
-  // Every published image, sorted by id.
+  // Whether images/ID exists, whatever it points to: find() is null for a published image whose
+  // version folder or manifest is missing or damaged, and such an image can still be removed.
+  bool published(const std::string& id) const;
+
+  // Every published image that can be read, sorted by id.
   std::vector<std::shared_ptr<const ImageEntry>> list() const;
 
   // A new, empty folder to build an image in; give it to publish() or discard().
@@ -66,7 +70,7 @@ class Store {
   std::shared_ptr<const ImageEntry> publish(const std::string& staging_dir, Manifest m,
                                             const std::string* expected_version = nullptr);
 
-  // Unpublishes `id`; false if it was not published.
+  // Unpublishes `id`, even when its manifest is damaged; false if it was not published.
   bool remove(const std::string& id);
 
   // Removes versions no link points to that are older than `grace`, and staging folders whose

@@ -1,5 +1,7 @@
 #include "warp/image_analysis.h"
 
+#include <array>
+#include <boost/crc.hpp>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -8,6 +10,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "warp/limits.h"
+
 namespace zoomwarp::warp {
 
 namespace {
@@ -15,8 +19,25 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-constexpr char kSignificanceMagic[8] = {'Z', 'W', 'S', 'I', 'G', '1', 0, 0};
-constexpr char kModelMagic[8] = {'Z', 'W', 'M', 'O', 'D', 'E', 'L', '1'};
+using Magic = std::array<char, 8>;
+// Format 1 (no trailer) is still read; format 2 is written.
+constexpr Magic kSignificanceMagic1 = {'Z', 'W', 'S', 'I', 'G', '1', 0, 0};
+constexpr Magic kSignificanceMagic2 = {'Z', 'W', 'S', 'I', 'G', '2', 0, 0};
+constexpr Magic kModelMagic1 = {'Z', 'W', 'M', 'O', 'D', 'E', 'L', '1'};
+constexpr Magic kModelMagic2 = {'Z', 'W', 'M', 'O', 'D', 'E', 'L', '2'};
+
+// Format 2's trailer: the number of bytes before it and their CRC-32.
+struct Trailer {
+  std::uint64_t length;
+  std::uint32_t crc;
+};
+constexpr std::size_t kTrailerBytes = sizeof(std::uint64_t) + sizeof(std::uint32_t);
+
+std::uint32_t crc32_of(std::string_view bytes) {
+  boost::crc_32_type crc;
+  crc.process_bytes(bytes.data(), bytes.size());
+  return crc.checksum();
+}
 
 template <typename T>
 void put(std::ostream& out, const T& v) {
@@ -29,23 +50,46 @@ void put_vector(std::ostream& out, const std::vector<T>& v) {
   out.write(reinterpret_cast<const char*>(v.data()), std::streamsize(v.size() * sizeof(T)));
 }
 
-template <typename T>
-T get(std::istream& in) {
-  T v{};
-  in.read(reinterpret_cast<char*>(&v), sizeof v);
-  if (!in) throw std::runtime_error("truncated model file");
-  return v;
-}
+// The bytes of one model file being parsed; every failure is a ModelFileError naming it.
+class Reader {
+ public:
+  Reader(const char* file, std::string bytes) : file_(file), in_(std::move(bytes)) {}
 
-template <typename T>
-std::vector<T> get_vector(std::istream& in, std::int64_t max_size) {
-  const auto n = get<std::int64_t>(in);
-  if (n < 0 || n > max_size) throw std::runtime_error("damaged model file");
-  std::vector<T> v(static_cast<std::size_t>(n));
-  in.read(reinterpret_cast<char*>(v.data()), std::streamsize(v.size() * sizeof(T)));
-  if (!in) throw std::runtime_error("truncated model file");
-  return v;
-}
+  [[noreturn]] void damaged(const std::string& why) const { throw ModelFileError(file_, why); }
+
+  template <typename T>
+  T get() {
+    T v{};
+    in_.read(reinterpret_cast<char*>(&v), sizeof v);
+    if (!in_) damaged("truncated");
+    return v;
+  }
+
+  // A length-prefixed array; the length is checked against the bytes left before allocating.
+  template <typename T>
+  std::vector<T> get_vector() {
+    const auto n = get<std::int64_t>();
+    if (n < 0 || std::uint64_t(n) > remaining() / sizeof(T)) damaged("an array runs past the end");
+    std::vector<T> v(static_cast<std::size_t>(n));
+    in_.read(reinterpret_cast<char*>(v.data()), std::streamsize(v.size() * sizeof(T)));
+    if (!in_) damaged("truncated");
+    return v;
+  }
+
+  std::uint64_t remaining() {
+    const auto here = in_.tellg();
+    in_.seekg(0, std::ios::end);
+    const auto end = in_.tellg();
+    in_.seekg(here);
+    return here < 0 ? 0 : std::uint64_t(end - here);
+  }
+
+  std::istream& stream() { return in_; }
+
+ private:
+  const char* file_;
+  std::istringstream in_;
+};
 
 // Writes `bytes` to dir/name through a temporary file renamed into place: a reader never sees a
 // partial file, and a hard link to an older version's file is replaced, not written through.
@@ -59,12 +103,44 @@ void replace_file(const std::string& dir, const std::string& name, const std::st
   fs::rename(tmp, path);
 }
 
-std::string read_whole(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error("missing " + path);
+std::string read_whole(const tiles::ImageEntry& image, const char* file) {
+  std::ifstream in(image.dir + "/" + file, std::ios::binary);
+  if (!in) throw ModelFileError(file, "missing");
   std::ostringstream s;
   s << in.rdbuf();
   return s.str();
+}
+
+bool exists(const tiles::ImageEntry& image, const char* file) {
+  std::error_code ec;
+  return fs::exists(image.dir + "/" + file, ec);
+}
+
+// Appends the format 2 trailer.
+std::string with_trailer(std::string bytes) {
+  const std::uint64_t length = bytes.size();
+  const std::uint32_t crc = crc32_of(bytes);
+  bytes.append(reinterpret_cast<const char*>(&length), sizeof length);
+  bytes.append(reinterpret_cast<const char*>(&crc), sizeof crc);
+  return bytes;
+}
+
+// A binary model file's bytes without its trailer (format 2, checked) or as they are (format 1),
+// and which format it is. Throws ModelFileError when the magic or the trailer is wrong.
+std::pair<std::string, int> checked_payload(const char* file, std::string bytes, const Magic& magic1,
+                                            const Magic& magic2) {
+  if (bytes.size() < magic1.size()) throw ModelFileError(file, "truncated");
+  if (std::equal(magic1.begin(), magic1.end(), bytes.begin())) return {std::move(bytes), 1};
+  if (!std::equal(magic2.begin(), magic2.end(), bytes.begin())) throw ModelFileError(file, "not a model file");
+  if (bytes.size() < magic2.size() + kTrailerBytes) throw ModelFileError(file, "truncated");
+  Trailer t;
+  const std::size_t body = bytes.size() - kTrailerBytes;
+  std::memcpy(&t.length, bytes.data() + body, sizeof t.length);
+  std::memcpy(&t.crc, bytes.data() + body + sizeof t.length, sizeof t.crc);
+  if (t.length != body) throw ModelFileError(file, "truncated or extended");
+  bytes.resize(body);
+  if (crc32_of(bytes) != t.crc) throw ModelFileError(file, "checksum mismatch");
+  return {std::move(bytes), 2};
 }
 
 json point_json(const Point& p) { return json::array({p.x, p.y}); }
@@ -81,19 +157,58 @@ std::string model_json(const ImageModel& m) {
   return json{{"lines", lines}, {"significance_edits", edits}}.dump(2) + "\n";
 }
 
+// The shape rules every edit and every stored warp.json keeps (the count limits apply to new
+// edits only: warp.json may hold many edits). Throws std::invalid_argument.
+void validate_shapes(const ModelEdit& edit) {
+  auto finite = [](const Point& p) { return std::isfinite(p.x) && std::isfinite(p.y); };
+  for (const Segment& s : edit.lines.value_or(std::vector<Segment>{})) {
+    if (!finite(s.a) || !finite(s.b)) throw std::invalid_argument("line end points must be finite numbers");
+    if (std::hypot(s.b.x - s.a.x, s.b.y - s.a.y) < 1) throw std::invalid_argument("a line must be at least 1 px long");
+  }
+  for (const SignificanceEdit& e : edit.significance) {
+    if (e.polygon.size() < 3) throw std::invalid_argument("a region needs at least 3 points");
+    for (const Point& p : e.polygon)
+      if (!finite(p)) throw std::invalid_argument("region points must be finite numbers");
+    if (!(e.weight >= 0 && e.weight <= 1)) throw std::invalid_argument("a region's weight must be in [0, 1]");
+  }
+}
+
+// warp.json: the curator's lines and significance edits, checked like a new edit would be.
+ModelEdit read_model_json(const tiles::ImageEntry& image) {
+  ModelEdit stored;
+  try {
+    const json j = json::parse(read_whole(image, kModelJsonFile));
+    std::vector<Segment> lines;
+    for (const auto& l : j.at("lines")) lines.push_back({point_from(l.at("from")), point_from(l.at("to"))});
+    stored.lines = std::move(lines);
+    for (const auto& e : j.at("significance_edits")) {
+      SignificanceEdit edit;
+      for (const auto& p : e.at("polygon")) edit.polygon.push_back(point_from(p));
+      edit.weight = e.at("weight").get<float>();
+      stored.significance.push_back(std::move(edit));
+    }
+    validate_shapes(stored);
+  } catch (const json::exception& e) {
+    throw ModelFileError(kModelJsonFile, e.what());
+  } catch (const std::invalid_argument& e) {
+    throw ModelFileError(kModelJsonFile, e.what());
+  }
+  return stored;
+}
+
 std::string significance_bytes(const SignificanceMap& map) {
   std::ostringstream out;
-  out.write(kSignificanceMagic, sizeof kSignificanceMagic);
+  out.write(kSignificanceMagic2.data(), kSignificanceMagic2.size());
   put(out, std::int32_t(map.width));
   put(out, std::int32_t(map.height));
   put(out, map.scale);
   out.write(reinterpret_cast<const char*>(map.values.data()), std::streamsize(map.values.size() * sizeof(float)));
-  return out.str();
+  return with_trailer(out.str());
 }
 
 std::string model_bytes(const ImageModel& m) {
   std::ostringstream out;
-  out.write(kModelMagic, sizeof kModelMagic);
+  out.write(kModelMagic2.data(), kModelMagic2.size());
   put(out, m.width), put(out, m.height), put(out, m.w_min), put(out, m.coarse.max_triangle_area);
   put_vector(out, m.coarse.mesh.vertices);
   put_vector(out, m.coarse.mesh.triangles);
@@ -101,7 +216,33 @@ std::string model_bytes(const ImageModel& m) {
   for (const auto& chain : m.coarse.line_vertices) put_vector(out, chain);
   m.forest.write(out);
   put_vector(out, m.node_mean);
-  return out.str();
+  return with_trailer(out.str());
+}
+
+// warp_model.bin into `m`, whose lines (from warp.json) its line chains must match.
+void read_model_bin(const tiles::ImageEntry& image, ImageModel& m) {
+  auto [bytes, format] = checked_payload(kModelFile, read_whole(image, kModelFile), kModelMagic1, kModelMagic2);
+  Reader in(kModelFile, std::move(bytes));
+  in.stream().seekg(std::streamoff(kModelMagic1.size()));
+  m.width = in.get<double>(), m.height = in.get<double>(), m.w_min = in.get<double>();
+  m.coarse.max_triangle_area = in.get<double>();
+  if (m.width != image.manifest.width || m.height != image.manifest.height) in.damaged("made for another image size");
+  m.coarse.mesh.vertices = in.get_vector<Point>();
+  m.coarse.mesh.triangles = in.get_vector<Triangle>();
+  for (const Triangle& t : m.coarse.mesh.triangles)
+    for (int v : t)
+      if (v < 0 || v >= int(m.coarse.mesh.vertices.size())) in.damaged("a triangle names a missing vertex");
+  const auto chains = in.get<std::int64_t>();
+  if (chains != std::int64_t(m.lines.size())) in.damaged("its line constraints are not warp.json's");
+  for (std::int64_t k = 0; k < chains; ++k) m.coarse.line_vertices.push_back(in.get_vector<int>());
+  try {
+    m.forest = Forest::read(in.stream(), m.coarse.mesh);
+  } catch (const std::runtime_error& e) {
+    in.damaged(e.what());
+  }
+  m.node_mean = in.get_vector<float>();
+  if (m.node_mean.size() != std::size_t(m.forest.kept_nodes())) in.damaged("node means do not match the forest");
+  if (format == 2 && in.remaining() != 0) in.damaged("trailing bytes");
 }
 
 }  // namespace
@@ -113,10 +254,10 @@ tiles::Raster read_reduced_image(const tiles::ImageEntry& image, tiles::PyramidR
   return reader.read_level(image, k, {0, 0, m.level_width(k), m.level_height(k)});
 }
 
-void write_image_analysis(const tiles::ImageEntry& image) {
+void write_image_analysis(const tiles::ImageEntry& image, const SignificanceOptions& significance) {
   tiles::PyramidReader reader(32 << 20);  // its own small cache: staged files are about to move
   write_image_model(image.dir, make_image_model(read_reduced_image(image, reader), image.manifest.width,
-                                                image.manifest.height));
+                                                image.manifest.height, {}, {}, {}, significance));
 }
 
 void write_image_model(const std::string& dir, const ImageModel& model) {
@@ -125,86 +266,82 @@ void write_image_model(const std::string& dir, const ImageModel& model) {
   replace_file(dir, kModelJsonFile, model_json(model));
 }
 
+ModelFileError::ModelFileError(std::string file, const std::string& why)
+    : std::runtime_error(file + ": " + why), file_(std::move(file)) {}
+
 SignificanceMap read_significance(const tiles::ImageEntry& image) {
-  const std::string path = image.dir + "/" + kSignificanceFile;
-  std::istringstream in(read_whole(path));
-  char magic[8];
-  in.read(magic, sizeof magic);
+  auto [bytes, format] =
+      checked_payload(kSignificanceFile, read_whole(image, kSignificanceFile), kSignificanceMagic1, kSignificanceMagic2);
+  Reader in(kSignificanceFile, std::move(bytes));
+  in.stream().seekg(std::streamoff(kSignificanceMagic1.size()));
   SignificanceMap map;
-  const auto w = get<std::int32_t>(in), h = get<std::int32_t>(in);
-  map.scale = get<double>(in);
-  if (std::memcmp(magic, kSignificanceMagic, sizeof magic) != 0 || w <= 0 || h <= 0 || w > 4 * kSignificanceMaxSide ||
-      h > 4 * kSignificanceMaxSide || !(map.scale > 0))
-    throw std::runtime_error("damaged " + path);
+  const auto w = in.get<std::int32_t>(), h = in.get<std::int32_t>();
+  map.scale = in.get<double>();
+  if (w <= 0 || h <= 0 || w > 4 * kSignificanceMaxSide || h > 4 * kSignificanceMaxSide || !(map.scale > 0))
+    in.damaged("bad map size");
+  // The map covers the image: its sides are the image's times the scale, give or take rounding.
+  if (std::abs(w - map.scale * image.manifest.width) > 1 || std::abs(h - map.scale * image.manifest.height) > 2)
+    in.damaged("made for another image size");
+  if (in.remaining() < std::uint64_t(w) * std::uint64_t(h) * sizeof(float)) in.damaged("truncated");
   map.width = w, map.height = h;
   map.values.resize(std::size_t(w) * h);
-  in.read(reinterpret_cast<char*>(map.values.data()), std::streamsize(map.values.size() * sizeof(float)));
-  if (!in) throw std::runtime_error("truncated " + path);
+  in.stream().read(reinterpret_cast<char*>(map.values.data()), std::streamsize(map.values.size() * sizeof(float)));
+  if (format == 2 && in.remaining() != 0) in.damaged("trailing bytes");
   return map;
 }
 
 ImageModel read_image_model(const tiles::ImageEntry& image) {
+  ModelEdit stored = read_model_json(image);
   ImageModel m;
+  m.lines = std::move(*stored.lines);
+  m.edits = std::move(stored.significance);
   m.significance = read_significance(image);
-  const std::string json_path = image.dir + "/" + kModelJsonFile, bin_path = image.dir + "/" + kModelFile;
-  try {
-    const json j = json::parse(read_whole(json_path));
-    for (const auto& l : j.at("lines")) m.lines.push_back({point_from(l.at("from")), point_from(l.at("to"))});
-    for (const auto& e : j.at("significance_edits")) {
-      SignificanceEdit edit;
-      for (const auto& p : e.at("polygon")) edit.polygon.push_back(point_from(p));
-      edit.weight = e.at("weight").get<float>();
-      m.edits.push_back(std::move(edit));
-    }
-  } catch (const json::exception& e) {
-    throw std::runtime_error("damaged " + json_path + ": " + e.what());
-  }
-  std::istringstream in(read_whole(bin_path));
-  char magic[8];
-  in.read(magic, sizeof magic);
-  if (!in || std::memcmp(magic, kModelMagic, sizeof magic) != 0) throw std::runtime_error("damaged " + bin_path);
-  m.width = get<double>(in), m.height = get<double>(in), m.w_min = get<double>(in);
-  m.coarse.max_triangle_area = get<double>(in);
-  if (m.width != image.manifest.width || m.height != image.manifest.height)
-    throw std::runtime_error(bin_path + " is for another image size");
-  constexpr std::int64_t kMax = std::int64_t(1) << 26;
-  m.coarse.mesh.vertices = get_vector<Point>(in, kMax);
-  m.coarse.mesh.triangles = get_vector<Triangle>(in, kMax);
-  for (const Triangle& t : m.coarse.mesh.triangles)
-    for (int v : t)
-      if (v < 0 || v >= int(m.coarse.mesh.vertices.size())) throw std::runtime_error("damaged " + bin_path);
-  const auto chains = get<std::int64_t>(in);
-  if (chains < 0 || chains != std::int64_t(m.lines.size())) throw std::runtime_error("damaged " + bin_path);
-  for (std::int64_t k = 0; k < chains; ++k) m.coarse.line_vertices.push_back(get_vector<int>(in, kMax));
-  m.forest = Forest::read(in, m.coarse.mesh);
-  m.node_mean = get_vector<float>(in, kMax);
-  if (m.node_mean.size() != std::size_t(m.forest.kept_nodes())) throw std::runtime_error("damaged " + bin_path);
+  read_model_bin(image, m);
   return m;
 }
 
+LoadedModel load_image_model(const tiles::ImageEntry& image, tiles::PyramidReader& reader,
+                             const SignificanceOptions& significance) {
+  const auto rebuild = [&](const std::vector<Segment>& lines) {
+    return make_image_model(read_reduced_image(image, reader), image.manifest.width, image.manifest.height, lines, {},
+                            {}, significance);
+  };
+  if (!exists(image, kSignificanceFile) && !exists(image, kModelFile) && !exists(image, kModelJsonFile))
+    return {rebuild({}), ModelSource::kBuiltNoFiles, "", ""};
+  // warp.json is the only copy of the curator's work: without it, no model (ModelFileError).
+  const ModelEdit stored = read_model_json(image);
+  try {
+    return {read_image_model(image), ModelSource::kStored, "", ""};
+  } catch (const ModelFileError& damaged) {
+    // [ICAZ §4] The binary files are derived data: the significance map is recomputed from the
+    // pyramid with the curator's regions painted in, the mesh and forest rebuilt with the lines.
+    LoadedModel out{rebuild(*stored.lines), ModelSource::kRebuiltWithEdits, damaged.file(), damaged.what()};
+    add_significance_edits(out.model, stored.significance);
+    return out;
+  }
+}
+
 void validate(const ModelEdit& edit) {
-  auto finite = [](const Point& p) { return std::isfinite(p.x) && std::isfinite(p.y); };
-  if (edit.lines) {
-    if (edit.lines->size() > 1000) throw std::invalid_argument("at most 1000 lines");
-    for (const Segment& s : *edit.lines) {
-      if (!finite(s.a) || !finite(s.b)) throw std::invalid_argument("line end points must be finite numbers");
-      if (std::hypot(s.b.x - s.a.x, s.b.y - s.a.y) < 1) throw std::invalid_argument("a line must be at least 1 px long");
-    }
-  }
-  if (edit.significance.size() > 1000) throw std::invalid_argument("at most 1000 significance edits at once");
-  for (const SignificanceEdit& e : edit.significance) {
-    if (e.polygon.size() < 3 || e.polygon.size() > 1000) throw std::invalid_argument("a region needs 3 to 1000 points");
-    for (const Point& p : e.polygon)
-      if (!finite(p)) throw std::invalid_argument("region points must be finite numbers");
-    if (!(e.weight >= 0 && e.weight <= 1)) throw std::invalid_argument("a region's weight must be in [0, 1]");
-  }
+  if (edit.lines && edit.lines->size() > std::size_t(limits::kMaxLines))
+    throw LimitExceeded("too_many_lines", "at most " + std::to_string(limits::kMaxLines) + " lines");
+  if (edit.significance.size() > std::size_t(limits::kMaxRegionsPerEdit))
+    throw LimitExceeded("too_many_regions", "at most " + std::to_string(limits::kMaxRegionsPerEdit) + " regions per edit");
+  for (const SignificanceEdit& e : edit.significance)
+    if (e.polygon.size() > std::size_t(limits::kMaxPolygonPoints))
+      throw LimitExceeded("too_many_points", "a polygon has at most " + std::to_string(limits::kMaxPolygonPoints) + " points");
+  validate_shapes(edit);
 }
 
 std::shared_ptr<const tiles::ImageEntry> edit_image_model(tiles::Store& store, const tiles::ImageEntry& current,
                                                           const ModelEdit& edit, std::optional<ImageModel> base) {
   validate(edit);
   ImageModel model = base ? std::move(*base) : read_image_model(current);
-  for (const SignificanceEdit& e : edit.significance) add_significance_edit(model, e);
+  // Only edits that add regions are held to the cap: new lines stay possible on an image that
+  // an earlier version let keep more regions.
+  if (!edit.significance.empty() && model.edits.size() + edit.significance.size() > std::size_t(limits::kMaxStoredRegions))
+    throw LimitExceeded("too_many_stored_regions", "an image keeps at most " + std::to_string(limits::kMaxStoredRegions) +
+                        " significance regions over all its edits; it has " + std::to_string(model.edits.size()));
+  add_significance_edits(model, edit.significance);
   // New lines rebuild the mesh and the forest, whose node means then read the edited map.
   if (edit.lines) set_lines(model, *edit.lines);
   const std::string staging = store.make_staging_copy(current);

@@ -37,13 +37,14 @@ struct ImageModel {
 // Builds the model from a reduced-resolution copy of the image (≤ kSignificanceMaxSide).
 ImageModel make_image_model(const tiles::Raster& reduced, double width, double height,
                             const std::vector<Segment>& lines = {}, const CoarseMeshOptions& mesh = {},
-                            const ForestOptions& forest = {});
+                            const ForestOptions& forest = {}, const SignificanceOptions& significance = {});
 
 // Replaces the line constraints: the coarsest mesh, the forest and the node means are rebuilt.
 void set_lines(ImageModel& model, const std::vector<Segment>& lines, const CoarseMeshOptions& mesh = {},
                const ForestOptions& forest = {});
 
-// Paints a region into the significance map and updates the means of the nodes it touches.
-void add_significance_edit(ImageModel& model, const SignificanceEdit& edit);
+// Paints regions into the significance map, in order, and updates the means of the nodes they
+// touch (each such node once).
+void add_significance_edits(ImageModel& model, const std::vector<SignificanceEdit>& edits);
 
 }  // namespace zoomwarp::warp

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/objdetect.hpp>
 
@@ -72,6 +73,30 @@ cv::Mat gradient_norm(const cv::Mat& grey) {
 }
 
 }  // namespace
+
+FaceCascade find_face_cascade(const std::string& configured) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  std::string found = !configured.empty() && fs::is_regular_file(configured, ec) ? configured : "";
+  if (found.empty() && configured == kDefaultFaceCascade) {
+    const std::string name = fs::path(kDefaultFaceCascade).filename();
+    for (const char* dir : {"/usr/local/share/opencv4/haarcascades", "/usr/share/opencv/haarcascades",
+                            "/usr/local/share/opencv/haarcascades"})
+      if (fs::is_regular_file(fs::path(dir) / name, ec)) {
+        found = (fs::path(dir) / name).string();
+        break;
+      }
+    if (found.empty()) found = cv::samples::findFile("haarcascades/" + name, false, true);
+  }
+  if (found.empty()) return {"", "cascade file not found"};
+  cv::CascadeClassifier cascade;
+  try {
+    if (!cascade.load(found)) return {"", "cascade file does not load"};
+  } catch (const cv::Exception&) {
+    return {"", "cascade file does not load"};
+  }
+  return {found, ""};
+}
 
 std::vector<tiles::Rect> detect_faces(const tiles::Raster& image, const std::string& cascade_path) {
   std::vector<tiles::Rect> out;

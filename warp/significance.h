@@ -29,10 +29,24 @@ struct SignificanceMap {
 // Largest side of the map: significance is a low-frequency signal, 1024 px is plenty.
 inline constexpr int kSignificanceMaxSide = 1024;
 
+// Where Debian's opencv-data installs the Haar cascade for frontal faces.
+inline constexpr const char* kDefaultFaceCascade = "/usr/share/opencv4/haarcascades/haarcascade_frontalface_default.xml";
+
 struct SignificanceOptions {
-  // Haar cascade for frontal faces (Debian's opencv-data); empty or missing: no face boost.
-  std::string face_cascade = "/usr/share/opencv4/haarcascades/haarcascade_frontalface_default.xml";
+  // Haar cascade for frontal faces; empty or missing: no face boost (find_face_cascade says why).
+  std::string face_cascade = kDefaultFaceCascade;
 };
+
+// The face detector's cascade as found at start-up.
+struct FaceCascade {
+  std::string path;     // the file that loads; empty when face detection is off
+  std::string problem;  // why it is off: "cascade file not found" or "cascade file does not load"
+};
+
+// Finds the cascade: `configured` if it exists; if `configured` is the default and missing, the
+// same file in OpenCV's other data folders (/usr/local/share/opencv4, /usr/share/opencv, and
+// where OPENCV_SAMPLES_DATA_PATH points). The file found must load as a cascade.
+FaceCascade find_face_cascade(const std::string& configured);
 
 // `image` is the whole image at reduced resolution (e.g. a pyramid level), RGB or RGBA;
 // `image_width` is the full-resolution width it stands for (sets `scale`).

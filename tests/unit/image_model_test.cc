@@ -27,7 +27,7 @@ tiles::Raster reduced(const std::string& file) {
 
 void ingest_with_analysis(tiles::Store& store, const std::string& file, const std::string& id) {
   tiles::IngestOptions options;
-  options.analyse = warp::write_image_analysis;
+  options.analyse = [](const tiles::ImageEntry& staged) { warp::write_image_analysis(staged); };
   tiles::ingest_image(store, testing::samples_dir() + "/" + file, id, options);
 }
 
@@ -170,7 +170,7 @@ TEST(ImageModel, AnEditIsANewVersionConditionalOnTheOneItStartedFrom) {
 TEST(ImageModel, ASignificanceEditEnlargesTheMarkedRegionOnScreen) {
   warp::ImageModel m = warp::make_image_model(reduced("boats_lake_sunset.jpg"), 2560, 1600);
   warp::Icaz before(m);
-  warp::add_significance_edit(m, {{{1800, 200}, {2300, 200}, {2300, 600}, {1800, 600}}, 1.0f});
+  warp::add_significance_edits(m, {{{{1800, 200}, {2300, 200}, {2300, 600}, {1800, 600}}, 1.0f}});
   warp::Icaz after(m);
   warp::ViewRequest r;  // the whole image on a 3:4 screen: a strong squeeze
   r.zoom = 0, r.cx = 1280, r.cy = 800, r.screen_width = 360, r.screen_height = 480;

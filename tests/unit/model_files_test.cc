@@ -1,0 +1,184 @@
+// The model files kept with an image version under damage: each binary file truncated, flipped
+// in the middle or deleted is rebuilt with the curator's lines and significance edits; a damaged
+// or missing warp.json is refused (the edits cannot be recovered); files of the previous format
+// (no checksum trailer) are still read.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "tests/support/server_process.h"
+#include "tiles/ingest.h"
+#include "warp/image_analysis.h"
+
+namespace zoomwarp {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void write_bytes(const std::string& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+}
+
+enum class Damage { kTruncate, kFlipMiddle, kDelete, kGarbage };
+
+const char* name(Damage d) {
+  switch (d) {
+    case Damage::kTruncate: return "truncated";
+    case Damage::kFlipMiddle: return "flipped in the middle";
+    case Damage::kDelete: return "deleted";
+    case Damage::kGarbage: return "replaced with garbage";
+  }
+  return "";
+}
+
+void damage(const std::string& path, Damage d) {
+  std::string bytes = read_bytes(path);
+  switch (d) {
+    case Damage::kTruncate: bytes.resize(bytes.size() * 2 / 3); break;
+    case Damage::kFlipMiddle:
+      for (std::size_t i = bytes.size() / 2; i < bytes.size() / 2 + 4; ++i) bytes[i] = char(~bytes[i]);
+      break;
+    case Damage::kDelete: fs::remove(path); return;
+    case Damage::kGarbage: bytes = "{\"lines\": [[1, 2"; break;
+  }
+  write_bytes(path, bytes);
+}
+
+// One image ingested with its model, then edited by a curator (a line and two regions).
+class ModelFiles : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir;
+    tiles::Store store(dir_->path() + "/store");
+    tiles::IngestOptions options;
+    options.analyse = [](const tiles::ImageEntry& staged) { warp::write_image_analysis(staged); };
+    tiles::ingest_image(store, testing::samples_dir() + "/boats_lake_sunset.jpg", "b", options);
+    warp::ModelEdit edit;
+    edit.lines = std::vector<warp::Segment>{{{0, 1000}, {2560, 1000}}};
+    edit.significance = {{{{1800, 200}, {2300, 200}, {2300, 600}, {1800, 600}}, 1.0f},
+                         {{{100, 1200}, {700, 1200}, {700, 1500}}, 0.0f}};
+    edited_ = new tiles::ImageEntry(*warp::edit_image_model(store, *store.find("b"), edit));
+  }
+  static void TearDownTestSuite() {
+    delete edited_;
+    delete dir_;
+  }
+
+  // A copy of the edited version's folder to damage.
+  tiles::ImageEntry copy() {
+    tiles::ImageEntry c{edited_->manifest, copies_.path() + "/" + std::to_string(next_++)};
+    fs::copy(edited_->dir, c.dir);
+    return c;
+  }
+
+  static testing::TempDir* dir_;
+  static tiles::ImageEntry* edited_;
+  testing::TempDir copies_;
+  int next_ = 0;
+  tiles::PyramidReader reader_{8 << 20};
+};
+testing::TempDir* ModelFiles::dir_ = nullptr;
+tiles::ImageEntry* ModelFiles::edited_ = nullptr;
+
+TEST_F(ModelFiles, IntactFilesAreReadAsStored) {
+  const warp::LoadedModel loaded = warp::load_image_model(*edited_, reader_);
+  EXPECT_EQ(loaded.source, warp::ModelSource::kStored);
+  EXPECT_EQ(loaded.model.lines.size(), 1u);
+  EXPECT_EQ(loaded.model.edits.size(), 2u);
+}
+
+TEST_F(ModelFiles, ADamagedBinaryFileIsRebuiltWithTheCuratorsLinesAndEdits) {
+  const warp::ImageModel stored = warp::read_image_model(*edited_);
+  for (const char* file : {warp::kSignificanceFile, warp::kModelFile})
+    for (Damage d : {Damage::kTruncate, Damage::kFlipMiddle, Damage::kDelete}) {
+      SCOPED_TRACE(std::string(file) + " " + name(d));
+      const tiles::ImageEntry c = copy();
+      damage(c.dir + "/" + file, d);
+      EXPECT_THROW(warp::read_image_model(c), warp::ModelFileError);
+      const warp::LoadedModel loaded = warp::load_image_model(c, reader_);
+      EXPECT_EQ(loaded.source, warp::ModelSource::kRebuiltWithEdits);
+      EXPECT_EQ(loaded.damaged_file, file);
+      const warp::ImageModel& m = loaded.model;
+      ASSERT_EQ(m.lines.size(), 1u);
+      EXPECT_EQ(m.lines[0].a.y, 1000);
+      ASSERT_EQ(m.edits.size(), 2u);
+      EXPECT_EQ(m.coarse.line_vertices.size(), 1u) << "the line is in the rebuilt mesh";
+      // The same map as the one stored: recomputed from the pyramid, the regions painted in.
+      ASSERT_EQ(m.significance.values.size(), stored.significance.values.size());
+      EXPECT_TRUE(m.significance.values == stored.significance.values);
+      EXPECT_TRUE(m.node_mean == stored.node_mean);
+      const double s = m.significance.scale;
+      EXPECT_EQ(m.significance.at(int(2000 * s), int(400 * s)), 1.0f) << "the region marked important";
+      EXPECT_EQ(m.significance.at(int(600 * s), int(1250 * s)), 0.0f) << "the region marked unimportant";
+    }
+}
+
+TEST_F(ModelFiles, ADamagedOrMissingWarpJsonIsRefusedNotRebuiltWithoutTheEdits) {
+  for (Damage d : {Damage::kTruncate, Damage::kFlipMiddle, Damage::kDelete, Damage::kGarbage}) {
+    SCOPED_TRACE(name(d));
+    const tiles::ImageEntry c = copy();
+    damage(c.dir + "/" + warp::kModelJsonFile, d);
+    try {
+      warp::load_image_model(c, reader_);
+      ADD_FAILURE() << "a model without the curator's edits was served";
+    } catch (const warp::ModelFileError& e) {
+      EXPECT_EQ(e.file(), warp::kModelJsonFile);
+      EXPECT_EQ(std::string(e.what()).find(c.dir), std::string::npos) << "names the file, not its folder";
+    }
+  }
+}
+
+TEST_F(ModelFiles, NoModelFilesAtAllIsAVersionFromBeforeModelsAndIsBuilt) {
+  const tiles::ImageEntry c = copy();
+  for (const char* file : {warp::kSignificanceFile, warp::kModelFile, warp::kModelJsonFile}) fs::remove(c.dir + "/" + file);
+  const warp::LoadedModel loaded = warp::load_image_model(c, reader_);
+  EXPECT_EQ(loaded.source, warp::ModelSource::kBuiltNoFiles);
+  EXPECT_TRUE(loaded.model.lines.empty());
+  EXPECT_GT(loaded.model.forest.kept_nodes(), 0);
+}
+
+// Format 1 is format 2 without the trailer (length + CRC-32, 12 bytes) and with '1' in the magic.
+TEST_F(ModelFiles, FilesOfThePreviousFormatAreStillRead) {
+  const tiles::ImageEntry c = copy();
+  for (const char* file : {warp::kSignificanceFile, warp::kModelFile}) {
+    std::string bytes = read_bytes(c.dir + "/" + file);
+    bytes.resize(bytes.size() - 12);
+    const std::size_t digit = bytes.find('2');
+    ASSERT_LT(digit, 8u);
+    bytes[digit] = '1';
+    write_bytes(c.dir + "/" + file, bytes);
+  }
+  const warp::LoadedModel loaded = warp::load_image_model(c, reader_);
+  EXPECT_EQ(loaded.source, warp::ModelSource::kStored);
+  EXPECT_TRUE(loaded.model.node_mean == warp::read_image_model(*edited_).node_mean);
+}
+
+TEST_F(ModelFiles, AChecksumCatchesAFlipThatParsesAndAFileOfAnotherImageIsRefused) {
+  // A flip inside the significance values still parses as floats: only the checksum sees it.
+  tiles::ImageEntry c = copy();
+  std::string bytes = read_bytes(c.dir + "/" + warp::kSignificanceFile);
+  bytes[bytes.size() / 2] ^= 0x01;
+  write_bytes(c.dir + "/" + warp::kSignificanceFile, bytes);
+  EXPECT_THROW(warp::read_significance(c), warp::ModelFileError);
+
+  tiles::ImageEntry other = copy();
+  other.manifest.width /= 2;
+  try {
+    warp::read_image_model(other);
+    ADD_FAILURE() << "a model of another image size was read";
+  } catch (const warp::ModelFileError& e) {
+    EXPECT_NE(std::string(e.what()).find("another image size"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace zoomwarp
