@@ -1,4 +1,6 @@
 // `zoomwarp serve`: wires the store, the pyramid reader, the router and the HTTP server together.
+#include <sys/resource.h>
+
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -39,6 +41,9 @@ std::vector<OptionSpec> serve_specs() {
       {"cache-max-age", "60", "Cache-Control max-age of image responses, seconds"},
       {"public-url", "", "base URL clients see (for IIIF ids); default from the Host header"},
       {"idle-timeout", "30", "seconds an idle keep-alive connection is kept"},
+      {"header-timeout", "10", "seconds from a request's first bytes to the end of its header"},
+      {"body-timeout", "30", "seconds an upload's body may pause before the connection is dropped"},
+      {"max-connections", "0", "connections open at once (more wait); 0: the open-file limit less 64"},
       {"drain-delay", "0", "seconds between SIGTERM (readiness fails) and closing the listener"},
       {"drain-timeout", "30", "seconds in-flight requests get to finish after the listener closed"},
       {"gc-grace", "600", "seconds a superseded or deleted image version stays on disk"},
@@ -46,6 +51,14 @@ std::vector<OptionSpec> serve_specs() {
   };
   for (auto& s : store_option_specs()) specs.push_back(s);
   return specs;
+}
+
+// Each connection takes a file descriptor; 64 are left for the store, the tile cache's open
+// level files and the log. The limit is read at start-up.
+std::size_t connections_for_fd_limit() {
+  rlimit limit{};
+  if (getrlimit(RLIMIT_NOFILE, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY) return 1 << 16;
+  return std::size_t(limit.rlim_cur > 80 ? limit.rlim_cur - 64 : 16);
 }
 
 }  // namespace
@@ -65,6 +78,10 @@ int serve_command(const std::vector<std::string>& args) {
     http.io_threads = int(o.integer("io-threads", 1, 256));
     http.max_upload_bytes = o.bytes("max-upload", 1, 1ULL << 40);
     http.idle_timeout = std::chrono::seconds(o.integer("idle-timeout", 1, 3600));
+    http.header_timeout = std::chrono::seconds(o.integer("header-timeout", 1, 3600));
+    http.body_timeout = std::chrono::seconds(o.integer("body-timeout", 1, 3600));
+    const auto max_connections = std::size_t(o.integer("max-connections", 0, 1 << 24));
+    http.max_connections = max_connections > 0 ? max_connections : connections_for_fd_limit();
     http.drain_delay = std::chrono::seconds(o.integer("drain-delay", 0, 3600));
     http.drain_timeout = std::chrono::seconds(o.integer("drain-timeout", 0, 3600));
     http.gc_grace = std::chrono::seconds(o.integer("gc-grace", 0, 30 * 86400));
@@ -87,6 +104,7 @@ int serve_command(const std::vector<std::string>& args) {
     const auto queue = std::size_t(o.integer("queue", 1, 1 << 20));
     const int ingest_workers = int(o.integer("ingest-workers", 1, 64));
     const auto ingest_queue = std::size_t(o.integer("ingest-queue", 0, 1 << 10));
+    http.upload_slots = std::size_t(ingest_workers) + ingest_queue;
 
     tiles::Store store(o.str("store"));
     const int removed = store.collect_garbage(http.gc_grace);
