@@ -204,6 +204,7 @@ void Session::read_upload() {
   body.data = upload_chunk_.data() + upload_filled_;
   body.size = upload_chunk_.size() - upload_filled_;
   body.more = true;
+  if (upload_parser_->is_done()) return on_upload_chunk({});  // no body at all (Content-Length: 0)
   stream_.expires_after(state_.options.body_timeout);
   http::async_read_some(stream_, buffer_, *upload_parser_,
                         [self = shared_from_this()](beast::error_code ec, std::size_t) { self->on_upload_chunk(ec); });
