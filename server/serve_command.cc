@@ -111,7 +111,9 @@ int serve_command(const std::vector<std::string>& args) {
     tiles::PyramidReader reader(tile_cache);
     api::Router router(store, reader, rc);
     WorkerPool cpu(workers, queue);
-    WorkerPool ingest(ingest_workers, ingest_queue);
+    // Uploads are admitted against http.upload_slots; the pool's queue also counts a job handed to
+    // a thread that has not picked it up yet, so it gets room for every slot and never refuses one.
+    WorkerPool ingest(ingest_workers, http.upload_slots);
     Metrics metrics;
     metrics.add_sampler([&] {
       using S = Metrics::Sample;
