@@ -25,7 +25,9 @@ namespace zoomwarp::server {
 
 class Session;
 
-// What the listener and every session share.
+// What the listener and every session share. Thread-safety: the references and options are fixed
+// after construction; the atomics and `uploads` may be used from any thread, `sessions` under
+// `sessions_mu`.
 struct ServerState {
   ServerState(HttpServerOptions o, tiles::Store& s, api::Router& r, WorkerPool& c, WorkerPool& i, Metrics& m)
       : options(std::move(o)), store(s), router(r), cpu(c), ingest(i), metrics(m) {}
