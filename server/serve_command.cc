@@ -33,6 +33,7 @@ std::vector<OptionSpec> serve_specs() {
       {"response-cache", "256M", "encoded-response cache size (bytes, K/M/G)"},
       {"warp-cache", "256M", "memory for the warp engines of recently viewed images (bytes, K/M/G)"},
       {"max-upload", "512M", "largest upload body (bytes, K/M/G)"},
+      {"max-staging", "0", "upload bytes staged at once, by Content-Length (chunked: --max-upload); 0: no cap"},
       {"iiif-max-width", "8192", "IIIF maxWidth: widest image returned"},
       {"iiif-max-height", "8192", "IIIF maxHeight: tallest image returned"},
       {"iiif-max-area", "16777216", "IIIF maxArea: most pixels in one image returned"},
@@ -77,6 +78,7 @@ int serve_command(const std::vector<std::string>& args) {
     http.port = int(o.integer("port", 0, 65535));
     http.io_threads = int(o.integer("io-threads", 1, 256));
     http.max_upload_bytes = o.bytes("max-upload", 1, 1ULL << 40);
+    http.max_staging_bytes = o.bytes("max-staging", 0, 1ULL << 50);
     http.idle_timeout = std::chrono::seconds(o.integer("idle-timeout", 1, 3600));
     http.header_timeout = std::chrono::seconds(o.integer("header-timeout", 1, 3600));
     http.body_timeout = std::chrono::seconds(o.integer("body-timeout", 1, 3600));

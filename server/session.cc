@@ -187,7 +187,8 @@ void Session::on_body(beast::error_code ec) {
 // The upload holds an ingest slot from here to the end of its ingest (given back by
 // discard_upload()); with none free it is refused before its body is read.
 std::optional<api::Response> Session::admit_upload() {
-  upload_slot_ = state_.uploads.try_admit();
+  const std::uint64_t bytes = header_parser_->content_length().value_or(state_.options.max_upload_bytes);
+  upload_slot_ = state_.uploads.try_admit(bytes);
   if (upload_slot_) return std::nullopt;
   keep_alive_ = false;  // the body is not read, so the connection cannot be reused
   api::Response r = api::error_response(503, "ingest_busy", "the server is ingesting as many uploads as it can; retry shortly");

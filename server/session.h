@@ -41,7 +41,7 @@ struct ServerState {
   std::atomic<bool> draining{false};
   std::atomic<std::uint64_t> connections_accepted{0};  // logged when the server stops
   std::atomic<std::size_t> open_connections{0};        // sessions alive, against max_connections
-  UploadAdmission uploads{options.upload_slots};
+  UploadAdmission uploads{options.upload_slots, options.max_staging_bytes};
 
   std::mutex sessions_mu;
   std::unordered_map<Session*, std::weak_ptr<Session>> sessions;  // for draining

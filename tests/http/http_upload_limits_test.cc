@@ -210,6 +210,29 @@ TEST(UploadLimits, UploadsBeyondIngestCapacityAreRefusedAfterTheirHeader) {
   EXPECT_EQ(http.get("/v1/images/extra0").status, 404);
 }
 
+TEST(UploadLimits, BytesStagedAtOnceAreCapped) {
+  TempDir dir;
+  const std::string store = dir.path() + "/store";
+  ServerProcess server(store, {"--max-staging", "1M"});
+  const std::string png = sample("astronaut_portrait.png");  // 773 KiB: two do not fit in 1 MiB
+  ASSERT_GT(png.size(), 512u * 1024);
+
+  Connection first(server.port());
+  ASSERT_TRUE(first.send(upload_head("first", png.size()) + png.substr(0, 100'000)));
+  ASSERT_EQ(wait_for_staging(store, 1), 1u);
+  Connection second(server.port());
+  ASSERT_TRUE(second.send(upload_head("second", png.size())));
+  const auto refused = second.read_until_closed();
+  EXPECT_EQ(status_of(refused.bytes), 503) << refused.bytes;
+  EXPECT_EQ(error_code_of(refused.bytes), "ingest_busy");
+  EXPECT_TRUE(refused.closed);
+
+  ASSERT_TRUE(first.send(png.substr(100'000)));
+  EXPECT_EQ(status_of(first.read_response()), 201);
+  HttpClient http(server.port());
+  EXPECT_EQ(http.request("POST", "/v1/images?id=second", png).status, 201) << "the bytes are free again";
+}
+
 // Sends the head of a `declared`-byte upload, then `first` and up to 1 MiB of filler, and returns
 // what the server answered and whether it then closed the connection.
 Connection::Received refused_upload(int port, std::uint64_t declared, const std::string& first, char filler) {
