@@ -24,6 +24,11 @@ struct HttpServerOptions {
   std::uint64_t max_upload_bytes = 512ull << 20;
   std::uint64_t max_body_bytes = 1ull << 20;  // non-upload bodies (JSON)
   std::chrono::seconds idle_timeout{30};      // keep-alive connections and slow clients
+  std::chrono::seconds header_timeout{10};    // from a request's first bytes to the end of its header
+  std::chrono::seconds body_timeout{30};      // longest pause between two pieces of an upload's body
+  std::size_t upload_slots = 5;               // uploads admitted at once: ingest threads + queue places
+  std::uint64_t max_staging_bytes = 0;        // upload bytes staged at once (0: no cap but the slots)
+  std::size_t max_connections = 1024;         // open connections; more wait in the listen backlog
   std::chrono::seconds drain_delay{0};        // after SIGTERM: not ready, still serving
   std::chrono::seconds drain_timeout{30};     // then at most this long for in-flight requests
   std::chrono::seconds gc_interval{60};       // store garbage collection

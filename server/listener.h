@@ -1,10 +1,19 @@
 // Accepts connections and starts a Session for each, each on its own strand.
+// At --max-connections open connections, or when the process is out of file descriptors, it stops
+// accepting for a short growing delay (10 ms doubling to 1 s) instead of spinning: the waiting
+// connections stay in the kernel's listen backlog. Accept errors are logged at most once a second,
+// with a count of the ones not logged.
+// Thread-safety: run() and stop() may be called from any thread; everything else runs on the
+// acceptor's strand.
 #pragma once
 
 #include <atomic>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <chrono>
 #include <memory>
+#include <string>
 
 #include "server/session.h"
 
@@ -24,11 +33,17 @@ class Listener : public std::enable_shared_from_this<Listener> {
 
  private:
   void accept();
+  void pause();
   void close_now();
   void start_session(boost::asio::ip::tcp::socket socket);
+  void log_rate_limited(const std::string& message, const std::string& error);
 
   boost::asio::io_context& ioc_;
   boost::asio::ip::tcp::acceptor acceptor_;
+  boost::asio::steady_timer backoff_timer_;
+  std::chrono::milliseconds backoff_{0};
+  std::chrono::steady_clock::time_point last_log_{};
+  std::uint64_t unlogged_ = 0;
   std::atomic<bool> closed_{false};
   ServerState& state_;
 };

@@ -1,4 +1,6 @@
 // `zoomwarp serve`: wires the store, the pyramid reader, the router and the HTTP server together.
+#include <sys/resource.h>
+
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -31,6 +33,7 @@ std::vector<OptionSpec> serve_specs() {
       {"response-cache", "256M", "encoded-response cache size (bytes, K/M/G)"},
       {"warp-cache", "256M", "memory for the warp engines of recently viewed images (bytes, K/M/G)"},
       {"max-upload", "512M", "largest upload body (bytes, K/M/G)"},
+      {"max-staging", "0", "upload bytes staged at once, by Content-Length (chunked: --max-upload); 0: no cap"},
       {"iiif-max-width", "8192", "IIIF maxWidth: widest image returned"},
       {"iiif-max-height", "8192", "IIIF maxHeight: tallest image returned"},
       {"iiif-max-area", "16777216", "IIIF maxArea: most pixels in one image returned"},
@@ -39,6 +42,9 @@ std::vector<OptionSpec> serve_specs() {
       {"cache-max-age", "60", "Cache-Control max-age of image responses, seconds"},
       {"public-url", "", "base URL clients see (for IIIF ids); default from the Host header"},
       {"idle-timeout", "30", "seconds an idle keep-alive connection is kept"},
+      {"header-timeout", "10", "seconds from a request's first bytes to the end of its header"},
+      {"body-timeout", "30", "seconds an upload's body may pause before the connection is dropped"},
+      {"max-connections", "0", "connections open at once (more wait); 0: the open-file limit less 64"},
       {"drain-delay", "0", "seconds between SIGTERM (readiness fails) and closing the listener"},
       {"drain-timeout", "30", "seconds in-flight requests get to finish after the listener closed"},
       {"gc-grace", "600", "seconds a superseded or deleted image version stays on disk"},
@@ -46,6 +52,14 @@ std::vector<OptionSpec> serve_specs() {
   };
   for (auto& s : store_option_specs()) specs.push_back(s);
   return specs;
+}
+
+// Each connection takes a file descriptor; 64 are left for the store, the tile cache's open
+// level files and the log. The limit is read at start-up.
+std::size_t connections_for_fd_limit() {
+  rlimit limit{};
+  if (getrlimit(RLIMIT_NOFILE, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY) return 1 << 16;
+  return std::size_t(limit.rlim_cur > 80 ? limit.rlim_cur - 64 : 16);
 }
 
 }  // namespace
@@ -64,7 +78,12 @@ int serve_command(const std::vector<std::string>& args) {
     http.port = int(o.integer("port", 0, 65535));
     http.io_threads = int(o.integer("io-threads", 1, 256));
     http.max_upload_bytes = o.bytes("max-upload", 1, 1ULL << 40);
+    http.max_staging_bytes = o.bytes("max-staging", 0, 1ULL << 50);
     http.idle_timeout = std::chrono::seconds(o.integer("idle-timeout", 1, 3600));
+    http.header_timeout = std::chrono::seconds(o.integer("header-timeout", 1, 3600));
+    http.body_timeout = std::chrono::seconds(o.integer("body-timeout", 1, 3600));
+    const auto max_connections = std::size_t(o.integer("max-connections", 0, 1 << 24));
+    http.max_connections = max_connections > 0 ? max_connections : connections_for_fd_limit();
     http.drain_delay = std::chrono::seconds(o.integer("drain-delay", 0, 3600));
     http.drain_timeout = std::chrono::seconds(o.integer("drain-timeout", 0, 3600));
     http.gc_grace = std::chrono::seconds(o.integer("gc-grace", 0, 30 * 86400));
@@ -93,13 +112,16 @@ int serve_command(const std::vector<std::string>& args) {
     const auto queue = std::size_t(o.integer("queue", 1, 1 << 20));
     const int ingest_workers = int(o.integer("ingest-workers", 1, 64));
     const auto ingest_queue = std::size_t(o.integer("ingest-queue", 0, 1 << 10));
+    http.upload_slots = std::size_t(ingest_workers) + ingest_queue;
 
     tiles::Store store(o.str("store"));
     const int removed = store.collect_garbage(http.gc_grace);
     tiles::PyramidReader reader(tile_cache);
     api::Router router(store, reader, rc);
     WorkerPool cpu(workers, queue);
-    WorkerPool ingest(ingest_workers, ingest_queue);
+    // Uploads are admitted against http.upload_slots; the pool's queue also counts a job handed to
+    // a thread that has not picked it up yet, so it gets room for every slot and never refuses one.
+    WorkerPool ingest(ingest_workers, http.upload_slots);
     Metrics metrics;
     metrics.add_sampler([&] {
       using S = Metrics::Sample;

@@ -11,6 +11,7 @@
 #include "api/errors.h"
 #include "server/log.h"
 #include "server/ops.h"
+#include "tiles/header_sniff.h"
 
 namespace zoomwarp::server {
 
@@ -20,7 +21,7 @@ namespace net = boost::asio;
 
 namespace {
 constexpr std::size_t kHeaderLimit = 16 * 1024;
-constexpr auto kUploadTimeout = std::chrono::minutes(10);
+constexpr std::size_t kFirstReadBytes = 8 * 1024;
 constexpr auto kWriteTimeout = std::chrono::seconds(60);
 constexpr auto kLingerTimeout = std::chrono::seconds(2);
 constexpr auto kFreshConnectionGrace = std::chrono::seconds(1);
@@ -35,6 +36,7 @@ bool client_gone(beast::error_code ec) {
 
 Session::Session(net::ip::tcp::socket&& socket, ServerState& state)
     : stream_(std::move(socket)), state_(state) {
+  ++state_.open_connections;
   beast::error_code ec;
   auto ep = stream_.socket().remote_endpoint(ec);
   if (!ec) remote_ = ep.address().to_string() + ":" + std::to_string(ep.port());
@@ -42,6 +44,7 @@ Session::Session(net::ip::tcp::socket&& socket, ServerState& state)
 
 Session::~Session() {
   discard_upload();
+  --state_.open_connections;
   std::lock_guard lock(state_.sessions_mu);
   state_.sessions.erase(this);
 }
@@ -75,7 +78,19 @@ void Session::read_header() {
   // The body's limit depends on the route and is set once the header is read. (Not boost::none:
   // Beast 1.74 compares the length against an empty optional and always fails.)
   header_parser_->body_limit(std::numeric_limits<std::uint64_t>::max());
+  if (buffer_.size() > 0) return read_header_bytes();  // pipelined: the next request is here
+  // Waiting for a request is bounded by the idle timeout; once its first bytes are here, the whole
+  // header must follow within the header timeout, so a client dripping a header is dropped.
   stream_.expires_after(state_.options.idle_timeout);
+  stream_.async_read_some(buffer_.prepare(kFirstReadBytes), [self = shared_from_this()](beast::error_code ec, std::size_t n) {
+    self->buffer_.commit(n);
+    if (ec) return self->on_header(ec);
+    self->read_header_bytes();
+  });
+}
+
+void Session::read_header_bytes() {
+  stream_.expires_after(state_.options.header_timeout);
   http::async_read_header(stream_, buffer_, *header_parser_,
                           [self = shared_from_this()](beast::error_code ec, std::size_t) { self->on_header(ec); });
 }
@@ -118,21 +133,9 @@ void Session::on_header(beast::error_code ec) {
       return send(api::error_response(413, "upload_too_large",
                                       "uploads are limited to " + std::to_string(state_.options.max_upload_bytes) + " bytes"));
     }
-    try {
-      upload_dir_ = state_.store.make_staging_dir();
-    } catch (const std::exception& e) {
-      keep_alive_ = false;
-      return send(api::error_response(503, "store_unavailable", e.what()));
-    }
-    file_parser_.emplace(std::move(*header_parser_));
-    file_parser_->body_limit(state_.options.max_upload_bytes);
-    req_.body_file = upload_dir_ + "/upload";
-    file_parser_->get().body().open(req_.body_file.c_str(), beast::file_mode::write, ec);
-    if (ec) {
-      keep_alive_ = false;
-      return send(api::error_response(503, "store_unavailable", "cannot store the upload: " + ec.message()));
-    }
-    stream_.expires_after(kUploadTimeout);
+    if (auto refusal = admit_upload()) return send(std::move(*refusal));
+    upload_parser_.emplace(std::move(*header_parser_));
+    upload_parser_->body_limit(state_.options.max_upload_bytes);
   } else if (header_parser_->is_done()) {  // no body (most GETs): answer straight away
     header_parser_.reset();
     return answer();
@@ -160,9 +163,10 @@ void Session::on_header(beast::error_code ec) {
 }
 
 void Session::read_body() {
+  if (upload_parser_) return read_upload();
+  stream_.expires_after(state_.options.body_timeout);  // JSON bodies are small: one timeout for all
   auto done = [self = shared_from_this()](beast::error_code ec, std::size_t) { self->on_body(ec); };
-  if (file_parser_) http::async_read(stream_, buffer_, *file_parser_, std::move(done));
-  else http::async_read(stream_, buffer_, *string_parser_, std::move(done));
+  http::async_read(stream_, buffer_, *string_parser_, std::move(done));
 }
 
 void Session::on_body(beast::error_code ec) {
@@ -175,12 +179,117 @@ void Session::on_body(beast::error_code ec) {
     keep_alive_ = false;
     return send(api::error_response(400, "bad_request", "malformed HTTP request: " + ec.message()));
   }
-  if (file_parser_) {
-    file_parser_->get().body().close();
-    file_parser_.reset();
-  } else {
-    req_.body = std::move(string_parser_->get().body());
-    string_parser_.reset();
+  req_.body = std::move(string_parser_->get().body());
+  string_parser_.reset();
+  answer();
+}
+
+// The upload holds an ingest slot from here to the end of its ingest (given back by
+// discard_upload()); with none free it is refused before its body is read.
+std::optional<api::Response> Session::admit_upload() {
+  const std::uint64_t bytes = header_parser_->content_length().value_or(state_.options.max_upload_bytes);
+  upload_slot_ = state_.uploads.try_admit(bytes);
+  if (upload_slot_) return std::nullopt;
+  keep_alive_ = false;  // the body is not read, so the connection cannot be reused
+  api::Response r = api::error_response(503, "ingest_busy", "the server is ingesting as many uploads as it can; retry shortly");
+  r.set_header("Retry-After", "1");
+  r.route = "overloaded";
+  return r;
+}
+
+// Reads the next piece of the upload's body into upload_chunk_; the body timeout is the longest
+// pause allowed between two pieces (a stalled upload is dropped and its staging folder removed).
+void Session::read_upload() {
+  if (upload_chunk_.empty()) upload_chunk_.resize(tiles::kHeaderSniffBytes);
+  auto& body = upload_parser_->get().body();
+  body.data = upload_chunk_.data() + upload_filled_;
+  body.size = upload_chunk_.size() - upload_filled_;
+  body.more = true;
+  if (upload_parser_->is_done()) return on_upload_chunk({});  // no body at all (Content-Length: 0)
+  stream_.expires_after(state_.options.body_timeout);
+  http::async_read_some(stream_, buffer_, *upload_parser_,
+                        [self = shared_from_this()](beast::error_code ec, std::size_t) { self->on_upload_chunk(ec); });
+}
+
+// Until the first kHeaderSniffBytes (or the whole body) are in, nothing is written: they are
+// checked first, and a refused upload leaves no file behind and is not read on.
+void Session::on_upload_chunk(beast::error_code ec) {
+  if (ec == http::error::need_buffer) ec = {};  // upload_chunk_ is full: not an error
+  if (ec) return on_body(ec);
+  upload_filled_ = upload_chunk_.size() - upload_parser_->get().body().size;
+  const bool done = upload_parser_->is_done();
+  if (!upload_file_.is_open()) {
+    if (!done && upload_filled_ < upload_chunk_.size()) return read_upload();
+    if (upload_filled_ == 0) return finish_upload();  // empty body: the router says what is wrong
+    std::optional<api::Response> refusal = refuse_upload_head(done);
+    if (!refusal) refusal = open_upload_file();
+    if (refusal) {
+      keep_alive_ = false;  // the rest of the body is not read
+      return send(std::move(*refusal));
+    }
+  }
+  upload_file_.write(upload_chunk_.data(), upload_filled_, ec);
+  upload_filled_ = 0;
+  if (ec) {
+    keep_alive_ = false;
+    log_event("error", "cannot stage an upload", {{"error", ec.message()}});
+    return send(api::error_response(503, "store_unavailable", "the upload cannot be stored now"));
+  }
+  if (done) return finish_upload();
+  read_upload();
+}
+
+// 415 for a format ingest does not read, 422 for a header that cannot be right, 413 for a size
+// over the ingest limits — the same answers ingest would give, without the body.
+std::optional<api::Response> Session::refuse_upload_head(bool whole_body) const {
+  using Status = tiles::SniffedHeader::Status;
+  const tiles::SniffedHeader h = tiles::sniff_image_header(upload_chunk_.data(), upload_filled_);
+  const tiles::SourceLimits& limits = state_.router.config().ingest.limits;
+  switch (h.status) {
+    case Status::kUnknownFormat:
+      return api::error_response(415, "unsupported_format", "the upload is not a JPEG, PNG, TIFF or WebP image");
+    case Status::kCorrupt:
+      return api::error_response(422, "corrupt_image", "the image header is unreadable: " + h.problem);
+    case Status::kIncomplete:
+      if (whole_body) return api::error_response(422, "corrupt_image", "the image ends inside its header");
+      return std::nullopt;  // the decoder at ingest reads on and decides
+    case Status::kOk:
+      break;
+  }
+  const auto max_side = std::uint64_t(limits.max_dimension);
+  if (h.width > max_side || h.height > max_side || h.width * h.height > limits.max_pixels)
+    return api::error_response(413, "image_too_large",
+                               "the image is " + std::to_string(h.width) + "x" + std::to_string(h.height) +
+                                   " pixels; the limits are " + std::to_string(limits.max_pixels) + " pixels and " +
+                                   std::to_string(max_side) + " per side");
+  return std::nullopt;
+}
+
+std::optional<api::Response> Session::open_upload_file() {
+  std::string error;
+  try {
+    upload_dir_ = state_.store.make_staging_dir();
+    req_.body_file = upload_dir_ + "/upload";
+    beast::error_code ec;
+    upload_file_.open(req_.body_file.c_str(), beast::file_mode::write, ec);
+    if (ec) error = ec.message();
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  if (error.empty()) return std::nullopt;
+  log_event("error", "cannot stage an upload", {{"error", error}});
+  return api::error_response(503, "store_unavailable", "the upload cannot be stored now");
+}
+
+void Session::finish_upload() {
+  beast::error_code ec;
+  if (upload_file_.is_open()) upload_file_.close(ec);
+  upload_parser_.reset();
+  upload_chunk_ = {};
+  if (ec) {
+    keep_alive_ = false;
+    log_event("error", "cannot stage an upload", {{"error", ec.message()}});
+    return send(api::error_response(503, "store_unavailable", "the upload cannot be stored now"));
   }
   answer();
 }
@@ -295,9 +404,17 @@ void Session::linger() {
   });
 }
 
+// Ends whatever an upload holds: its parser, its staging folder and its ingest slot.
 void Session::discard_upload() {
+  upload_slot_.reset();
+  upload_parser_.reset();
+  upload_chunk_ = {};
+  upload_filled_ = 0;
+  if (upload_file_.is_open()) {
+    beast::error_code ignored;
+    upload_file_.close(ignored);
+  }
   if (upload_dir_.empty()) return;
-  file_parser_.reset();
   state_.store.discard(upload_dir_);
   upload_dir_.clear();
 }

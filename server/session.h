@@ -12,10 +12,12 @@
 #include <optional>
 #include <string>
 #include <unordered_map>
+#include <vector>
 
 #include "api/router.h"
 #include "server/http_server.h"
 #include "server/metrics.h"
+#include "server/upload_admission.h"
 #include "server/worker_pool.h"
 #include "tiles/store.h"
 
@@ -23,7 +25,9 @@ namespace zoomwarp::server {
 
 class Session;
 
-// What the listener and every session share.
+// What the listener and every session share. Thread-safety: the references and options are fixed
+// after construction; the atomics and `uploads` may be used from any thread, `sessions` under
+// `sessions_mu`.
 struct ServerState {
   ServerState(HttpServerOptions o, tiles::Store& s, api::Router& r, WorkerPool& c, WorkerPool& i, Metrics& m)
       : options(std::move(o)), store(s), router(r), cpu(c), ingest(i), metrics(m) {}
@@ -36,6 +40,8 @@ struct ServerState {
   Metrics& metrics;
   std::atomic<bool> draining{false};
   std::atomic<std::uint64_t> connections_accepted{0};  // logged when the server stops
+  std::atomic<std::size_t> open_connections{0};        // sessions alive, against max_connections
+  UploadAdmission uploads{options.upload_slots, options.max_staging_bytes};
 
   std::mutex sessions_mu;
   std::unordered_map<Session*, std::weak_ptr<Session>> sessions;  // for draining
@@ -54,6 +60,7 @@ class Session : public std::enable_shared_from_this<Session> {
 
  private:
   void read_header();
+  void read_header_bytes();
   void on_header(boost::beast::error_code ec);
   void read_body();
   void on_body(boost::beast::error_code ec);
@@ -62,6 +69,12 @@ class Session : public std::enable_shared_from_this<Session> {
   void on_write(bool close, boost::beast::error_code ec);
   void linger();
   void discard_upload();
+  std::optional<api::Response> admit_upload();
+  void read_upload();
+  void on_upload_chunk(boost::beast::error_code ec);
+  std::optional<api::Response> refuse_upload_head(bool whole_body) const;
+  std::optional<api::Response> open_upload_file();
+  void finish_upload();
 
   boost::beast::tcp_stream stream_;
   boost::beast::flat_buffer buffer_;
@@ -70,7 +83,13 @@ class Session : public std::enable_shared_from_this<Session> {
 
   std::optional<boost::beast::http::request_parser<boost::beast::http::empty_body>> header_parser_;
   std::optional<boost::beast::http::request_parser<boost::beast::http::string_body>> string_parser_;
-  std::optional<boost::beast::http::request_parser<boost::beast::http::file_body>> file_parser_;
+  // An upload is read through a buffer_body in chunks: its first chunk is checked (format, size)
+  // before anything is written, then each chunk is appended to the staging file.
+  std::optional<boost::beast::http::request_parser<boost::beast::http::buffer_body>> upload_parser_;
+  std::vector<std::uint8_t> upload_chunk_;
+  std::size_t upload_filled_ = 0;  // bytes of upload_chunk_ holding body not yet written
+  boost::beast::file upload_file_;
+  UploadAdmission::Slot upload_slot_;
   boost::beast::http::response<boost::beast::http::empty_body> continue_;
 
   api::Request req_;
