@@ -104,6 +104,13 @@ class Router {
                                          bool may_compute,
                                          const std::function<Response(const tiles::ImageEntry&)>& compute);
 
+  // Computes the response for `cache_key` once for identical concurrent requests (single flight).
+  // Each requester is bound by its own `stop` only: a waiter that runs out of time leaves without
+  // stopping the computation, and when the computing request is stopped by its token the
+  // waiters do not fail with it, one of them computes in its place. Throws warp::Stopped.
+  Response compute_once(const std::string& cache_key, const warp::StopToken* stop,
+                        const std::function<Response()>& compute);
+
   std::string base_url(const Request& req) const;
 
   tiles::Store& store_;
