@@ -2,7 +2,10 @@
 // connection reads requests and writes responses on the I/O threads; anything that needs CPU
 // (rendering, encoding, ingest) goes to a bounded worker pool and comes back to the session.
 // SIGTERM/SIGINT drains: readiness fails, then no new connections, idle connections close,
-// in-flight requests finish, and run() returns 0.
+// in-flight requests finish, and run() returns 0. Requests still running when --drain-timeout has
+// passed are cancelled (their StopTokens) and get what they can in a last half second; then run()
+// returns kExitDrainTimedOut, and the caller must end the process at once (std::_Exit): workers may
+// still be in work that checks no token (an ingest, a large IIIF decode) and hold sessions.
 #pragma once
 
 #include <chrono>
@@ -26,10 +29,14 @@ struct HttpServerOptions {
   std::chrono::seconds idle_timeout{30};      // keep-alive connections and slow clients
   std::chrono::seconds drain_delay{0};        // after SIGTERM: not ready, still serving
   std::chrono::seconds drain_timeout{30};     // then at most this long for in-flight requests
+  std::chrono::seconds request_timeout{5};    // computed requests, from read to answer (queue included)
   std::chrono::seconds gc_interval{60};       // store garbage collection
   std::chrono::seconds gc_grace{600};         // age of unreferenced versions before removal
   bool log_requests = true;
 };
+
+// run()'s exit code when the drain timeout cut requests off.
+inline constexpr int kExitDrainTimedOut = 3;
 
 class HttpServer {
  public:
