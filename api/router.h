@@ -40,6 +40,9 @@ struct RouterConfig {
   std::size_t warp_cache_bytes = 256u << 20;  // ICAZ operators (models, forests, coarse warps) kept in memory
 };
 
+// Threads: try_answer_now() and handle() may be called concurrently from any threads (I/O threads
+// and workers); the response cache, the single-flight table and the warp engines lock inside.
+// A Request's StopToken is read only.
 class Router {
  public:
   Router(tiles::Store& store, tiles::PyramidReader& reader, RouterConfig config);

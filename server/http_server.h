@@ -38,6 +38,7 @@ struct HttpServerOptions {
 // run()'s exit code when the drain timeout cut requests off.
 inline constexpr int kExitDrainTimedOut = 3;
 
+// Threads: construct, run() and destroy on one thread; run() runs the I/O threads itself.
 class HttpServer {
  public:
   HttpServer(HttpServerOptions options, tiles::Store& store, api::Router& router, WorkerPool& cpu,

@@ -259,7 +259,7 @@ void Session::cancel_request() {
 
 // While a worker has the request, a read on the socket tells whether the client is still there:
 // end of stream or an error cancels the request's token, and its worker stops at the next step
-// [the render and solver loops check it]. Bytes that arrive are the client's next, pipelined
+// (the render and solver loops check it). Bytes that arrive are the client's next, pipelined
 // request: they stay in the buffer for read_header() (up to a header's worth; then no more watching).
 void Session::watch_peer() {
   if (buffer_.size() >= kHeaderLimit) return;
