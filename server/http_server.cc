@@ -93,9 +93,9 @@ struct HttpServer::Impl {
       open = state.sessions.size();
     }
     // Also until the listener has closed: it may still be accepting connections already made.
-    if (open == 0 && listener->closed()) return stop(timed_out ? kExitDrainTimedOut : 0, open);
+    if (open == 0 && listener->closed()) return stop(open);
     if (std::chrono::steady_clock::now() > drain_deadline) {
-      if (timed_out) return stop(kExitDrainTimedOut, open);
+      if (timed_out) return stop(open);
       // --drain-timeout is a promise to whoever sent the signal: stop the requests still running
       // (they are answered 503 if their worker reaches a step boundary in time) and leave soon.
       timed_out = true;
@@ -108,10 +108,9 @@ struct HttpServer::Impl {
     drain_timer.async_wait([this](boost::system::error_code) { wait_for_sessions(); });
   }
 
-  void stop(int code, std::size_t open) {
+  void stop(std::size_t open) {
     log_event("info", "stopped", {{"open_connections", open}, {"connections_accepted", state.connections_accepted.load()},
-                                  {"exit_code", code}});
-    exit_code = code;
+                                  {"drain_timed_out", timed_out}});
     work.reset();
     ioc.stop();
   }
@@ -125,7 +124,6 @@ struct HttpServer::Impl {
   net::steady_timer drain_timer, gc_timer;
   std::chrono::steady_clock::time_point drain_deadline;
   bool timed_out = false;  // the drain timeout passed with connections open
-  int exit_code = 0;
   std::shared_ptr<Listener> listener;
   std::optional<net::executor_work_guard<net::io_context::executor_type>> work;
 };
@@ -152,7 +150,7 @@ int HttpServer::run() {
   for (int i = 1; i < m.state.options.io_threads; ++i) threads.emplace_back([&m] { m.ioc.run(); });
   m.ioc.run();
   for (auto& t : threads) t.join();
-  return m.exit_code;
+  return 0;
 }
 
 }  // namespace zoomwarp::server

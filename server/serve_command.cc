@@ -41,7 +41,7 @@ std::vector<OptionSpec> serve_specs() {
       {"public-url", "", "base URL clients see (for IIIF ids); default from the Host header"},
       {"idle-timeout", "30", "seconds an idle keep-alive connection is kept"},
       {"drain-delay", "0", "seconds between SIGTERM (readiness fails) and closing the listener"},
-      {"drain-timeout", "30", "seconds in-flight requests get to finish after the listener closed; then they are cancelled and the process exits 3"},
+      {"drain-timeout", "30", "seconds in-flight requests get to finish after the listener closed; then they are cancelled and the process exits"},
       {"request-timeout", "5", "seconds a computed request (view, tile, IIIF image, edit) may take from read to answer, queue included; then 503 + Retry-After"},
       {"gc-grace", "600", "seconds a superseded or deleted image version stays on disk"},
       {"log-requests", "1", "one JSON log line per request (1/0)"},
@@ -126,10 +126,10 @@ int serve_command(const std::vector<std::string>& args) {
                                    {"gc_removed", removed}});
     HttpServer server(http, store, router, cpu, ingest, metrics);
     const int code = server.run();
-    // Workers may still be in work that checks no token and hold sessions of the stopped server:
-    // leave without waiting for them or destroying what they use. The store survives this (it
-    // survives SIGKILL); only their answers are lost, and their clients were told to close.
-    if (code == kExitDrainTimedOut) std::_Exit(code);
+    // After a drain that timed out, workers may still be in work that checks no token and hold
+    // sessions of the stopped server: leave without waiting for them or destroying what they use.
+    // The store survives this (it survives SIGKILL); only their answers are lost.
+    if (cpu.running() + cpu.queued() + ingest.running() + ingest.queued() > 0) std::_Exit(code);
     return code;
   } catch (const std::invalid_argument& e) {
     std::fprintf(stderr, "zoomwarp serve: %s\n", e.what());

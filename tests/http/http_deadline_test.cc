@@ -137,7 +137,7 @@ TEST_F(Deadline, OneClientHangingUpDoesNotFailAnotherWaitingForTheSameView) {
 }
 
 // --drain-timeout is a promise to the orchestrator: with a view still running when it has passed,
-// the process cancels it and exits (3) instead of waiting for it.
+// the process cancels it and exits (0: the stop was asked for) instead of waiting for it.
 TEST_F(Deadline, DrainTimeoutEndsTheProcessWithARequestStillRunning) {
   start({"--workers", "1", "--request-timeout", "600", "--drain-delay", "0", "--drain-timeout", "1"});
   RawConnection slow(port());
@@ -147,7 +147,8 @@ TEST_F(Deadline, DrainTimeoutEndsTheProcessWithARequestStillRunning) {
   const int status = server_->terminate(10);  // SIGTERM; -1 if still running 10 s later
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count();
   std::cout << "exited " << seconds << " s after SIGTERM with --drain-timeout 1\n";
-  EXPECT_EQ(status, 3) << "exit code of a drain cut short";
+  EXPECT_EQ(status, 0) << "-1: still running 10 s after SIGTERM";
+  EXPECT_NE(server_->log().find("\"msg\":\"drain timed out\""), std::string::npos);
   const auto answer = slow.read_until_close(5000);
   EXPECT_TRUE(answer.closed);
   EXPECT_EQ(answer.bytes.find("200 OK"), std::string::npos) << "the view was not finished";
