@@ -135,8 +135,7 @@ std::optional<Response> Router::image_response(const Request& req, const tiles::
   }
   if (!may_compute) return std::nullopt;
   try {
-    Response r = compute_once(cache_key, req.stop, [&] { return with_validators(compute(entry)); });
-    return r;
+    return compute_once(cache_key, req.stop, [&] { return with_validators(compute(entry)); });
   } catch (const warp::Stopped& stopped) {
     Response r = stopped_response(stopped.reason());
     r.route = route;
@@ -176,6 +175,8 @@ Response Router::compute_once(const std::string& cache_key, const warp::StopToke
         continue;  // the leader's own client left or ran out of time: not ours; compute it here
       }
     }
+    // Off the table before the waiters wake: one that recomputes after a stopped leader must not
+    // find the same failed flight again.
     auto finish = [&] {
       std::lock_guard lock(in_flight_mu_);
       in_flight_.erase(cache_key);
@@ -183,14 +184,14 @@ Response Router::compute_once(const std::string& cache_key, const warp::StopToke
     try {
       auto computed = std::make_shared<const Response>(compute());
       if (computed->status == 200) cache_.put(cache_key, computed, computed->body->size());
-      promise.set_value(computed);
       finish();
+      promise.set_value(computed);
       Response r = *computed;
       r.cache = "miss";
       return r;
     } catch (...) {
-      promise.set_exception(std::current_exception());
       finish();
+      promise.set_exception(std::current_exception());
       throw;
     }
   }
