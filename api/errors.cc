@@ -1,5 +1,6 @@
 #include "api/errors.h"
 
+#include <cctype>
 #include <nlohmann/json.hpp>
 
 namespace zoomwarp::api {
@@ -14,6 +15,40 @@ Response error_response(int status, const std::string& code, const std::string& 
       j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   r.set_header("Cache-Control", "no-store");
   return r;
+}
+
+Response internal_error_response(const std::string& detail) {
+  Response r = error_response(500, "internal_error", "the server could not answer this request; it has logged why");
+  r.log_detail = detail;
+  return r;
+}
+
+Response stopped_response(warp::Stopped::Reason reason) {
+  const bool deadline = reason == warp::Stopped::Reason::kDeadline;
+  Response r = deadline ? error_response(503, "deadline_exceeded",
+                                         "the request took longer than the server allows; retry, or ask for a smaller view")
+                        : error_response(503, "request_cancelled", "the request was cancelled");
+  r.set_header("Retry-After", "1");
+  r.stopped = deadline ? "deadline" : "cancelled";
+  return r;
+}
+
+std::string without_paths(const std::string& message) {
+  std::string out;
+  for (std::size_t i = 0; i < message.size();) {
+    const bool starts_path = message[i] == '/' && (i == 0 || std::isspace(static_cast<unsigned char>(message[i - 1])) ||
+                                                   message[i - 1] == '"' || message[i - 1] == '\'' ||
+                                                   message[i - 1] == '(' || message[i - 1] == '=');
+    if (!starts_path) {
+      out.push_back(message[i++]);
+      continue;
+    }
+    while (i < message.size() && !std::isspace(static_cast<unsigned char>(message[i])) && message[i] != '"' &&
+           message[i] != '\'' && message[i] != ')' && message[i] != ':')
+      ++i;
+    out += "(file)";
+  }
+  return out;
 }
 
 }  // namespace zoomwarp::api

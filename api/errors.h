@@ -1,26 +1,45 @@
 // Every error leaves the api as a JSON body {"error": {"code", "message"}} with an HTTP status
 // that says whose fault it was. Routes throw ApiError; the router turns it into a Response.
+//
+// Messages are for the client: they never carry a file path, the host name or the process id
+// (library and file-system errors do). What the operator needs goes into Response::log_detail,
+// which the server logs and never sends.
 #pragma once
 
 #include <stdexcept>
 #include <string>
 
 #include "api/http_types.h"
+#include "warp/stop_token.h"
 
 namespace zoomwarp::api {
 
 class ApiError : public std::runtime_error {
  public:
-  ApiError(int status, std::string code, const std::string& message)
-      : std::runtime_error(message), status_(status), code_(std::move(code)) {}
+  ApiError(int status, std::string code, const std::string& message, std::string log_detail = {})
+      : std::runtime_error(message), status_(status), code_(std::move(code)), log_detail_(std::move(log_detail)) {}
   int status() const { return status_; }
   const std::string& code() const { return code_; }
+  const std::string& log_detail() const { return log_detail_; }
 
  private:
   int status_;
   std::string code_;
+  std::string log_detail_;
 };
 
 Response error_response(int status, const std::string& code, const std::string& message);
+
+// 500 for an unexpected exception: a generic message; `detail` (e.what()) only in the log.
+Response internal_error_response(const std::string& detail);
+
+// 503 + Retry-After for a request whose StopToken ended it: "deadline_exceeded" when it ran out
+// of time, "request_cancelled" when its client went away or the server is shutting down.
+// Response::stopped says which, for metrics and the log.
+Response stopped_response(warp::Stopped::Reason reason);
+
+// `message` with every absolute path in it ("/var/lib/…/upload", "'/tmp/x.png'") replaced by
+// "(file)", for library messages (OpenImageIO) that are useful to a client but name files.
+std::string without_paths(const std::string& message);
 
 }  // namespace zoomwarp::api

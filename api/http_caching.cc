@@ -1,6 +1,8 @@
 #include "api/http_caching.h"
 
 #include <ctime>
+#include <optional>
+#include <vector>
 
 namespace zoomwarp::api {
 
@@ -29,22 +31,54 @@ std::string http_date(std::int64_t unix_ms) {
   return buf;
 }
 
-bool etag_matches(std::string_view header, std::string_view etag) {
-  auto trim = [](std::string_view s) {
-    while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-    while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
-    return s;
+namespace {
+
+struct EntityTag {
+  bool weak = false;
+  std::string_view opaque;  // with its quotes, as make_etag() writes it
+};
+
+// Parses #entity-tag (RFC 9110 §8.8.3): tags separated by commas and optional white space; a tag's
+// quoted part may itself hold commas. nullopt if the list is malformed.
+std::optional<std::vector<EntityTag>> parse_entity_tags(std::string_view s) {
+  std::vector<EntityTag> tags;
+  std::size_t i = 0;
+  auto skip_separators = [&] {
+    while (i < s.size() && (s[i] == ' ' || s[i] == '\t' || s[i] == ',')) ++i;
   };
-  if (trim(header) == "*") return true;
-  while (!header.empty()) {
-    std::size_t comma = header.find(',');
-    std::string_view tag = trim(header.substr(0, comma));
-    if (tag.starts_with("W/")) tag.remove_prefix(2);  // weak comparison, as for GET
-    if (tag == etag) return true;
-    if (comma == std::string_view::npos) break;
-    header.remove_prefix(comma + 1);
+  for (skip_separators(); i < s.size(); skip_separators()) {
+    EntityTag tag;
+    if (s.substr(i, 2) == "W/") tag.weak = true, i += 2;
+    if (i >= s.size() || s[i] != '"') return std::nullopt;
+    const std::size_t close = s.find('"', i + 1);
+    if (close == std::string_view::npos) return std::nullopt;
+    tag.opaque = s.substr(i, close + 1 - i);
+    i = close + 1;
+    if (i < s.size() && s[i] != ',' && s[i] != ' ' && s[i] != '\t') return std::nullopt;
+    tags.push_back(tag);
   }
+  return tags;
+}
+
+bool is_star(std::string_view header) {
+  while (!header.empty() && (header.front() == ' ' || header.front() == '\t')) header.remove_prefix(1);
+  while (!header.empty() && (header.back() == ' ' || header.back() == '\t')) header.remove_suffix(1);
+  return header == "*";
+}
+
+bool any_matches(std::string_view header, std::string_view etag, bool strong) {
+  if (is_star(header)) return true;  // every image response has a current representation
+  const auto tags = parse_entity_tags(header);
+  if (!tags) return false;
+  for (const EntityTag& t : *tags)
+    if (t.opaque == etag && !(strong && t.weak)) return true;
   return false;
 }
+
+}  // namespace
+
+bool if_none_match_matches(std::string_view header, std::string_view etag) { return any_matches(header, etag, false); }
+
+bool if_match_matches(std::string_view header, std::string_view etag) { return any_matches(header, etag, true); }
 
 }  // namespace zoomwarp::api

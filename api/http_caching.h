@@ -1,5 +1,6 @@
 // HTTP caching for immutable image versions: strong ETags from the image version and the request,
-// Last-Modified from the publish time, and If-None-Match matching (RFC 9110 §13.1.2).
+// Last-Modified from the publish time, and the If-None-Match / If-Match conditions (RFC 9110 §13.1).
+// Pure functions: safe from any thread.
 #pragma once
 
 #include <cstdint>
@@ -22,7 +23,13 @@ std::string make_etag(std::string_view version, std::string_view key);
 // IMF-fixdate, e.g. "Sun, 06 Nov 1994 08:49:37 GMT".
 std::string http_date(std::int64_t unix_ms);
 
-// Whether an If-None-Match header value ("*", or a list of possibly weak tags) matches `etag`.
-bool etag_matches(std::string_view if_none_match, std::string_view etag);
+// Whether an If-None-Match header value ("*", or a comma-separated list of entity tags) matches
+// the current `etag`, by weak comparison (RFC 9110 §13.1.2): W/"x" matches "x".
+bool if_none_match_matches(std::string_view header, std::string_view etag);
+
+// Whether an If-Match header value ("*", or a list of entity tags) matches the current `etag`, by
+// strong comparison (RFC 9110 §13.1.1): a weak tag W/"x" never matches, "*" matches any current
+// representation. A malformed list matches nothing (the edit is refused, not guessed at).
+bool if_match_matches(std::string_view header, std::string_view etag);
 
 }  // namespace zoomwarp::api

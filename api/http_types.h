@@ -8,6 +8,10 @@
 #include <utility>
 #include <vector>
 
+namespace zoomwarp::warp {
+class StopToken;
+}
+
 namespace zoomwarp::api {
 
 struct Request {
@@ -21,6 +25,9 @@ struct Request {
   std::string accept;
   std::string body;           // small bodies (JSON)
   std::string body_file;      // uploads: a file the server streamed the body into
+  // The request's deadline and cancel flag (warp/stop_token.h), owned by the server and alive
+  // until the response is sent; null: no limit. Computations check it at step boundaries.
+  const warp::StopToken* stop = nullptr;
 };
 
 struct Response {
@@ -30,6 +37,8 @@ struct Response {
   std::vector<std::pair<std::string, std::string>> headers;  // besides Content-Type
   std::string route;  // a stable label for metrics and logs, e.g. "dzi_tile"
   std::string cache;  // "hit", "miss" or "" where no response cache is involved
+  std::string stopped;  // "deadline" or "cancelled" when the request's StopToken ended its work
+  std::string log_detail;  // what went wrong, for the server's log only: never sent to the client
 
   void set_header(std::string name, std::string value) {
     headers.emplace_back(std::move(name), std::move(value));

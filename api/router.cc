@@ -2,6 +2,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <nlohmann/json.hpp>
 
 #include "api/assets.h"
@@ -58,6 +59,16 @@ Response method_not_allowed(const std::string& allow) {
   return r;
 }
 
+// A parameter given twice is ambiguous on every route, also on those that ignore their query
+// string: which one a cache or proxy in front of us would key on is anyone's guess.
+void reject_repeated_parameters(std::string_view query) {
+  const auto pairs = parse_query(query);
+  if (!pairs) return;  // malformed: the routes that read a query say so, the others ignore it
+  std::set<std::string_view> seen;
+  for (const auto& [name, value] : *pairs)
+    if (!seen.insert(name).second) throw ApiError(400, "invalid_query", "parameter '" + name + "' is given twice");
+}
+
 bool host_is_sane(std::string_view h) {
   if (h.empty() || h.size() > 255) return false;
   for (char c : h)
@@ -111,7 +122,7 @@ std::optional<Response> Router::image_response(const Request& req, const tiles::
     r.set_header("Cache-Control", "public, max-age=" + std::to_string(config_.cache_max_age));
     return r;
   };
-  if (!req.if_none_match.empty() && etag_matches(req.if_none_match, etag)) {
+  if (!req.if_none_match.empty() && if_none_match_matches(req.if_none_match, etag)) {
     Response r;
     r.status = 304;
     return with_validators(std::move(r));
@@ -123,37 +134,66 @@ std::optional<Response> Router::image_response(const Request& req, const tiles::
     return r;
   }
   if (!may_compute) return std::nullopt;
-  // Single flight: the first request for a key computes, identical ones arriving meanwhile wait
-  // for its answer (a burst of clients opening the same view costs one warp and one encode).
-  std::promise<std::shared_ptr<const Response>> promise;
-  std::shared_future<std::shared_ptr<const Response>> pending;
-  {
-    std::lock_guard lock(in_flight_mu_);
-    auto [it, first] = in_flight_.try_emplace(cache_key);
-    if (first) it->second = promise.get_future().share();
-    else pending = it->second;
-  }
-  if (pending.valid()) {
-    Response r = *pending.get();  // rethrows the first request's error
-    r.cache = "hit";
-    return r;
-  }
-  auto finish = [&] {
-    std::lock_guard lock(in_flight_mu_);
-    in_flight_.erase(cache_key);
-  };
   try {
-    auto computed = std::make_shared<const Response>(with_validators(compute(entry)));
-    if (computed->status == 200) cache_.put(cache_key, computed, computed->body->size());
-    promise.set_value(computed);
-    finish();
-    Response r = *computed;
-    r.cache = "miss";
+    return compute_once(cache_key, req.stop, [&] { return with_validators(compute(entry)); });
+  } catch (const warp::Stopped& stopped) {
+    Response r = stopped_response(stopped.reason());
+    r.route = route;
     return r;
-  } catch (...) {
-    promise.set_exception(std::current_exception());
-    finish();
-    throw;
+  }
+}
+
+namespace {
+// Waits for another request's computation as long as `stop` allows; throws Stopped when it ends.
+void wait_for(const std::shared_future<std::shared_ptr<const Response>>& pending, const warp::StopToken* stop) {
+  if (!stop) return pending.wait();
+  while (pending.wait_for(std::chrono::milliseconds(20)) != std::future_status::ready) stop->check();
+}
+}  // namespace
+
+Response Router::compute_once(const std::string& cache_key, const warp::StopToken* stop,
+                              const std::function<Response()>& compute) {
+  while (true) {
+    warp::check_stop(stop);  // out of time or cancelled while queued: not computed at all
+    // Single flight: the first request for a key computes, identical ones arriving meanwhile wait
+    // for its answer (a burst of clients opening the same view costs one warp and one encode).
+    std::promise<std::shared_ptr<const Response>> promise;
+    std::shared_future<std::shared_ptr<const Response>> pending;
+    {
+      std::lock_guard lock(in_flight_mu_);
+      auto [it, first] = in_flight_.try_emplace(cache_key);
+      if (first) it->second = promise.get_future().share();
+      else pending = it->second;
+    }
+    if (pending.valid()) {
+      wait_for(pending, stop);  // a waiter that runs out of time leaves; the others wait on
+      try {
+        Response r = *pending.get();  // rethrows the first request's error
+        r.cache = "hit";
+        return r;
+      } catch (const warp::Stopped&) {
+        continue;  // the leader's own client left or ran out of time: not ours; compute it here
+      }
+    }
+    // Off the table before the waiters wake: one that recomputes after a stopped leader must not
+    // find the same failed flight again.
+    auto finish = [&] {
+      std::lock_guard lock(in_flight_mu_);
+      in_flight_.erase(cache_key);
+    };
+    try {
+      auto computed = std::make_shared<const Response>(compute());
+      if (computed->status == 200) cache_.put(cache_key, computed, computed->body->size());
+      finish();
+      promise.set_value(computed);
+      Response r = *computed;
+      r.cache = "miss";
+      return r;
+    } catch (...) {
+      finish();
+      promise.set_exception(std::current_exception());
+      throw;
+    }
   }
 }
 
@@ -244,6 +284,7 @@ std::optional<Response> Router::dispatch(const Request& req, bool may_compute) {
     auto segments = split_path(req.path);
     if (!segments) throw ApiError(400, "invalid_path", "the path is not well-formed");
     if (segments->size() > 1 && segments->back().empty()) segments->pop_back();  // "/v1/images/"
+    reject_repeated_parameters(req.query);
     const std::string method = req.method == "HEAD" ? "GET" : req.method;
     PathParams params;
     std::string allowed;  // methods of the routes whose path matches
@@ -260,6 +301,7 @@ std::optional<Response> Router::dispatch(const Request& req, bool may_compute) {
   } catch (const ApiError& e) {
     Response r = error_response(e.status(), e.code(), e.what());
     r.route = "error";
+    r.log_detail = e.log_detail();
     return r;
   }
 }
@@ -446,10 +488,10 @@ std::optional<Response> Router::upload_image(const Request& req, const PathParam
   } catch (const tiles::IngestError& e) {
     using Kind = tiles::IngestError::Kind;
     switch (e.kind()) {
-      case Kind::kUnsupportedFormat: throw ApiError(415, "unsupported_format", e.what());
-      case Kind::kTooLarge: throw ApiError(413, "image_too_large", e.what());
-      case Kind::kCorrupt: throw ApiError(422, "corrupt_image", e.what());
-      case Kind::kIo: throw ApiError(500, "store_error", e.what());
+      case Kind::kUnsupportedFormat: throw ApiError(415, "unsupported_format", without_paths(e.what()), e.what());
+      case Kind::kTooLarge: throw ApiError(413, "image_too_large", without_paths(e.what()), e.what());
+      case Kind::kCorrupt: throw ApiError(422, "corrupt_image", without_paths(e.what()), e.what());
+      case Kind::kIo: throw ApiError(500, "store_error", "the image could not be stored", e.what());
     }
     throw;
   }

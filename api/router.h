@@ -42,6 +42,9 @@ struct RouterConfig {
   EventLog log;                               // damaged models are reported here
 };
 
+// Threads: try_answer_now() and handle() may be called concurrently from any threads (I/O threads
+// and workers); the response cache, the single-flight table and the warp engines lock inside.
+// A Request's StopToken is read only.
 class Router {
  public:
   Router(tiles::Store& store, tiles::PyramidReader& reader, RouterConfig config);
@@ -105,6 +108,13 @@ class Router {
                                          const std::string& route, const std::string& key_extra,
                                          bool may_compute,
                                          const std::function<Response(const tiles::ImageEntry&)>& compute);
+
+  // Computes the response for `cache_key` once for identical concurrent requests (single flight).
+  // Each requester is bound by its own `stop` only: a waiter that runs out of time leaves without
+  // stopping the computation, and when the computing request is stopped by its token the
+  // waiters do not fail with it, one of them computes in its place. Throws warp::Stopped.
+  Response compute_once(const std::string& cache_key, const warp::StopToken* stop,
+                        const std::function<Response()>& compute);
 
   std::string base_url(const Request& req) const;
 

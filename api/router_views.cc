@@ -38,12 +38,19 @@ json lines_json(const std::vector<warp::Segment>& lines) {
 // The route's last path segment says which: viewport, mesh, significance.png or lines.
 std::string_view last_segment(const std::string& path) { return std::string_view(path).substr(path.rfind('/') + 1); }
 
+// significance.png and GET lines take no parameters; like /mesh, they refuse what they do not know.
+void reject_query(const Request& req, std::string_view route) {
+  if (!req.query.empty())
+    throw ApiError(400, "bad_request", std::string(route) + " takes no query parameters, not '" + req.query + "'");
+}
+
 }  // namespace
 
 std::optional<Response> Router::view_route(const Request& req, const PathParams& p, bool may_compute) {
   auto entry = find_image(store_, param(p, "id"));
   const std::string what(last_segment(req.path));
   if (what == "significance.png") {
+    reject_query(req, what);
     return image_response(req, *entry, "significance_png", "", may_compute, [&](const tiles::ImageEntry& e) {
       const warp::SignificanceMap map = engines_.get(e)->model().significance;
       tiles::Raster grey(map.width, map.height, 1);
@@ -52,18 +59,22 @@ std::optional<Response> Router::view_route(const Request& req, const PathParams&
     });
   }
   if (what == "lines") {
+    reject_query(req, what);
     return image_response(req, *entry, "lines_get", "", may_compute, [&](const tiles::ImageEntry& e) {
       return body_response("application/json", json{{"lines", lines_json(engines_.get(e)->model().lines)}}.dump() + "\n");
     });
   }
   const ViewRoute route = what == "mesh" ? ViewRoute::kMesh : ViewRoute::kViewport;
-  const ViewQuery q = parse_view_query(req.query, route, entry->manifest.width, entry->manifest.height);
+  ViewQuery q = parse_view_query(req.query, route, entry->manifest.width, entry->manifest.height);
+  q.view.stop = req.stop;  // both ends of a geomorph: the from-view is as much work as the view
+  if (q.from) q.from->stop = req.stop;
   return image_response(req, *entry, what, q.canonical(), may_compute, [&](const tiles::ImageEntry& e) {
     auto engine = engines_.get(e);
     try {
       if (route == ViewRoute::kViewport) {
         const warp::View v = view_by(*engine, q.method, q.view);
-        const tiles::Raster screen = warp::render_view(v, q.view.screen_width, q.view.screen_height, e, reader_);
+        const tiles::Raster screen = warp::render_view(v, q.view.screen_width, q.view.screen_height, e, reader_, req.stop);
+        warp::check_stop(req.stop);  // not worth encoding a view nobody waits for any more
         tiles::EncodeOptions encode = config_.encode;
         if (q.quality > 0) encode.jpeg_quality = encode.webp_quality = q.quality;
         return body_response(std::string(tiles::mime_type(q.format)), tiles::encode_image(screen, q.format, encode));
@@ -91,8 +102,17 @@ std::optional<Response> Router::edit_route(const Request& req, const PathParams&
   const std::string what(last_segment(req.path));
   auto entry = find_image(store_, id);
   const std::string image_etag = make_etag(entry->manifest.version, "image");
-  if (!req.if_match.empty() && !etag_matches(req.if_match, image_etag))
+  if (!req.if_match.empty() && !if_match_matches(req.if_match, image_etag))
     throw ApiError(412, "precondition_failed", "the image changed: its ETag is now " + image_etag);
+  const std::string route = what == "lines" ? "lines_put" : "significance_patch";
+  try {
+    warp::check_stop(req.stop);
+  } catch (const warp::Stopped& stopped) {
+    // Out of time or cancelled while queued: not applied, so the client's retry is not a second edit.
+    Response r = stopped_response(stopped.reason());
+    r.route = route;
+    return r;
+  }
   const double W = entry->manifest.width, H = entry->manifest.height;
   const warp::ModelEdit edit = what == "lines" ? parse_lines_body(req.body, W, H) : parse_significance_body(req.body, W, H);
   try {
@@ -105,7 +125,7 @@ std::optional<Response> Router::edit_route(const Request& req, const PathParams&
     throw ApiError(409, "conflict", std::string(err.what()) + "; read the image again and retry");
   }
   Response r = describe(id);
-  r.route = what == "lines" ? "lines_put" : "significance_patch";
+  r.route = route;
   return r;
 }
 

@@ -53,7 +53,8 @@ struct HttpServer::Impl {
   }
 
   // SIGTERM: readiness fails at once; after drain_delay no new connections are taken, idle
-  // keep-alive connections close, and the process exits once in-flight requests are answered.
+  // keep-alive connections close, and the process exits once in-flight requests are answered, or
+  // once drain_timeout has passed (then they are cancelled).
   void begin_drain(int signal) {
     if (state.draining.exchange(true)) return;
     log_event("info", "draining", {{"signal", signal}, {"delay_s", state.options.drain_delay.count()}});
@@ -67,16 +68,22 @@ struct HttpServer::Impl {
     });
   }
 
-  void close_idle_sessions() {
+  std::vector<std::shared_ptr<Session>> open_sessions() {
     // Collect first, post after unlocking: a posted close may run at once on another I/O thread
     // and leave our copy as the last reference, and ~Session takes sessions_mu to unregister.
     std::vector<std::shared_ptr<Session>> open;
-    {
-      std::lock_guard lock(state.sessions_mu);
-      for (auto& [ptr, weak] : state.sessions)
-        if (auto s = weak.lock()) open.push_back(std::move(s));
-    }
-    for (auto& s : open) net::post(s->get_executor(), [s] { s->close_if_idle(); });
+    std::lock_guard lock(state.sessions_mu);
+    for (auto& [ptr, weak] : state.sessions)
+      if (auto s = weak.lock()) open.push_back(std::move(s));
+    return open;
+  }
+
+  void close_idle_sessions() {
+    for (auto& s : open_sessions()) net::post(s->get_executor(), [s] { s->close_if_idle(); });
+  }
+
+  void cancel_requests() {
+    for (auto& s : open_sessions()) net::post(s->get_executor(), [s] { s->cancel_request(); });
   }
 
   void wait_for_sessions() {
@@ -86,22 +93,37 @@ struct HttpServer::Impl {
       open = state.sessions.size();
     }
     // Also until the listener has closed: it may still be accepting connections already made.
-    if ((open == 0 && listener->closed()) || std::chrono::steady_clock::now() > drain_deadline) {
-      log_event("info", "stopped", {{"open_connections", open}, {"connections_accepted", state.connections_accepted.load()}});
-      work.reset();
-      ioc.stop();
-      return;
+    if (open == 0 && listener->closed()) return stop(open);
+    if (std::chrono::steady_clock::now() > drain_deadline) {
+      if (timed_out) return stop(open);
+      // --drain-timeout is a promise to whoever sent the signal: stop the requests still running
+      // (they are answered 503 if their worker reaches a step boundary in time) and leave soon.
+      timed_out = true;
+      log_event("warn", "drain timed out", {{"open_connections", open}});
+      cancel_requests();
+      drain_deadline = std::chrono::steady_clock::now() + kCancelGrace;
     }
     close_idle_sessions();  // connections that finished a request since
     drain_timer.expires_after(50ms);
     drain_timer.async_wait([this](boost::system::error_code) { wait_for_sessions(); });
   }
 
+  void stop(std::size_t open) {
+    log_event("info", "stopped", {{"open_connections", open}, {"connections_accepted", state.connections_accepted.load()},
+                                  {"drain_timed_out", timed_out}});
+    work.reset();
+    ioc.stop();
+  }
+
+  // After the drain timeout, how long cancelled requests get to send their 503.
+  static constexpr auto kCancelGrace = 500ms;
+
   ServerState state;
   net::io_context ioc;
   net::signal_set signals;
   net::steady_timer drain_timer, gc_timer;
   std::chrono::steady_clock::time_point drain_deadline;
+  bool timed_out = false;  // the drain timeout passed with connections open
   std::shared_ptr<Listener> listener;
   std::optional<net::executor_work_guard<net::io_context::executor_type>> work;
 };

@@ -2,7 +2,12 @@
 // connection reads requests and writes responses on the I/O threads; anything that needs CPU
 // (rendering, encoding, ingest) goes to a bounded worker pool and comes back to the session.
 // SIGTERM/SIGINT drains: readiness fails, then no new connections, idle connections close,
-// in-flight requests finish, and run() returns 0.
+// in-flight requests finish, and run() returns 0. Requests still running when --drain-timeout has
+// passed are cancelled (their StopTokens) and get what they can in a last half second; then run()
+// returns 0 all the same (the stop was asked for and kept its time; the log says "drain timed
+// out"). Workers may then still be in work that checks no token (an ingest, a large IIIF decode)
+// and hold sessions: a caller whose pools are not idle must end the process at once (std::_Exit)
+// rather than destroy the server or wait for the pools.
 #pragma once
 
 #include <chrono>
@@ -31,12 +36,14 @@ struct HttpServerOptions {
   std::size_t max_connections = 1024;         // open connections; more wait in the listen backlog
   std::chrono::seconds drain_delay{0};        // after SIGTERM: not ready, still serving
   std::chrono::seconds drain_timeout{30};     // then at most this long for in-flight requests
+  std::chrono::seconds request_timeout{5};    // computed requests, from read to answer (queue included)
   std::chrono::seconds gc_interval{60};       // store garbage collection
   std::chrono::seconds gc_grace{600};         // age of unreferenced versions before removal
   bool log_requests = true;
   std::string face_detection = "on";          // "off: why" — a /readyz detail, not a readiness failure
 };
 
+// Threads: construct, run() and destroy on one thread; run() runs the I/O threads itself.
 class HttpServer {
  public:
   HttpServer(HttpServerOptions options, tiles::Store& store, api::Router& router, WorkerPool& cpu,

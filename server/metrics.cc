@@ -15,6 +15,11 @@ void Metrics::observe_request(const std::string& route, int status, double secon
   h.sum += seconds;
 }
 
+void Metrics::observe_stopped(const std::string& route, const std::string& reason) {
+  std::lock_guard lock(mu_);
+  ++stopped_[{route, reason}];
+}
+
 void Metrics::add_sampler(Sampler s) {
   std::lock_guard lock(mu_);
   samplers_.push_back(std::move(s));
@@ -41,6 +46,12 @@ std::string Metrics::render() const {
           << "zoomwarp_http_request_duration_seconds_sum{route=\"" << route << "\"} " << h.sum << "\n"
           << "zoomwarp_http_request_duration_seconds_count{route=\"" << route << "\"} " << h.count << "\n";
     }
+    out << "# HELP zoomwarp_http_requests_stopped_total Requests whose work was stopped (503), by route and reason"
+           " (deadline: --request-timeout passed; cancelled: the client left, or the drain timed out).\n"
+           "# TYPE zoomwarp_http_requests_stopped_total counter\n";
+    for (const auto& [key, n] : stopped_)
+      out << "zoomwarp_http_requests_stopped_total{route=\"" << key.first << "\",reason=\"" << key.second << "\"} " << n
+          << "\n";
     samplers = samplers_;
   }
   std::string last_name;

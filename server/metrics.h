@@ -1,5 +1,9 @@
 // Prometheus metrics (text exposition format 0.0.4): request counts by route and status, latency
-// histograms by route, plus gauges the caller samples at scrape time (caches, queue, store).
+// histograms by route, requests stopped by their StopToken by route and reason, plus gauges the
+// caller samples at scrape time (caches, queue, store).
+//
+// Threads: every member function may be called from any thread; samplers are called without the
+// lock held, from the thread calling render().
 #pragma once
 
 #include <array>
@@ -15,6 +19,8 @@ namespace zoomwarp::server {
 class Metrics {
  public:
   void observe_request(const std::string& route, int status, double seconds);
+  // A request whose work its StopToken ended: reason "deadline" or "cancelled".
+  void observe_stopped(const std::string& route, const std::string& reason);
 
   // A gauge or counter sampled at each scrape: name, help, type ("gauge"/"counter"), labels
   // (e.g. R"(cache="response")" or ""), value.
@@ -38,6 +44,7 @@ class Metrics {
   mutable std::mutex mu_;
   std::map<std::pair<std::string, int>, std::uint64_t> requests_;
   std::map<std::string, Histogram> latency_;
+  std::map<std::pair<std::string, std::string>, std::uint64_t> stopped_;
   std::vector<Sampler> samplers_;
 };
 

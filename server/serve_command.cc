@@ -2,6 +2,7 @@
 #include <sys/resource.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -46,7 +47,8 @@ std::vector<OptionSpec> serve_specs() {
       {"body-timeout", "30", "seconds an upload's body may pause before the connection is dropped"},
       {"max-connections", "0", "connections open at once (more wait); 0: the open-file limit less 64"},
       {"drain-delay", "0", "seconds between SIGTERM (readiness fails) and closing the listener"},
-      {"drain-timeout", "30", "seconds in-flight requests get to finish after the listener closed"},
+      {"drain-timeout", "30", "seconds in-flight requests get to finish after the listener closed; then they are cancelled and the process exits"},
+      {"request-timeout", "5", "seconds a computed request (view, tile, IIIF image, edit) may take from read to answer, queue included; then 503 + Retry-After"},
       {"gc-grace", "600", "seconds a superseded or deleted image version stays on disk"},
       {"log-requests", "1", "one JSON log line per request (1/0)"},
   };
@@ -86,6 +88,7 @@ int serve_command(const std::vector<std::string>& args) {
     http.max_connections = max_connections > 0 ? max_connections : connections_for_fd_limit();
     http.drain_delay = std::chrono::seconds(o.integer("drain-delay", 0, 3600));
     http.drain_timeout = std::chrono::seconds(o.integer("drain-timeout", 0, 3600));
+    http.request_timeout = std::chrono::seconds(o.integer("request-timeout", 1, 3600));
     http.gc_grace = std::chrono::seconds(o.integer("gc-grace", 0, 30 * 86400));
     http.log_requests = o.flag("log-requests");
 
@@ -150,7 +153,12 @@ int serve_command(const std::vector<std::string>& args) {
                                    {"response_cache", rc.response_cache_bytes}, {"warp_cache", rc.warp_cache_bytes},
                                    {"gc_removed", removed}});
     HttpServer server(http, store, router, cpu, ingest, metrics);
-    return server.run();
+    const int code = server.run();
+    // After a drain that timed out, workers may still be in work that checks no token and hold
+    // sessions of the stopped server: leave without waiting for them or destroying what they use.
+    // The store survives this (it survives SIGKILL); only their answers are lost.
+    if (cpu.running() + cpu.queued() + ingest.running() + ingest.queued() > 0) std::_Exit(code);
+    return code;
   } catch (const std::invalid_argument& e) {
     std::fprintf(stderr, "zoomwarp serve: %s\n", e.what());
     return 2;

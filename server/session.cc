@@ -32,6 +32,20 @@ bool client_gone(beast::error_code ec) {
          ec == http::error::partial_message || ec == net::error::connection_reset ||
          ec == net::error::operation_aborted || ec == net::error::broken_pipe;
 }
+// Request smuggling defence: the only transfer coding we read is chunked [RFC 9112 §6.1]. A body
+// whose last coding is not chunked has no knowable length (400 and close, §6.3); other codings
+// before it we cannot decode (501, and close too: the body is not read). Beast would read the
+// former to the end of the stream and hand us the latter still compressed.
+std::optional<api::Response> refuse_transfer_encoding(const http::request_header<>& h) {
+  const auto te = h[http::field::transfer_encoding];
+  if (te.empty() || (beast::iequals(te, "chunked") && h.count(http::field::transfer_encoding) == 1)) return std::nullopt;
+  const std::size_t comma = te.rfind(',');
+  std::string_view last = comma == std::string_view::npos ? te : te.substr(comma + 1);
+  while (!last.empty() && (last.front() == ' ' || last.front() == '\t')) last.remove_prefix(1);
+  if (!beast::iequals(last, "chunked") || h.count(http::field::transfer_encoding) > 1)
+    return api::error_response(400, "bad_transfer_encoding", "Transfer-Encoding must be chunked (or absent), not '" + std::string(te) + "'");
+  return api::error_response(501, "unsupported_transfer_encoding", "the only transfer coding understood is chunked, not '" + std::string(te) + "'");
+}
 }  // namespace
 
 Session::Session(net::ip::tcp::socket&& socket, ServerState& state)
@@ -125,6 +139,10 @@ void Session::on_header(beast::error_code ec) {
   req_.if_match = std::string(h[http::field::if_match]);
   req_.accept = std::string(h[http::field::accept]);
   const bool expect_continue = beast::iequals(h[http::field::expect], "100-continue");
+  if (auto refusal = refuse_transfer_encoding(h)) {
+    keep_alive_ = false;  // the body's length is unknown: the rest of the stream cannot be trusted
+    return send(std::move(*refusal));
+  }
 
   if (api::Router::is_upload(req_.method, req_.path)) {
     auto length = header_parser_->content_length();
@@ -309,15 +327,26 @@ void Session::answer() {
     if (auto r = answer_ops(req_, OpsContext{state_.store, state_.metrics, state_.draining, state_.options.face_detection})) return send(std::move(*r));
     if (auto r = state_.router.try_answer_now(req_)) return send(std::move(*r));
   } catch (const std::exception& e) {
-    return send(api::error_response(500, "internal_error", e.what()));
+    return send(api::internal_error_response(e.what()));
   }
-  WorkerPool& pool = api::Router::is_upload(req_.method, req_.path) ? state_.ingest : state_.cpu;
+  submit(api::Router::is_upload(req_.method, req_.path) ? state_.ingest : state_.cpu);
+}
+
+// Hands the request to a worker. A CPU request gets its deadline here (uploads are bounded by their
+// size instead: ingesting 500 MB takes as long as it takes).
+void Session::submit(WorkerPool& pool) {
+  const bool bounded = &pool == &state_.cpu;
+  stop_ = bounded ? std::make_shared<warp::StopToken>(std::chrono::steady_clock::now() + state_.options.request_timeout)
+                  : std::make_shared<warp::StopToken>();
+  req_.stop = stop_.get();
   const bool queued = pool.try_submit([self = shared_from_this()] {
     api::Response r;
     try {
       r = self->state_.router.handle(self->req_);
+    } catch (const warp::Stopped& stopped) {
+      r = api::stopped_response(stopped.reason());
     } catch (const std::exception& e) {
-      r = api::error_response(500, "internal_error", e.what());
+      r = api::internal_error_response(e.what());
     }
     net::post(self->stream_.get_executor(), [self, r = std::move(r)]() mutable { self->send(std::move(r)); });
   });
@@ -325,8 +354,38 @@ void Session::answer() {
     api::Response r = api::error_response(503, "overloaded", "the server is busy; retry shortly");
     r.set_header("Retry-After", "1");
     r.route = "overloaded";
-    send(std::move(r));
+    return send(std::move(r));
   }
+  with_worker_ = true;
+  watch_peer();
+}
+
+void Session::cancel_request() {
+  if (with_worker_) stop_->cancel();
+}
+
+// While a worker has the request, a read on the socket tells whether the client is still there:
+// end of stream or an error cancels the request's token, and its worker stops at the next step
+// (the render and solver loops check it). Bytes that arrive are the client's next, pipelined
+// request: they stay in the buffer for read_header() (up to a header's worth; then no more watching).
+void Session::watch_peer() {
+  if (buffer_.size() >= kHeaderLimit) return;
+  watching_ = true;
+  stream_.async_read_some(buffer_.prepare(kHeaderLimit - buffer_.size()),
+                          [self = shared_from_this()](beast::error_code ec, std::size_t n) { self->on_peer_read(ec, n); });
+}
+
+void Session::on_peer_read(beast::error_code ec, std::size_t bytes) {
+  watching_ = false;
+  buffer_.commit(bytes);
+  if (ec && ec != net::error::operation_aborted) {
+    if (with_worker_) stop_->cancel();
+    keep_alive_ = false;  // nobody to read a next request from
+  } else if (!ec && with_worker_) {
+    return watch_peer();
+  }
+  const AfterWatch after = std::exchange(after_watch_, AfterWatch::kNothing);
+  if (after != AfterWatch::kNothing) next(after == AfterWatch::kClose);
 }
 
 // Appends "Name: value\r\n"; values with line breaks are dropped rather than let split the header.
@@ -339,6 +398,8 @@ static void append_field(std::string& out, std::string_view name, std::string_vi
 // serializer costs several times more per request than everything else on the cached-tile path.
 void Session::send(api::Response r) {
   discard_upload();  // before the client hears back, so it never sees the upload's leftovers
+  with_worker_ = false;
+  if (watching_) stream_.cancel();  // the watch's handler ends it; on_write waits for that
   current_ = std::move(r);
   if (current_.route.empty()) current_.route = "error";
   const int status = current_.status;
@@ -374,6 +435,14 @@ void Session::send(api::Response r) {
 void Session::on_write(bool close, beast::error_code ec) {
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
   state_.metrics.observe_request(current_.route, current_.status, seconds);
+  if (!current_.stopped.empty()) {
+    state_.metrics.observe_stopped(current_.route, current_.stopped);
+    log_event("warn", "request stopped", {{"method", req_.method}, {"target", target_}, {"route", current_.route},
+                                          {"reason", current_.stopped}, {"ms", std::round(seconds * 1e5) / 100}});
+  }
+  if (!current_.log_detail.empty())
+    log_event("error", "request failed", {{"method", req_.method}, {"target", target_}, {"route", current_.route},
+                                          {"status", current_.status}, {"error", current_.log_detail}});
   if (state_.options.log_requests) {
     nlohmann::json fields = {{"method", req_.method},    {"target", target_},
                              {"status", current_.status}, {"route", current_.route},
@@ -385,6 +454,15 @@ void Session::on_write(bool close, beast::error_code ec) {
   }
   current_ = {};
   if (ec) return;
+  if (watching_) {
+    // One read at a time: the next step waits for the peer watch, which send() cancelled, to end.
+    after_watch_ = close ? AfterWatch::kClose : AfterWatch::kReadNext;
+    return;
+  }
+  next(close);
+}
+
+void Session::next(bool close) {
   if (close) {
     beast::error_code ignored;
     stream_.socket().shutdown(net::ip::tcp::socket::shutdown_send, ignored);

@@ -1,5 +1,15 @@
 // One HTTP connection: read a request header, then its body (uploads stream to a file), answer it
 // on this thread or on a worker, write the response, repeat while keep-alive holds.
+//
+// A request computed on the CPU workers carries a StopToken (api::Request::stop) whose deadline is
+// --request-timeout after the request was read, queue time included. While it is with a worker the
+// session keeps reading the socket: the client closing the connection cancels the token (bytes that
+// arrive meanwhile are its next, pipelined request and are kept).
+//
+// Threads: a Session runs on its own strand; every member function but start() must be called
+// there (post to get_executor()). ServerState is shared by all sessions and the listener: its
+// references are to thread-safe objects, its atomics and `sessions` (under sessions_mu) are the
+// only state it has.
 #pragma once
 
 #include <boost/asio/ip/tcp.hpp>
@@ -20,6 +30,7 @@
 #include "server/upload_admission.h"
 #include "server/worker_pool.h"
 #include "tiles/store.h"
+#include "warp/stop_token.h"
 
 namespace zoomwarp::server {
 
@@ -56,6 +67,9 @@ class Session : public std::enable_shared_from_this<Session> {
   // Drain: closes the connection if it is waiting for a new request (a new connection only once
   // it has had a second to send its first). Runs on the session's strand.
   void close_if_idle();
+  // Drain timeout: cancels the request being computed, if any, so its worker stops at the next
+  // step and it is answered 503. Runs on the session's strand.
+  void cancel_request();
   auto get_executor() { return stream_.get_executor(); }
 
  private:
@@ -65,8 +79,12 @@ class Session : public std::enable_shared_from_this<Session> {
   void read_body();
   void on_body(boost::beast::error_code ec);
   void answer();
+  void submit(WorkerPool& pool);
+  void watch_peer();
+  void on_peer_read(boost::beast::error_code ec, std::size_t bytes);
   void send(api::Response res);
   void on_write(bool close, boost::beast::error_code ec);
+  void next(bool close);  // after a response: read the next request, or close
   void linger();
   void discard_upload();
   std::optional<api::Response> admit_upload();
@@ -101,6 +119,11 @@ class Session : public std::enable_shared_from_this<Session> {
   std::chrono::steady_clock::time_point accepted_ = std::chrono::steady_clock::now();
   std::string upload_dir_;
   std::chrono::steady_clock::time_point started_;
+  std::shared_ptr<warp::StopToken> stop_;  // of the request with a worker, shared with its job
+  bool with_worker_ = false;      // the request is queued or running in a worker pool
+  bool watching_ = false;         // watch_peer()'s read is pending
+  enum class AfterWatch { kNothing, kReadNext, kClose };
+  AfterWatch after_watch_ = AfterWatch::kNothing;  // the response is written; what to do once the watch ends
 
   api::Response current_;  // the response being written (owns the body bytes)
   std::string head_;       // its status line and header fields

@@ -1,6 +1,11 @@
 // A fixed set of threads for CPU work (decode, resample, encode, ingest), off the I/O threads,
 // with a bounded queue: when it is full, try_submit() refuses and the caller answers 503 instead
 // of letting latency grow without bound.
+//
+// Threads: try_submit(), queued() and running() may be called from any thread; jobs run on the
+// pool's threads. The pool does not look into jobs: a job whose request ran out of time or was
+// cancelled while queued still runs, and ends at once (the router checks the request's StopToken
+// before computing anything).
 #pragma once
 
 #include <condition_variable>

@@ -1,0 +1,159 @@
+// Request deadlines, cancellation and the drain timeout, against the real server: a view that runs
+// out of --request-timeout is answered 503 with Retry-After and frees its worker; a client that
+// hangs up cancels its running or queued request; one client hanging up does not fail another
+// waiting for the same view (single flight); --drain-timeout ends the process with requests still
+// running.
+//
+// Slow work is real work: ICAZ views of the 4:1 panorama sample at zoom 0 on a big screen (seconds
+// each on one worker). Tests assert statuses, order and counters, never how long something took;
+// the waits below are bounds on a hang.
+#include <gtest/gtest.h>
+
+#include <signal.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <thread>
+#include <vector>
+
+#include "tests/http/raw_connection.h"
+#include "tests/support/http_client.h"
+#include "tests/support/server_process.h"
+
+namespace zoomwarp {
+namespace {
+
+using testing::HttpClient;
+using testing::RawConnection;
+
+// The value of one Prometheus series, e.g. `zoomwarp_workers_busy{pool="cpu"}`; 0 when absent.
+double metric(int port, const std::string& series) {
+  const std::string body = "\n" + HttpClient(port).get("/metrics").body;
+  const std::size_t at = body.find("\n" + series + " ");
+  return at == std::string::npos ? 0 : std::strtod(body.c_str() + at + series.size() + 2, nullptr);
+}
+
+// Polls until the series reaches `value`; false if it has not after `seconds` (a bound on a hang).
+bool wait_for_metric(int port, const std::string& series, double value, double seconds = 60) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (metric(port, series) < value) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return true;
+}
+
+const std::string kBusy = R"(zoomwarp_workers_busy{pool="cpu"})";
+const std::string kQueued = R"(zoomwarp_queue_depth{pool="cpu"})";
+std::string stopped(const std::string& reason) {
+  return R"(zoomwarp_http_requests_stopped_total{route="viewport",reason=")" + reason + "\"}";
+}
+
+// A slow, uncached view: ICAZ at zoom 0 on a 2048×2048 screen; `variant` makes it distinct.
+std::string slow_view(int variant) {
+  return "/v1/images/pano/viewport?zoom=0&w=2048&h=2048&cx=" + std::to_string(1000 + variant);
+}
+std::string raw_get(const std::string& target) { return "GET " + target + " HTTP/1.1\r\nHost: t\r\n\r\n"; }
+
+class Deadline : public ::testing::Test {
+ protected:
+  void start(const std::vector<std::string>& args) {
+    server_.emplace(dir_.path() + "/store", args);
+    HttpClient http(server_->port());
+    ASSERT_EQ(http.request("POST", "/v1/images?id=pano",
+                           testing::read_file(testing::samples_dir() + "/pano_grossmugl_field_4to1.png"))
+                  .status,
+              201);
+  }
+  int port() const { return server_->port(); }
+
+  testing::TempDir dir_;
+  std::optional<testing::ServerProcess> server_;
+};
+
+TEST_F(Deadline, AViewOutOfTimeGets503WithRetryAfterAndTheWorkerIsFreeAfter) {
+  start({"--workers", "1", "--request-timeout", "1"});
+  // Three distinct slow views at once on one worker take well over a second together: at least
+  // one runs out of time, while running or while still queued (then it is not computed at all).
+  constexpr int kClients = 3;
+  std::vector<testing::HttpResponse> answers(kClients);
+  std::vector<std::thread> clients;
+  for (int i = 0; i < kClients; ++i)
+    clients.emplace_back([&, i] { answers[i] = HttpClient(port()).get(slow_view(i)); });
+  for (auto& t : clients) t.join();
+  int out_of_time = 0;
+  for (const auto& a : answers) {
+    if (a.status == 200) {
+      EXPECT_EQ(a.header("content-type"), "image/jpeg");
+      continue;
+    }
+    ASSERT_EQ(a.status, 503) << a.body;
+    ++out_of_time;
+    EXPECT_EQ(a.header("retry-after"), "1");
+    const auto body = nlohmann::json::parse(a.body, nullptr, false);
+    EXPECT_EQ(body["error"]["code"], "deadline_exceeded") << a.body;
+  }
+  EXPECT_GE(out_of_time, 1);
+  // The worker is free: a small view is answered.
+  EXPECT_EQ(HttpClient(port()).get("/v1/images/pano/viewport?zoom=1&w=64&h=64").status, 200);
+  EXPECT_TRUE(wait_for_metric(port(), stopped("deadline"), out_of_time, 10));  // counted once written
+  EXPECT_EQ(metric(port(), stopped("deadline")), out_of_time);
+  EXPECT_NE(server_->log().find("\"msg\":\"request stopped\""), std::string::npos);
+  EXPECT_EQ(server_->terminate(), 0);
+}
+
+TEST_F(Deadline, AClientThatHangsUpCancelsItsRunningAndItsQueuedRequest) {
+  start({"--workers", "1", "--request-timeout", "600"});
+  RawConnection running(port()), queued(port());
+  running.send(raw_get(slow_view(0)));
+  ASSERT_TRUE(wait_for_metric(port(), kBusy, 1));
+  queued.send(raw_get(slow_view(1)));
+  ASSERT_TRUE(wait_for_metric(port(), kQueued, 1));
+  queued.close();
+  running.close();
+  // One worker, two slow views before it: answered once both are cancelled (or, without
+  // cancellation, after both ran to the end, and then the counter below stays at 0).
+  EXPECT_EQ(HttpClient(port()).get("/v1/images/pano/viewport?zoom=1&w=64&h=64").status, 200);
+  EXPECT_TRUE(wait_for_metric(port(), stopped("cancelled"), 2, 10)) << metric(port(), stopped("cancelled"));
+  EXPECT_EQ(server_->terminate(), 0);
+}
+
+TEST_F(Deadline, OneClientHangingUpDoesNotFailAnotherWaitingForTheSameView) {
+  start({"--workers", "2", "--request-timeout", "600"});
+  RawConnection first(port());
+  first.send(raw_get(slow_view(0)));  // computes (single flight's leader)
+  ASSERT_TRUE(wait_for_metric(port(), kBusy, 1));
+  testing::HttpResponse second;
+  std::thread waiter([&] { second = HttpClient(port()).get(slow_view(0)); });  // waits for the first
+  ASSERT_TRUE(wait_for_metric(port(), kBusy, 2));
+  first.close();
+  waiter.join();
+  EXPECT_EQ(second.status, 200) << second.body;
+  EXPECT_EQ(second.header("content-type"), "image/jpeg");
+  EXPECT_TRUE(wait_for_metric(port(), stopped("cancelled"), 1, 10)) << "the first request was cancelled";
+  EXPECT_EQ(metric(port(), stopped("cancelled")), 1);
+  EXPECT_EQ(server_->terminate(), 0);
+}
+
+// --drain-timeout is a promise to the orchestrator: with a view still running when it has passed,
+// the process cancels it and exits (0: the stop was asked for) instead of waiting for it.
+TEST_F(Deadline, DrainTimeoutEndsTheProcessWithARequestStillRunning) {
+  start({"--workers", "1", "--request-timeout", "600", "--drain-delay", "0", "--drain-timeout", "1"});
+  RawConnection slow(port());
+  slow.send(raw_get("/v1/images/pano/viewport?zoom=0&w=4096&h=4096"));
+  ASSERT_TRUE(wait_for_metric(port(), kBusy, 1));
+  const auto signalled = std::chrono::steady_clock::now();
+  const int status = server_->terminate(10);  // SIGTERM; -1 if still running 10 s later
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count();
+  std::cout << "exited " << seconds << " s after SIGTERM with --drain-timeout 1\n";
+  EXPECT_EQ(status, 0) << "-1: still running 10 s after SIGTERM";
+  EXPECT_NE(server_->log().find("\"msg\":\"drain timed out\""), std::string::npos);
+  const auto answer = slow.read_until_close(5000);
+  EXPECT_TRUE(answer.closed);
+  EXPECT_EQ(answer.bytes.find("200 OK"), std::string::npos) << "the view was not finished";
+}
+
+}  // namespace
+}  // namespace zoomwarp
