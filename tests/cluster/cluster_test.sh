@@ -30,6 +30,8 @@ script_dir=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 repo_dir=$(cd "$script_dir/../.." && pwd)
 # shellcheck source=../support/nginx.sh
 source "$repo_dir/tests/support/nginx.sh"
+# shellcheck source=../support/replicas.sh
+source "$repo_dir/tests/support/replicas.sh"
 
 # ---- defaults (see usage) -----------------------------------------------------------------------
 before=6          # seconds of load before the faults
@@ -41,7 +43,6 @@ replicas=3
 zoomwarp_bin="$repo_dir/build/bin/zoomwarp"
 nginx_bin=/usr/sbin/nginx
 nginx_conf="$repo_dir/deploy/nginx.conf"
-drain_delay=2     # ZOOMWARP_DRAIN_DELAY in deploy/compose.yaml
 keep=0
 view_path="$repo_dir/tests/load/boats_explore.jsonl"
 sample="$repo_dir/samples/boats_lake_sunset.jpg"
@@ -109,91 +110,35 @@ parse_args() {
 }
 
 # ---- process control ---------------------------------------------------------------------------
-work=""                 # the one temp folder
+# The replicas and nginx's ports are tests/support/replicas.sh's. (A declare without a value
+# keeps them, and tells shellcheck, which does not follow `source` without -x, that they exist.)
 declare -a replica_pid replica_port replica_log
-replica_starts=0        # numbers each replica log file
-starting_cluster=0
+declare nginx_port nginx_bypass_port
+work=""                 # the one temp folder
 nginx_pid=""
 replay_pid=""
 
+# The replay, then nginx and the replicas (tests/support/replicas.sh); exits.
 cleanup() {
-  local rc=$? i
+  local rc=$?
   trap - EXIT INT TERM
   stop_process "$replay_pid"
-  stop_process "$nginx_pid"
-  for i in "${!replica_pid[@]}"; do stop_process "${replica_pid[$i]}"; done
-  if [ -n "$work" ] && [ -d "$work" ]; then
-    if [ "$rc" -ne 0 ] && [ "$rc" -ne 77 ]; then
-      [ -s "$work/nginx/error.log" ] && { log "nginx error.log (last lines):"; tail -n 20 "$work/nginx/error.log" >&2; }
-      for i in "${!replica_log[@]}"; do
-        log "replica $i log (last warnings and errors):"
-        grep -v '"level":"info"' "${replica_log[$i]}" 2>/dev/null | tail -n 10 >&2 || true
-      done
-    fi
-    if [ "$keep" -eq 1 ]; then log "kept $work"; else rm -rf "$work"; fi
-  fi
-  exit "$rc"
-}
-
-# A free loopback port that none of our processes has (tests/support/nginx.sh).
-pick_port() {
-  pick_loopback_port "${replica_port[@]:-}" "$nginx_port" "$nginx_bypass_port" || die "found no free port"
+  finish_cluster "$rc" "$keep" 20
 }
 
 # ---- replicas ----------------------------------------------------------------------------------
-listening() { grep -q '"msg":"listening"' "$1" 2>/dev/null; }
-
-# start_replica I: starts replica I on its port (picking one the first time) with the server's
-# defaults but for the address, port, store and the drain delay deploy/compose.yaml sets, and
-# waits for its 'listening' line.
-start_replica() {
-  local i=$1 attempt
-  for attempt in 1 2 3 4 5; do
-    [ -n "${replica_port[$i]:-}" ] || replica_port[$i]=$(pick_port) || exit 1
-    replica_starts=$((replica_starts + 1))
-    replica_log[$i]="$work/replica$i.$replica_starts.log"
-    "$zoomwarp_bin" serve --host 127.0.0.1 --port "${replica_port[$i]}" --store "$work/store" \
-      --drain-delay "$drain_delay" 2>"${replica_log[$i]}" >/dev/null &
-    replica_pid[$i]=$!
-    if wait_until 20 listening "${replica_log[$i]}"; then
-      log "replica $i (pid ${replica_pid[$i]}) listening on 127.0.0.1:${replica_port[$i]}"
-      return 0
-    fi
-    stop_process "${replica_pid[$i]}"; replica_pid[$i]=""
-    # Lost a race for a newly picked port: pick another. A restart keeps its port (nginx knows it).
-    if grep -q "cannot listen" "${replica_log[$i]}" && [ "$starting_cluster" -eq 1 ]; then
-      replica_port[$i]=""; continue
-    fi
-    cat "${replica_log[$i]}" >&2
-    die "replica $i did not start on port ${replica_port[$i]}"
-  done
-  die "replica $i found no free port"
-}
+# start_replicas and start_replica (tests/support/replicas.sh), no hook and no more flags: the
+# server's defaults but for the address, port, store and the drain delay deploy/compose.yaml sets.
 
 # Requests replica I has answered since it was (re)started.
 replica_requests() { grep -c '"msg":"request"' "${replica_log[$1]}" 2>/dev/null || true; }
 replica_busy() { [ "$(replica_requests "$1")" -ge "$2" ]; }
 
 # ---- nginx -------------------------------------------------------------------------------------
-nginx_port=""           # the deployment's behaviour: cache lookups and fills
-nginx_bypass_port=""    # the fault phases: no cache lookups, so every request reaches a replica
-
-# deploy/nginx.conf templated (tests/support/nginx.sh): the replicas as upstream servers, our two
-# ports, the cache in our temp folder. The bypass (test only) skips cache lookups on the second
-# port: the fault phases wrap around the path many times, and through the cache only their first
-# pass would reach the replicas.
-write_nginx_conf() {
-  local addresses=() i
-  nginx_port=$(pick_port) || exit 1
-  nginx_bypass_port=$(pick_port) || exit 1
-  for i in "${!replica_port[@]}"; do addresses+=("127.0.0.1:${replica_port[$i]}"); done
-  nginx_template_deploy_conf "$nginx_conf" "$work/nginx/nginx.conf" "$work/nginx/var" \
-    "$nginx_port" "$nginx_bypass_port" "${addresses[@]}"
-}
-
-nginx_answers() {
-  curl -s -o /dev/null "http://127.0.0.1:$nginx_port/healthz" && curl -s -o /dev/null "http://127.0.0.1:$nginx_bypass_port/healthz"
-}
+# write_nginx_conf and nginx_answers (tests/support/replicas.sh) template deploy/nginx.conf and
+# pick two ports: nginx_port with the deployment's behaviour (cache lookups and fills), and
+# nginx_bypass_port for the fault phases, without cache lookups, so that every request reaches a
+# replica however often the path wraps around.
 
 # Its access log goes to stdout and its error log to stderr, like the container's.
 start_nginx() {
@@ -279,15 +224,12 @@ main() {
   log "ingesting $(basename "$sample") into the shared store"
   "$zoomwarp_bin" ingest "$sample" --store "$work/store" --id "$image_id" --quiet >/dev/null
 
-  starting_cluster=1
-  local i
-  for ((i = 0; i < replicas; i++)); do start_replica "$i"; done
-  starting_cluster=0
+  start_replicas "$replicas" ""
   start_nginx
 
   # One pass over the path: every client makes ceil(requests / clients) requests from its own
   # starting point (replay plays each action's mesh then its viewport).
-  local actions pass_requests per_client
+  local actions pass_requests per_client i
   actions=$(grep -cvE '^[[:space:]]*(#|$)' "$view_path")
   pass_requests=$(( actions * 2 ))
   per_client=$(( (pass_requests + clients - 1) / clients ))

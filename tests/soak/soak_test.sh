@@ -34,6 +34,8 @@ script_dir=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 repo_dir=$(cd "$script_dir/../.." && pwd)
 # shellcheck source=../support/nginx.sh
 source "$repo_dir/tests/support/nginx.sh"
+# shellcheck source=../support/replicas.sh
+source "$repo_dir/tests/support/replicas.sh"
 
 # nginx's access log times are local time; UTC makes them comparable with `date -u` (nginx keeps TZ).
 export TZ=UTC
@@ -50,7 +52,6 @@ replicas=3
 zoomwarp_bin="$repo_dir/build/bin/zoomwarp"
 nginx_bin=/usr/sbin/nginx
 nginx_conf="$repo_dir/deploy/nginx.conf"
-drain_delay=2          # ZOOMWARP_DRAIN_DELAY in deploy/compose.yaml
 keep=0
 
 # The view paths and the images they explore (tests/load/README.md).
@@ -121,13 +122,14 @@ parse_args() {
 }
 
 # ---- process control ---------------------------------------------------------------------------
+# The replicas and nginx's ports (nginx_bypass_port for replay: every view reaches a replica)
+# are tests/support/replicas.sh's. (A declare without a value keeps them, and tells shellcheck,
+# which does not follow `source` without -x, that they exist.)
+declare -a replica_pid replica_port replica_log
+declare nginx_port nginx_bypass_port
 work=""                  # the one temp folder
-declare -a replica_pid replica_port replica_log worker_pid
-replica_starts=0         # numbers each replica log file
-starting_cluster=0
+declare -a worker_pid
 nginx_pid=""
-nginx_port=""            # the deployment's behaviour: cache lookups and fills
-nginx_bypass_port=""     # replay: no cache lookups, so every view reaches a replica
 t0=0                     # start of the load, epoch seconds
 deadline=0               # end of the load, epoch seconds
 
@@ -140,81 +142,32 @@ stop_worker() {
   [ "${#children[@]}" -eq 0 ] || kill -TERM "${children[@]}" 2>/dev/null || true
 }
 
+# The workers, then nginx and the replicas (tests/support/replicas.sh); exits.
 cleanup() {
   local rc=$? i
   trap - EXIT INT TERM
   for i in "${!worker_pid[@]}"; do stop_worker "${worker_pid[$i]}"; done
-  stop_process "$nginx_pid"
-  for i in "${!replica_pid[@]}"; do stop_process "${replica_pid[$i]}"; done
-  if [ -n "$work" ] && [ -d "$work" ]; then
-    if [ "$rc" -ne 0 ] && [ "$rc" -ne 77 ]; then
-      [ -s "$work/nginx/error.log" ] && { log "nginx error.log (last lines):"; tail -n 10 "$work/nginx/error.log" >&2; }
-      for i in "${!replica_log[@]}"; do
-        log "replica $i log (last warnings and errors):"
-        grep -v '"level":"info"' "${replica_log[$i]}" 2>/dev/null | tail -n 10 >&2 || true
-      done
-    fi
-    if [ "$keep" -eq 1 ]; then log "kept $work"; else rm -rf "$work"; fi
-  fi
-  exit "$rc"
+  finish_cluster "$rc" "$keep" 10
 }
 
 now() { date +%s; }
 gone() { ! kill -0 "$1" 2>/dev/null; }
 running() { [ "$(now)" -lt "$deadline" ]; }
 
-pick_port() {
-  pick_loopback_port "${replica_port[@]:-}" "$nginx_port" "$nginx_bypass_port" || die "found no free port"
+# ---- replicas and nginx ------------------------------------------------------------------------
+# The replicas (tests/support/replicas.sh) run with the server's defaults but for the address,
+# port, store, deploy/compose.yaml's drain delay, no request log lines (nginx's access log has
+# every request; a line per request would cost CPU and ~250 MB per replica over 30 minutes) and
+# caches a quarter of their default size, so that they are full well within the first third of
+# the run and RSS growth after that means a leak: see start_cluster.
+start_cluster() {
+  start_replicas "$replicas" publish_replica \
+    --log-requests 0 --tile-cache 64M --response-cache 64M --warp-cache 64M
+  start_nginx
 }
 
-# ---- replicas ----------------------------------------------------------------------------------
-listening() { grep -q '"msg":"listening"' "$1" 2>/dev/null; }
-
-# start_replica I: starts replica I on its port (picking one the first time) with the server's
-# defaults but for the address, port, store, deploy/compose.yaml's drain delay, no request log
-# lines (nginx's access log has every request; a line per request would cost CPU and ~250 MB per
-# replica over 30 minutes) and caches a quarter of their default size, so that they are full
-# well within the first third of the run and RSS growth after that means a leak; waits for its
-# 'listening' line, and publishes its pid and port in pids/I for the sampler and the slow clients.
-start_replica() {
-  local i=$1 _
-  for _ in 1 2 3 4 5; do
-    [ -n "${replica_port[$i]:-}" ] || replica_port[$i]=$(pick_port) || exit 1
-    replica_starts=$((replica_starts + 1))
-    replica_log[$i]="$work/replica$i.$replica_starts.log"
-    "$zoomwarp_bin" serve --host 127.0.0.1 --port "${replica_port[$i]}" --store "$work/store" \
-      --drain-delay "$drain_delay" --log-requests 0 \
-      --tile-cache 64M --response-cache 64M --warp-cache 64M 2>"${replica_log[$i]}" >/dev/null &
-    replica_pid[$i]=$!
-    if wait_until 20 listening "${replica_log[$i]}"; then
-      echo "${replica_pid[$i]} ${replica_port[$i]}" >"$work/pids/$i"
-      log "replica $i (pid ${replica_pid[$i]}) listening on 127.0.0.1:${replica_port[$i]}"
-      return 0
-    fi
-    stop_process "${replica_pid[$i]}"; replica_pid[$i]=""
-    # Lost a race for a newly picked port: pick another. A restart keeps its port (nginx knows it).
-    if grep -q "cannot listen" "${replica_log[$i]}" && [ "$starting_cluster" -eq 1 ]; then
-      replica_port[$i]=""; continue
-    fi
-    cat "${replica_log[$i]}" >&2
-    die "replica $i did not start on port ${replica_port[$i]}"
-  done
-  die "replica $i found no free port"
-}
-
-# ---- nginx -------------------------------------------------------------------------------------
-write_nginx_conf() {
-  local addresses=() i
-  nginx_port=$(pick_port) || exit 1
-  nginx_bypass_port=$(pick_port) || exit 1
-  for i in "${!replica_port[@]}"; do addresses+=("127.0.0.1:${replica_port[$i]}"); done
-  nginx_template_deploy_conf "$nginx_conf" "$work/nginx/nginx.conf" "$work/nginx/var" \
-    "$nginx_port" "$nginx_bypass_port" "${addresses[@]}"
-}
-
-nginx_answers() {
-  curl -s -o /dev/null "http://127.0.0.1:$nginx_port/healthz" && curl -s -o /dev/null "http://127.0.0.1:$nginx_bypass_port/healthz"
-}
+# publish_replica I: replica I's pid and port in pids/I, for the sampler and the slow clients.
+publish_replica() { echo "${replica_pid[$1]} ${replica_port[$1]}" >"$work/pids/$1"; }
 
 start_nginx() {
   nginx_start "$nginx_bin" "$work/nginx" write_nginx_conf nginx_answers || die "nginx did not start"
@@ -733,16 +686,12 @@ main() {
   done
   make_synthetic_images
 
-  starting_cluster=1
-  local i
-  for ((i = 0; i < replicas; i++)); do start_replica "$i"; done
-  starting_cluster=0
-  start_nginx
+  start_cluster
   editor_setup
 
   t0=$(now); deadline=$(( t0 + minutes * 60 ))
   log "load for $minutes min, until $(date -u -d "@$deadline" +%H:%M:%S)"
-  local worker
+  local worker i
   for worker in replayer uploader editor deleter slow_clients sampler; do
     "$worker" &
     worker_pid+=($!)
