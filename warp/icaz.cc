@@ -211,9 +211,14 @@ double Icaz::node_weight(int node, bool grow) {
 }
 
 // Accuracy is judged on screen: iterate until no vertex moves more than 0.05 screen pixels.
+// Oblique lines keep the normal of the start positions, so a solve is one factorization and
+// accelerated iterations whatever the lines (bounded cost, limits.h): the coarse warp starts from
+// the affine stretch, which keeps lines straight and gives their orientation, and the fine level
+// from the coarse result, whose lines are straight already [ICAZ §6.2, nested iteration].
 WarpOptions Icaz::tolerance_for(const ZoomGeometry& g, const StopToken* stop) {
   WarpOptions o;
   o.tolerance = 0.05 / g.screen_scale;
+  o.fixed_line_normals = true;
   o.stop = stop;
   return o;
 }
@@ -352,9 +357,7 @@ View Icaz::view_in(const ViewRequest& req, bool grow) {
     for (int v : local.vertex) initial.push_back(out.warped[v]);
     const ShapeWarp fine(local.mesh, std::move(weights), model_.width, model_.height,
                          local_line_runs(line_chains(out.source, model_.coarse), local), local.pinned);
-    WarpOptions fine_options = tolerance_for(g, req.stop);
-    fine_options.fixed_line_normals = true;  // the coarse result has the lines straight already
-    out.fine_stats = fine.solve(g.target_width, g.target_height, fine_options, initial);
+    out.fine_stats = fine.solve(g.target_width, g.target_height, tolerance_for(g, req.stop), initial);
     for (std::size_t i = 0; i < local.vertex.size(); ++i) out.warped[local.vertex[i]] = out.fine_stats.positions[i];
   }
   out.fine_stats.positions.clear();  // in the submesh's numbering; `warped` has them all
