@@ -439,15 +439,19 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
   Eigen::VectorXd g_prev, f_prev;
   const std::vector<Point> start = r.positions;
   const auto fixed = fast ? m.fixed_rhs(start) : std::pair<Eigen::VectorXd, Eigen::VectorXd>{};
-  // Oblique lines with their normals fixed from the start: one factorization for the solve.
-  std::unique_ptr<ConstantJoint> joint;
-  if (!fast && options.fixed_line_normals && m.n_free_x + m.n_free_y > 0) {
-    joint = std::make_unique<ConstantJoint>();
-    auto [a, b] = m.joint_system(start, tw, th, options.alpha, false, m.weights, start);
+  // The joint system with line normals fixed from `from` and weights `w`, factored once.
+  auto constant_joint = [&](const std::vector<Point>& from, const std::vector<double>& w) {
+    auto joint = std::make_unique<ConstantJoint>();
+    auto [a, b] = m.joint_system(from, tw, th, options.alpha, false, w, from);
     joint->solver.compute(a);
     if (joint->solver.info() != Eigen::Success) throw std::runtime_error("CHOLMOD could not factor the warp system");
     joint->constant = std::move(b);
-  }
+    return joint;
+  };
+  const bool has_unknowns = m.n_free_x + m.n_free_y > 0;
+  // Oblique lines with their normals fixed from the start: one factorization for the solve.
+  std::unique_ptr<ConstantJoint> joint;
+  if (!fast && options.fixed_line_normals && has_unknowns) joint = constant_joint(start, m.weights);
   const bool accelerated_path = fast || joint;
   // What an accelerated step must lower: the shape energy (the fast path's H/V line terms are
   // nearly met by construction), plus the line energy when oblique lines are in the system.
@@ -513,14 +517,21 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
       if (last) w[f] = 1;
       else if (near[t[0]] || near[t[1]] || near[t[2]]) w[f] = std::min(1.0, w[f] * 4);
     }
-    for (int k = 0; k < options.max_iterations; ++k) {
+    // With fixed line normals a round's weights make its system constant: factored once a round.
+    const auto round_joint = options.fixed_line_normals && has_unknowns ? constant_joint(r.positions, w) : nullptr;
+    for (int k = 0; k < options.max_guard_iterations; ++k) {
       check_stop(options.stop);
       const std::vector<Point> before = r.positions;
-      m.solve_joint(r.positions, tw, th, options.alpha, r.iterations++, w);
+      if (round_joint) {
+        m.write_joint(r.positions, round_joint->solver.solve(round_joint->constant + m.joint_shape_rhs(r.positions, w)));
+        ++r.iterations;
+      } else {
+        m.solve_joint(r.positions, tw, th, options.alpha, r.iterations++, w);
+      }
       double moved = 0;
       for (std::size_t i = 0; i < before.size(); ++i)
         moved = std::max(moved, std::hypot(r.positions[i].x - before[i].x, r.positions[i].y - before[i].y));
-      if (moved < options.tolerance && k % 2 == 1) break;
+      if (moved < options.tolerance && (round_joint || k % 2 == 1)) break;
     }
     bad = m.inverted(r.positions);
     r.guard_rounds = round + 1;

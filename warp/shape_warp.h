@@ -44,6 +44,10 @@ struct WarpOptions {
   // Converged when no vertex moved more than this many target pixels in an iteration.
   double tolerance = 0.02;
   int max_guard_rounds = 6;  // fold-over guard (see solve())
+  // Local–global iterations per guard round (each refactors the joint system). Bounded well
+  // below max_iterations: a round only has to unfold, and what it leaves folded the affine blend
+  // unfolds — so the guard's cost is bounded (a 4:1 panorama on a square screen at z = 0).
+  int max_guard_iterations = 20;
   // Oblique lines keep the normal they have in the start positions (orientation form only, no
   // alternating direction form): the joint system is then constant through the solve — factored
   // once and Anderson-accelerated like the fast path instead of refactored every iteration. For
