@@ -76,7 +76,7 @@ struct IcazOptions {
   int max_screen_triangles = 4096;
 };
 
-// Thread-safety: Icaz is thread-safe. The model and the coarsest mesh's factorization are
+// Thread-safe: every public member may be called from several threads at once. The model and the coarsest mesh's factorization are
 // read-only after construction; only caches change, each under its own lock:
 //  - the forest's lazy nodes and their means, and the forest epoch: a std::shared_mutex. Views,
 //    geomorphs and memory_bytes() hold it shared, so views of one image run in parallel. A view
