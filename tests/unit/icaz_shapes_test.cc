@@ -192,5 +192,22 @@ TEST_F(OneToOneRender, TinyImageIsCentredOneToOne) {
   EXPECT_EQ(testing::psnr(shown, want), std::numeric_limits<double>::infinity());
 }
 
+// 64 lines (the limit) crossing on an 8 × 8 grid, horizontal, vertical and oblique: CGAL's
+// refinement meets a flat face there. The lines are refused as bad input — the process used to
+// die of a null dereference inside the mesher.
+TEST(CoarseMeshLines, CrossingsCGALCannotMeshAreRefusedNotACrash) {
+  const double w = 5400, h = 2500, len = 16.0 / 64 * std::max(w, h);
+  std::vector<warp::Segment> lines;
+  for (int i = 0; i < 64; ++i) {
+    const double cx = w * (0.1 + 0.8 * (i % 8) / 7), cy = h * (0.1 + 0.8 * (i / 8) / 7);
+    const double angle = (i % 3 == 0 ? 0 : i % 3 == 1 ? 90 : 30) * M_PI / 180;
+    const double dx = std::cos(angle) * len / 2, dy = std::sin(angle) * len / 2;
+    lines.push_back({{cx - dx, cy - dy}, {cx + dx, cy + dy}});
+  }
+  EXPECT_THROW(warp::build_coarse_mesh(w, h, lines), std::invalid_argument);
+  lines.resize(21);  // the first 21 mesh
+  EXPECT_NO_THROW(warp::build_coarse_mesh(w, h, lines));
+}
+
 }  // namespace
 }  // namespace zoomwarp
