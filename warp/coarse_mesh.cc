@@ -1,4 +1,17 @@
 // The only translation unit that includes CGAL (it is header-heavy; see DESIGN.md §3).
+//
+// CGAL's own checks stay on here even in release builds. Delaunay refinement of crossing line
+// constraints — whose intersection points inexact constructions round — can meet a flat face
+// (64 lines on a grid: "orientation(...) != COLLINEAR" in Mesh_2/Refine_faces.h); without the
+// checks it runs on into a null dereference and takes the process down. With them it throws
+// CGAL::Failure_exception, refused below as bad input. Exact constructions were tried instead:
+// the refinement then did not finish within 90 s.
+#ifdef NDEBUG
+#undef NDEBUG
+#endif
+#ifdef CGAL_NDEBUG
+#undef CGAL_NDEBUG
+#endif
 #include "warp/coarse_mesh.h"
 
 #include <CGAL/Constrained_Delaunay_triangulation_2.h>
@@ -11,6 +24,7 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <stdexcept>
 
 namespace zoomwarp::warp {
 
@@ -72,6 +86,15 @@ CoarseMesh triangulate(double w, double h, const std::vector<std::optional<Segme
   return out;
 }
 
+CoarseMesh checked_triangulate(double w, double h, const std::vector<std::optional<Segment>>& lines, double max_area,
+                               double min_angle_degrees) {
+  try {
+    return triangulate(w, h, lines, max_area, min_angle_degrees);
+  } catch (const CGAL::Failure_exception&) {
+    throw std::invalid_argument("the line constraints cross too closely to be meshed; move them apart");
+  }
+}
+
 }  // namespace
 
 CoarseMesh build_coarse_mesh(double width, double height, const std::vector<Segment>& lines,
@@ -87,7 +110,7 @@ CoarseMesh build_coarse_mesh(double width, double height, const std::vector<Segm
   // area until the budget holds: line constraints and the angle bound add vertices.
   double area = std::max(options.max_triangle_area, width * height / (1.6 * options.vertex_budget));
   while (true) {
-    CoarseMesh m = triangulate(width, height, clipped, area, options.min_angle_degrees);
+    CoarseMesh m = checked_triangulate(width, height, clipped, area, options.min_angle_degrees);
     if (int(m.mesh.vertices.size()) <= options.vertex_budget || area >= width * height) return m;
     area *= 1.25 * double(m.mesh.vertices.size()) / options.vertex_budget;
   }

@@ -25,7 +25,9 @@ struct CoarseMesh {
 };
 
 // Triangulates [0, width] × [0, height]. Lines are clipped to the rectangle; lines shorter than a
-// pixel after clipping are ignored (their line_vertices entry is empty).
+// pixel after clipping are ignored (their line_vertices entry is empty). Throws
+// std::invalid_argument for lines whose crossings CGAL's refinement cannot mesh (seen with 64
+// lines crossing on a grid).
 CoarseMesh build_coarse_mesh(double width, double height, const std::vector<Segment>& lines,
                              const CoarseMeshOptions& options = {});
 

@@ -12,6 +12,7 @@
 
 #include <array>
 #include <cstdint>
+#include <exception>
 #include <iosfwd>
 #include <unordered_map>
 #include <vector>
@@ -20,6 +21,15 @@
 
 namespace zoomwarp::warp {
 
+// A view needed a forest node that has not been made yet (thrown by a cut that may not grow
+// the forest; see LodCut::set_growable).
+struct ForestGrowthNeeded : std::exception {
+  const char* what() const noexcept override { return "the forest must grow"; }
+};
+
+// Not thread-safe for writers: children() may make nodes (moving the arrays), as may
+// build_levels() and forget_lazy_nodes(). Const members may be called from several threads at
+// once while no thread calls a non-const one (Icaz holds a shared_mutex for that).
 class Forest {
  public:
   Forest() = default;
@@ -38,6 +48,8 @@ class Forest {
 
   // The two children (made now if they do not exist yet).
   std::array<int, 2> children(int node);
+  // The children of a split node ({-1, -1} if it is not split); never grows the forest.
+  std::array<int, 2> existing_children(int node) const { return children_[node]; }
   bool is_split(int node) const { return children_[node][0] >= 0; }
 
   // Splits every leaf larger than `min_area` (source px²), level by level, but stops before a

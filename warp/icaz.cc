@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <unordered_map>
 
+#include "warp/limits.h"
 #include "warp/lod_cut.h"
 
 namespace zoomwarp::warp {
@@ -40,12 +41,23 @@ Point locate(const Mesh& mesh, const std::vector<Point>& warped, const Point& p)
   return out;
 }
 
+// The viewing area's origin along one axis: centred on c and kept inside the warped image, or,
+// where the image is smaller than the viewing area (letterboxing, zoom_curve.h), centred with the
+// bands a whole number of screen pixels wide — so that at scale 1 screen pixels are image pixels.
+double place_on_axis(double c, double view, double target, double scale) {
+  if (view >= target) return -std::floor((view - target) * scale / 2) / scale;
+  return std::clamp(c - view / 2, 0.0, target - view);
+}
+
 // Requests come from the network: refuse what no view can be made of rather than compute garbage.
 void check(const ViewRequest& r) {
   if (!std::isfinite(r.zoom) || !std::isfinite(r.cx) || !std::isfinite(r.cy) || !std::isfinite(r.max_screen_area) ||
-      r.screen_width < 1 || r.screen_height < 1 || r.screen_width > 16384 || r.screen_height > 16384 ||
       r.max_screen_area < 1)
     throw std::invalid_argument("view request out of range");
+  if (r.screen_width < 1 || r.screen_height < 1 || r.screen_width > limits::kMaxScreenSide ||
+      r.screen_height > limits::kMaxScreenSide ||
+      (long long)r.screen_width * r.screen_height > limits::kMaxScreenPixels)
+    throw std::invalid_argument("screen size out of range");
 }
 
 // The triangles whose screen bounding box overlaps the screen.
@@ -119,6 +131,31 @@ Submesh submesh(const Mesh& mesh, const std::vector<char>& chosen) {
   return out;
 }
 
+// The parts of each line inside a local solve: maximal runs (≥ 2 vertices) of consecutive chain
+// vertices the submesh has, in its numbering. Only these are solved — a line is not solved whole
+// [ICAZ §5.2: the fine level only near the viewing area]: the rest of it lies outside the solved
+// region, pinned on the coarse warp's (straight) line, and a run's pinned ends are on that line
+// too, so the visible part stays straight while the cost of a view no longer grows with the
+// total length of the lines.
+std::vector<std::vector<int>> local_line_runs(const std::vector<std::vector<int>>& chains, const Submesh& local) {
+  std::unordered_map<int, int> index;
+  for (int i = 0; i < int(local.vertex.size()); ++i) index.emplace(local.vertex[i], i);
+  std::vector<std::vector<int>> runs;
+  for (const auto& chain : chains) {
+    std::vector<int> run;
+    for (std::size_t k = 0; k <= chain.size(); ++k) {
+      const auto it = k < chain.size() ? index.find(chain[k]) : index.end();
+      if (it != index.end()) {
+        run.push_back(it->second);
+        continue;
+      }
+      if (run.size() >= 2) runs.push_back(run);
+      run.clear();
+    }
+  }
+  return runs;
+}
+
 }  // namespace
 
 Icaz::Icaz(ImageModel model, const IcazOptions& options)
@@ -133,7 +170,7 @@ Icaz::Icaz(ImageModel model, const IcazOptions& options)
   // Significance is mapped to weights by the range of the coarsest triangles' means.
   sig_lo_ = std::numeric_limits<double>::infinity(), sig_hi_ = -sig_lo_;
   for (int r = 0; r < forest_.root_count(); ++r) {
-    const double mean = node_mean(r);
+    const double mean = node_mean(r, true);
     sig_lo_ = std::min(sig_lo_, mean), sig_hi_ = std::max(sig_hi_, mean);
   }
 }
@@ -141,9 +178,12 @@ Icaz::Icaz(ImageModel model, const IcazOptions& options)
 Icaz::~Icaz() = default;
 
 std::size_t Icaz::memory_bytes() {
-  std::lock_guard lock(mu_);
   std::size_t coarse = 0;
-  for (const auto& [size, positions] : coarse_cache_) coarse += positions.capacity() * sizeof(Point);
+  {
+    std::lock_guard lock(coarse_mu_);
+    for (const auto& [size, cached] : coarse_cache_) coarse += cached.positions.capacity() * sizeof(Point);
+  }
+  std::shared_lock lock(forest_mu_);
   const ImageModel& m = model_;
   return m.significance.values.capacity() * sizeof(float) + m.forest.memory_bytes() +
          m.node_mean.capacity() * sizeof(float) + m.coarse.mesh.vertices.capacity() * sizeof(Point) +
@@ -151,7 +191,8 @@ std::size_t Icaz::memory_bytes() {
          node_mean_.capacity() * sizeof(double) + coarse;
 }
 
-double Icaz::node_mean(int node) {
+double Icaz::node_mean(int node, bool grow) {
+  if (!grow && (node >= int(node_mean_.size()) || std::isnan(node_mean_[node]))) throw ForestGrowthNeeded();
   if (node >= int(node_mean_.size())) node_mean_.resize(std::size_t(forest_.node_count()), std::numeric_limits<double>::quiet_NaN());
   double& mean = node_mean_[node];
   if (std::isnan(mean)) {
@@ -162,51 +203,81 @@ double Icaz::node_mean(int node) {
   return mean;
 }
 
-double Icaz::node_weight(int node) {
-  const double mean = node_mean(node);
+double Icaz::node_weight(int node, bool grow) {
+  const double mean = node_mean(node, grow);
   const double range = sig_hi_ - sig_lo_;
   const double unit = range > 0 ? std::clamp((mean - sig_lo_) / range, 0.0, 1.0) : 1.0;
   return model_.w_min + (1 - model_.w_min) * unit;
 }
 
 // Accuracy is judged on screen: iterate until no vertex moves more than 0.05 screen pixels.
-WarpOptions Icaz::tolerance_for(const ZoomGeometry& g) {
+// Oblique lines keep the normal of the start positions, so a solve is one factorization and
+// accelerated iterations whatever the lines (bounded cost, limits.h): the coarse warp starts from
+// the affine stretch, which keeps lines straight and gives their orientation, and the fine level
+// from the coarse result, whose lines are straight already [ICAZ §6.2, nested iteration].
+WarpOptions Icaz::tolerance_for(const ZoomGeometry& g, const StopToken* stop) {
   WarpOptions o;
   o.tolerance = 0.05 / g.screen_scale;
+  o.fixed_line_normals = true;
+  o.stop = stop;
   return o;
 }
 
-std::vector<Point> Icaz::coarse_positions(const ZoomGeometry& g, WarpResult* stats) {
+std::vector<Point> Icaz::coarse_positions(const ZoomGeometry& g, WarpResult* stats, const StopToken* stop) {
   const auto key = std::make_pair(std::llround(g.target_width * 1000), std::llround(g.target_height * 1000));
-  if (auto it = coarse_cache_.find(key); it != coarse_cache_.end()) return it->second;
-  *stats = coarse_.solve(g.target_width, g.target_height, tolerance_for(g));
-  if (coarse_cache_.size() >= 64) coarse_cache_.erase(coarse_cache_.begin());
-  coarse_cache_.emplace(key, stats->positions);
+  std::lock_guard lock(coarse_mu_);
+  if (auto it = coarse_cache_.find(key); it != coarse_cache_.end()) {
+    it->second.last_used = ++coarse_clock_;
+    return it->second.positions;
+  }
+  *stats = coarse_.solve(g.target_width, g.target_height, tolerance_for(g, stop));
+  if (coarse_cache_.size() >= 64)
+    coarse_cache_.erase(std::min_element(coarse_cache_.begin(), coarse_cache_.end(), [](const auto& a, const auto& b) {
+      return a.second.last_used < b.second.last_used;
+    }));
+  coarse_cache_.emplace(key, CachedWarp{stats->positions, ++coarse_clock_});
   return stats->positions;
 }
 
-View Icaz::view(const ViewRequest& req) {
-  check(req);
-  std::lock_guard lock(mu_);
+// Runs work(false) holding the forest lock shared; if it needs the forest to grow, runs
+// work(true) again holding it exclusively, after forgetting lazy nodes past the cap (a new epoch).
+template <class Work>
+auto Icaz::with_forest(Work work) {
+  {
+    std::shared_lock lock(forest_mu_);
+    try {
+      return work(false);
+    } catch (const ForestGrowthNeeded&) {
+    }
+  }
+  std::unique_lock lock(forest_mu_);
   if (forest_.node_count() > options_.max_forest_nodes) {
     forest_.forget_lazy_nodes();
     node_mean_.resize(std::size_t(forest_.kept_nodes()));
     ++forest_epoch_;
   }
-  return view_locked(req);
+  return work(true);
+}
+
+View Icaz::view(const ViewRequest& req) {
+  check(req);
+  check_stop(req.stop);
+  return with_forest([&](bool grow) { return view_in(req, grow); });
 }
 
 Geomorph Icaz::geomorph(const ViewRequest& from, const ViewRequest& to, View* to_view) {
   check(from);
   check(to);
-  std::lock_guard lock(mu_);
-  const View a = view_locked(from), b = view_locked(to);
-  Geomorph g = geomorph_locked(a, b);
-  if (to_view) *to_view = b;
-  return g;
+  return with_forest([&](bool grow) {
+    const View a = view_in(from, grow), b = view_in(to, grow);
+    Geomorph g = geomorph_in(a, b, to.stop, grow);
+    if (to_view) *to_view = b;
+    return g;
+  });
 }
 
-View Icaz::view_locked(const ViewRequest& req) {
+View Icaz::view_in(const ViewRequest& req, bool grow) {
+  check_stop(req.stop);
   View out;
   out.forest_epoch = forest_epoch_;
   const ZoomGeometry g = zoom_geometry(model_.width, model_.height, req.screen_width, req.screen_height, req.zoom, req.curve);
@@ -214,11 +285,11 @@ View Icaz::view_locked(const ViewRequest& req) {
   const Point centre{std::clamp(req.cx, 0.0, model_.width), std::clamp(req.cy, 0.0, model_.height)};
 
   // Coarse level: warp, then place the viewing area on the view centre, inside the image.
-  const std::vector<Point> coarse = coarse_positions(g, &out.coarse_stats);
+  const std::vector<Point> coarse = coarse_positions(g, &out.coarse_stats, req.stop);
+  check_stop(req.stop);
   auto place = [&](const Point& c) {
-    const double x = std::clamp(c.x - g.view_width / 2, 0.0, g.target_width - g.view_width);
-    const double y = std::clamp(c.y - g.view_height / 2, 0.0, g.target_height - g.view_height);
-    return Point{x, y};
+    return Point{place_on_axis(c.x, g.view_width, g.target_width, g.screen_scale),
+                 place_on_axis(c.y, g.view_height, g.target_height, g.screen_scale)};
   };
   Point origin = place(locate(model_.coarse.mesh, coarse, centre));
 
@@ -239,10 +310,13 @@ View Icaz::view_locked(const ViewRequest& req) {
   // Refinement: split what touches the viewing area (with a margin of one screen triangle) and
   // is larger on screen than the threshold. A cap bounds the work whatever the input.
   LodCut cut = root_cut_;
+  cut.set_growable(grow);
   const double s2 = g.screen_scale * g.screen_scale;
-  const double margin = std::sqrt(req.max_screen_area) / g.screen_scale;
+  const double max_area = std::max(req.max_screen_area, double(req.screen_width) * req.screen_height /
+                                                            options_.max_screen_triangles);
+  const double margin = std::sqrt(max_area) / g.screen_scale;
   auto wants_split = [&](int node) {
-    if (forest_.area(node) * std::max(root_stretch(forest_.root_of(node)), 0.0) * s2 <= req.max_screen_area) return false;
+    if (forest_.area(node) * std::max(root_stretch(forest_.root_of(node)), 0.0) * s2 <= max_area) return false;
     double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
     for (int v : forest_.corners(node)) {
       const Point p = warped_by_coarse(v);
@@ -254,12 +328,13 @@ View Icaz::view_locked(const ViewRequest& req) {
   constexpr int kMaxSplits = 40000;
   std::vector<int> queue = cut.nodes(), split;
   for (std::size_t i = 0; i < queue.size() && int(split.size()) < kMaxSplits; ++i) {
+    if (i % 1024 == 0) check_stop(req.stop);
     const int n = queue[i];
     if (!cut.active(n) || !wants_split(n)) continue;
     const std::size_t before = split.size();
     cut.refine(n, &split);
     for (std::size_t k = before; k < split.size(); ++k)
-      for (int c : forest_.children(split[k])) queue.push_back(c);
+      for (int c : forest_.existing_children(split[k])) queue.push_back(c);
   }
 
   // Fine level, from the coarse result (nested iteration). Only the part of the refined mesh near
@@ -274,24 +349,15 @@ View Icaz::view_locked(const ViewRequest& req) {
     const double pad = std::max(margin, options_.solve_margin * std::max(g.view_width, g.view_height));
     std::vector<char> chosen = triangles_near(out.source, out.warped, {origin.x - pad, origin.y - pad,
                                                                       origin.x + g.view_width + pad, origin.y + g.view_height + pad});
-    // Line constraints are solved whole (their triangles are few): pinning part of a line at its
-    // coarse positions would bend it by the coarse level's residual, magnified on screen.
-    const auto chains = line_chains(out.source, model_.coarse);
-    if (!chains.empty()) {
-      std::vector<char> on_line(out.source.vertices.size(), 0);
-      for (const auto& chain : chains)
-        for (int v : chain) on_line[v] = 1;
-      for (std::size_t f = 0; f < chosen.size(); ++f)
-        for (int v : out.source.triangles[f]) chosen[f] |= on_line[v];
-    }
     const Submesh local = submesh(out.source, chosen);
     std::vector<double> weights;
     std::vector<Point> initial;
-    for (int f : local.triangle) weights.push_back(node_weight(out.nodes[f]));
+    for (int f : local.triangle) weights.push_back(node_weight(out.nodes[f], grow));
+    check_stop(req.stop);
     for (int v : local.vertex) initial.push_back(out.warped[v]);
     const ShapeWarp fine(local.mesh, std::move(weights), model_.width, model_.height,
-                         line_chains(local.mesh, model_.coarse), local.pinned);
-    out.fine_stats = fine.solve(g.target_width, g.target_height, tolerance_for(g), initial);
+                         local_line_runs(line_chains(out.source, model_.coarse), local), local.pinned);
+    out.fine_stats = fine.solve(g.target_width, g.target_height, tolerance_for(g, req.stop), initial);
     for (std::size_t i = 0; i < local.vertex.size(); ++i) out.warped[local.vertex[i]] = out.fine_stats.positions[i];
   }
   out.fine_stats.positions.clear();  // in the submesh's numbering; `warped` has them all
@@ -345,11 +411,11 @@ View Icaz::traditional(const ViewRequest& r) {
 
 View Icaz::retarget_zoom(const ViewRequest& r) {
   check(r);
-  std::lock_guard lock(mu_);
+  check_stop(r.stop);
   // The z = 0 target of ICAZ: the screen's aspect ratio, the image's area.
   const ZoomGeometry g = zoom_geometry(model_.width, model_.height, r.screen_width, r.screen_height, 0, r.curve);
   WarpResult stats;
-  const std::vector<Point> warped = coarse_positions(g, &stats);
+  const std::vector<Point> warped = coarse_positions(g, &stats, r.stop);
   const Point centre{std::clamp(r.cx, 0.0, model_.width), std::clamp(r.cy, 0.0, model_.height)};
   View v = uniform_zoom(model_.coarse.mesh, warped, g.target_width, g.target_height, r,
                         locate(model_.coarse.mesh, warped, centre));
@@ -357,14 +423,16 @@ View Icaz::retarget_zoom(const ViewRequest& r) {
   return v;
 }
 
-Geomorph Icaz::geomorph(const View& from, const View& to) {
-  std::lock_guard lock(mu_);
-  if (from.forest_epoch != forest_epoch_ || to.forest_epoch != forest_epoch_)
-    throw std::invalid_argument("views from an earlier forest epoch");
-  return geomorph_locked(from, to);
+Geomorph Icaz::geomorph(const View& from, const View& to, const StopToken* stop) {
+  return with_forest([&](bool grow) {
+    if (from.forest_epoch != forest_epoch_ || to.forest_epoch != forest_epoch_)
+      throw std::invalid_argument("views from an earlier forest epoch");
+    return geomorph_in(from, to, stop, grow);
+  });
 }
 
-Geomorph Icaz::geomorph_locked(const View& from, const View& to) {
+Geomorph Icaz::geomorph_in(const View& from, const View& to, const StopToken* stop, bool grow) {
+  check_stop(stop);
   // Split, coarsest first, every node that is a strict ancestor of a node of either cut; the
   // dependents that refine() adds keep the result conforming.
   std::vector<int> ancestors;
@@ -378,8 +446,10 @@ Geomorph Icaz::geomorph_locked(const View& from, const View& to) {
     return d;
   };
   std::sort(ancestors.begin(), ancestors.end(), [&](int a, int b) { return depth(a) < depth(b); });
-  LodCut cut(forest_);
+  LodCut cut = root_cut_;
+  cut.set_growable(grow);
   for (int n : ancestors) cut.refine(n);
+  check_stop(stop);
 
   Geomorph g;
   g.source = cut.mesh(&g.forest_vertex);
@@ -390,6 +460,7 @@ Geomorph Icaz::geomorph_locked(const View& from, const View& to) {
     for (int i = 0; i < int(v.forest_vertex.size()); ++i) index.emplace(v.forest_vertex[i], i);
     std::vector<Point> out;
     for (std::size_t i = 0; i < g.forest_vertex.size(); ++i) {
+      if (i % 256 == 0) check_stop(stop);
       auto it = index.find(g.forest_vertex[i]);
       out.push_back(it != index.end() ? v.screen[it->second] : locate(v.source, v.screen, g.source.vertices[i]));
     }

@@ -12,9 +12,11 @@
 //      the fine result.
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <shared_mutex>
 #include <vector>
 
 #include "warp/image_model.h"
@@ -67,16 +69,30 @@ struct IcazOptions {
   // Nodes made lazily beyond the stored forest are forgotten once the forest grows past this
   // (≈ 60 bytes a node), which starts a new forest epoch.
   int max_forest_nodes = 1 << 20;
+  // The LOD cut is refined to at most about this many triangles on screen: a larger screen gets
+  // a proportionally larger effective max_screen_area (screen pixels / this). 4096 leaves
+  // screens up to 1920×1080 at the requested 500 px² and bounds a 4096×4096 view (limits.h) to
+  // the cost of a full-HD one.
+  int max_screen_triangles = 4096;
 };
 
+// Thread-safe: every public member may be called from several threads at once. The model and the coarsest mesh's factorization are
+// read-only after construction; only caches change, each under its own lock:
+//  - the forest's lazy nodes and their means, and the forest epoch: a std::shared_mutex. Views,
+//    geomorphs and memory_bytes() hold it shared, so views of one image run in parallel. A view
+//    that needs nodes not made yet (lazy levels of a very large image, seen the first time) is
+//    redone holding it exclusively — which is also when lazy nodes are forgotten past the cap;
+//  - the coarse-warp cache (least recently used, 64 target sizes): a mutex, held while a missing
+//    entry is solved (a single flight; CHOLMOD's solve on the shared factor is not reentrant).
 class Icaz {
  public:
   explicit Icaz(ImageModel model, const IcazOptions& options = {});
   ~Icaz();
 
-  // Thread-safe; views of the same image share the forest and the coarse-warp cache. Throws
-  // std::invalid_argument for non-finite numbers or a screen outside 1…16384 px. Zoom is
-  // clamped to [0, 1] and the view centre to the image.
+  // Views of the same image share the forest and the coarse-warp cache. Throws
+  // std::invalid_argument for non-finite numbers or a screen beyond limits.h (kMaxScreenSide,
+  // kMaxScreenPixels), and Stopped when the request's token says so. Zoom is clamped to [0, 1]
+  // and the view centre to the image.
   View view(const ViewRequest& request);
 
   // Both views and the geomorph between them, within one forest epoch; the second view is also
@@ -93,7 +109,7 @@ class Icaz {
 
   // The common refinement of the cuts of `from` and `to`, both made by this object in the
   // current forest epoch (else std::invalid_argument).
-  Geomorph geomorph(const View& from, const View& to);
+  Geomorph geomorph(const View& from, const View& to, const StopToken* stop = nullptr);
 
   const ImageModel& model() const { return model_; }
 
@@ -101,23 +117,36 @@ class Icaz {
   std::size_t memory_bytes();
 
  private:
-  static WarpOptions tolerance_for(const ZoomGeometry& g);
-  std::vector<Point> coarse_positions(const ZoomGeometry& g, WarpResult* stats);
-  double node_mean(int node);
-  double node_weight(int node);
-  View view_locked(const ViewRequest& request);
-  Geomorph geomorph_locked(const View& from, const View& to);
+  struct CachedWarp {
+    std::vector<Point> positions;
+    std::uint64_t last_used = 0;
+  };
 
-  ImageModel model_;
-  IcazOptions options_;
-  ShapeWarp coarse_;
+  static WarpOptions tolerance_for(const ZoomGeometry& g, const StopToken* stop);
+  std::vector<Point> coarse_positions(const ZoomGeometry& g, WarpResult* stats, const StopToken* stop);
+  // `grow`: the caller holds forest_mu_ exclusively and the forest and node means may grow;
+  // otherwise it holds it shared and a missing node or mean throws ForestGrowthNeeded.
+  double node_mean(int node, bool grow);
+  double node_weight(int node, bool grow);
+  View view_in(const ViewRequest& request, bool grow);
+  Geomorph geomorph_in(const View& from, const View& to, const StopToken* stop, bool grow);
+  template <class Work>
+  auto with_forest(Work work);
+
+  const ImageModel model_;
+  const IcazOptions options_;
+  const ShapeWarp coarse_;
   double sig_lo_ = 0, sig_hi_ = 1;  // range of root means: maps significance to [w_min, 1]
-  std::mutex mu_;
+
+  std::shared_mutex forest_mu_;  // guards the four members below
   Forest forest_;
   int forest_epoch_ = 0;
   LodCut root_cut_;  // the coarsest mesh as a cut: every view's refinement starts from a copy
   std::vector<double> node_mean_;  // per forest node, NaN until computed
-  std::map<std::pair<long long, long long>, std::vector<Point>> coarse_cache_;  // by target size (1/1000 px)
+
+  std::mutex coarse_mu_;  // guards the coarse cache and coarse_'s solves
+  std::map<std::pair<long long, long long>, CachedWarp> coarse_cache_;  // by target size (1/1000 px)
+  std::uint64_t coarse_clock_ = 0;
 };
 
 }  // namespace zoomwarp::warp

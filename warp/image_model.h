@@ -3,6 +3,9 @@
 // mesh built with them, the multi-resolution forest down to the triangles a view asks for at
 // 100 %, and every forest node's mean significance. Curator edits — new lines, a region marked
 // more or less important — update it in place of a re-ingest.
+//
+// Not thread-safe: plain data. Shared read-only (Icaz keeps its own const copy), it may be read
+// from several threads; set_lines and add_significance_edit need it to themselves.
 #pragma once
 
 #include <vector>

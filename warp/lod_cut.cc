@@ -5,8 +5,14 @@
 
 namespace zoomwarp::warp {
 
-LodCut::LodCut(Forest& forest) : forest_(forest) {
+LodCut::LodCut(Forest& forest) : forest_(forest), growable_(&forest) {
   for (int r = 0; r < forest.root_count(); ++r) activate(r);
+}
+
+std::array<int, 2> LodCut::children(int node) {
+  if (growable_) return growable_->children(node);
+  if (!forest_.is_split(node)) throw ForestGrowthNeeded();
+  return forest_.existing_children(node);
 }
 
 void LodCut::activate(int node) {
@@ -49,7 +55,7 @@ void LodCut::refine(int node, std::vector<int>* split) {
     const Triangle& gt = forest_.corners(g);
     if (edge_key(gt[0], gt[1]) == edge_key(t[0], t[1])) {  // compatible: split both together
       deactivate(g);
-      for (int c : forest_.children(g)) activate(c);
+      for (int c : children(g)) activate(c);
       if (split) split->push_back(g);
       break;
     }
@@ -57,7 +63,7 @@ void LodCut::refine(int node, std::vector<int>* split) {
   }
   if (!active(node)) return;
   deactivate(node);
-  for (int c : forest_.children(node)) activate(c);
+  for (int c : children(node)) activate(c);
   if (split) split->push_back(node);
 }
 

@@ -130,10 +130,16 @@ struct ShapeWarp::Impl {
           if (c < 0) fc.emplace_back(r, col, e.value());
           else if (r >= c) ff.emplace_back(r, c, e.value());
         }
-      SpMat a(n_free, n_free);
-      a.setFromTriplets(ff.begin(), ff.end());
       coupling.resize(n_free, n);
       coupling.setFromTriplets(fc.begin(), fc.end());
+      // Every vertex of this axis fixed (a coarsest mesh with no interior vertex: images whose
+      // short side is under ~110 px, see shape_warp.h): the axis is determined and there is
+      // nothing to factor. CHOLMOD must not be given the empty matrix: Eigen hands it a null
+      // value array, cholmod_analyze refuses it ("invalid xtype") and returns no factor, which
+      // Eigen's factorize() then dereferences.
+      if (n_free == 0) return;
+      SpMat a(n_free, n_free);
+      a.setFromTriplets(ff.begin(), ff.end());
       auto factor = std::make_shared<Solver>();
       factor->cholmod().nmethods = 1;
       factor->cholmod().method[0].ordering = CHOLMOD_NATURAL;
@@ -229,7 +235,8 @@ struct ShapeWarp::Impl {
     const auto s = scales(cur);
     Eigen::VectorXd bx = shape_rhs(s, false, free_x, n_free_x, weights) + fixed.first;
     Eigen::VectorXd by = shape_rhs(s, true, free_y, n_free_y, weights) + fixed.second;
-    const Eigen::VectorXd x = solver_x->solve(bx), y = solver_y->solve(by);
+    const Eigen::VectorXd x = solver_x ? Eigen::VectorXd(solver_x->solve(bx)) : bx;
+    const Eigen::VectorXd y = solver_y ? Eigen::VectorXd(solver_y->solve(by)) : by;
     for (std::size_t i = 0; i < cur.size(); ++i) {
       if (free_x[i] >= 0) cur[i].x = x[free_x[i]];
       if (free_y[i] >= 0) cur[i].y = y[free_y[i]];
@@ -242,13 +249,43 @@ struct ShapeWarp::Impl {
   void solve_joint(std::vector<Point>& cur, double tw, double th, double alpha, int iteration,
                    const std::vector<double>& w) const {
     const int n = n_free_x + n_free_y;
-    auto vx = [&](int i) { return free_x[i]; };
-    auto vy = [&](int i) { return free_y[i] < 0 ? -1 : n_free_x + free_y[i]; };
+    if (n == 0) return;  // every coordinate fixed: nothing to solve, and nothing CHOLMOD accepts
+    auto [a, b] = joint_system(cur, tw, th, alpha, iteration % 2 == 0, w, cur);
+    b += joint_shape_rhs(cur, w);
+    Solver solver;
+    solver.compute(a);
+    if (solver.info() != Eigen::Success) throw std::runtime_error("CHOLMOD could not factor the warp system");
+    write_joint(cur, solver.solve(b));
+  }
+
+  // The shape term's right-hand side for the joint unknowns (free x, then free y).
+  Eigen::VectorXd joint_shape_rhs(const std::vector<Point>& cur, const std::vector<double>& w) const {
     const auto s = scales(cur);
-    Triplets t;
-    Eigen::VectorXd b = Eigen::VectorXd::Zero(n);
+    Eigen::VectorXd b(n_free_x + n_free_y);
     b.head(n_free_x) = shape_rhs(s, false, free_x, n_free_x, w);
     b.tail(n_free_y) = shape_rhs(s, true, free_y, n_free_y, w);
+    return b;
+  }
+
+  void write_joint(std::vector<Point>& cur, const Eigen::VectorXd& u) const {
+    for (std::size_t i = 0; i < cur.size(); ++i) {
+      if (free_x[i] >= 0) cur[i].x = u[free_x[i]];
+      if (free_y[i] >= 0) cur[i].y = u[n_free_x + free_y[i]];
+    }
+  }
+
+  // The joint system's matrix, and its right-hand side without the shape term (which alone
+  // depends on s_f): shape Laplacian on both axes, line terms — oblique ones in the direction
+  // form (`direction_form`, ratios from `cur`) or the orientation form (normal from `normals`) —
+  // with fixed coordinates moved to the right.
+  std::pair<SpMat, Eigen::VectorXd> joint_system(const std::vector<Point>& cur, double tw, double th, double alpha,
+                                                 bool direction_form_step, const std::vector<double>& w,
+                                                 const std::vector<Point>& normals) const {
+    const int n = n_free_x + n_free_y;
+    auto vx = [&](int i) { return free_x[i]; };
+    auto vy = [&](int i) { return free_y[i] < 0 ? -1 : n_free_x + free_y[i]; };
+    Triplets t;
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(n);
     // Adds w·(Σ a_k u_k − c)² where some u_k may be fixed (index −1, value known).
     auto add = [&](std::array<int, 4> var, std::array<double, 4> a, std::array<double, 4> known, double w) {
       double k0 = 0;
@@ -275,10 +312,10 @@ struct ShapeWarp::Impl {
       if (l.kind == LineKind::kHorizontal) ny = 1;
       else if (l.kind == LineKind::kVertical) nx = 1;
       else {
-        const double dx = cur[en].x - cur[st].x, dy = cur[en].y - cur[st].y, len = std::hypot(dx, dy);
+        const double dx = normals[en].x - normals[st].x, dy = normals[en].y - normals[st].y, len = std::hypot(dx, dy);
         nx = len > 0 ? -dy / len : 0, ny = len > 0 ? dx / len : 1;
       }
-      const bool direction_form = l.kind == LineKind::kOblique && iteration % 2 == 0;
+      const bool direction_form = l.kind == LineKind::kOblique && direction_form_step;
       const double ex = cur[en].x - cur[st].x, ey = cur[en].y - cur[st].y, e2 = ex * ex + ey * ey;
       // The direction form says nothing about the end point itself (r = 1); the orientation form
       // keeps it on the line too.
@@ -297,21 +334,52 @@ struct ShapeWarp::Impl {
     }
     SpMat a(n, n);
     a.setFromTriplets(t.begin(), t.end());
-    Solver solver;
-    solver.compute(a);
-    if (solver.info() != Eigen::Success) throw std::runtime_error("CHOLMOD could not factor the warp system");
-    const Eigen::VectorXd u = solver.solve(b);
-    for (std::size_t i = 0; i < cur.size(); ++i) {
-      if (free_x[i] >= 0) cur[i].x = u[free_x[i]];
-      if (free_y[i] >= 0) cur[i].y = u[n_free_x + free_y[i]];
+    return {std::move(a), std::move(b)};
+  }
+
+  // Line energy α Σ ((v'_i − v'_s)·n)² with each line's normal taken from `normals`.
+  double line_energy(const std::vector<Point>& p, const std::vector<Point>& normals, double alpha) const {
+    double e = 0;
+    for (const Line& l : lines) {
+      const int st = l.vertices.front(), en = l.vertices.back();
+      double nx = 0, ny = 0;
+      if (l.kind == LineKind::kHorizontal) ny = 1;
+      else if (l.kind == LineKind::kVertical) nx = 1;
+      else {
+        const double dx = normals[en].x - normals[st].x, dy = normals[en].y - normals[st].y, len = std::hypot(dx, dy);
+        nx = len > 0 ? -dy / len : 0, ny = len > 0 ? dx / len : 1;
+      }
+      for (int i : l.vertices) {
+        const double d = (p[i].x - p[st].x) * nx + (p[i].y - p[st].y) * ny;
+        e += alpha * d * d;
+      }
     }
+    return e;
   }
 };
+
+namespace {
+
+// The joint path with every line's normal fixed (WarpOptions::fixed_line_normals): the matrix
+// is constant through the solve, so it is factored once and each iteration is one
+// back-substitution, like the fast path.
+struct ConstantJoint {
+  Solver solver;
+  Eigen::VectorXd constant;  // right-hand side without the shape term
+};
+
+}  // namespace
 
 ShapeWarp::ShapeWarp(Mesh mesh, std::vector<double> weights, double width, double height,
                      std::vector<std::vector<int>> lines, const std::vector<int>& pinned)
     : impl_(std::make_unique<Impl>()) {
   if (weights.size() != mesh.triangles.size()) throw std::invalid_argument("one weight per triangle");
+  // The systems are SPD only with positive weights (and a fixed vertex per connected part, which
+  // the rectangle's corners give): checked here rather than left to CHOLMOD.
+  for (double w : weights)
+    if (!(w > 0) || !std::isfinite(w)) throw std::invalid_argument("triangle weights must be positive and finite");
+  if (!(width > 0) || !(height > 0) || !std::isfinite(width) || !std::isfinite(height))
+    throw std::invalid_argument("empty source rectangle");
   impl_->mesh = std::move(mesh);
   impl_->weights = std::move(weights);
   impl_->width = width;
@@ -371,11 +439,32 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
   Eigen::VectorXd g_prev, f_prev;
   const std::vector<Point> start = r.positions;
   const auto fixed = fast ? m.fixed_rhs(start) : std::pair<Eigen::VectorXd, Eigen::VectorXd>{};
+  // The joint system with line normals fixed from `from` and weights `w`, factored once.
+  auto constant_joint = [&](const std::vector<Point>& from, const std::vector<double>& w) {
+    auto joint = std::make_unique<ConstantJoint>();
+    auto [a, b] = m.joint_system(from, tw, th, options.alpha, false, w, from);
+    joint->solver.compute(a);
+    if (joint->solver.info() != Eigen::Success) throw std::runtime_error("CHOLMOD could not factor the warp system");
+    joint->constant = std::move(b);
+    return joint;
+  };
+  const bool has_unknowns = m.n_free_x + m.n_free_y > 0;
+  // Oblique lines with their normals fixed from the start: one factorization for the solve.
+  std::unique_ptr<ConstantJoint> joint;
+  if (!fast && options.fixed_line_normals && has_unknowns) joint = constant_joint(start, m.weights);
+  const bool accelerated_path = fast || joint;
+  // What an accelerated step must lower: the shape energy (the fast path's H/V line terms are
+  // nearly met by construction), plus the line energy when oblique lines are in the system.
+  auto objective = [&](const std::vector<Point>& p) {
+    return joint ? m.energy(p) + m.line_energy(p, start, options.alpha) : m.energy(p);
+  };
   for (r.iterations = 0; r.iterations < options.max_iterations;) {
+    check_stop(options.stop);
     const std::vector<Point> before = r.positions;
-    if (fast) {
+    if (accelerated_path) {
       std::vector<Point> step = r.positions;
-      m.solve_decoupled(step, fixed);
+      if (joint) m.write_joint(step, joint->solver.solve(joint->constant + m.joint_shape_rhs(step, m.weights)));
+      else m.solve_decoupled(step, fixed);
       const Eigen::VectorXd u = stack(r.positions), g = stack(step), f = g - u;
       if (g_prev.size() == n2) {
         dg.push_back(g - g_prev), df.push_back(f - f_prev);
@@ -388,10 +477,10 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
         for (std::size_t k = 0; k < df.size(); ++k) F.col(k) = df[k], G.col(k) = dg[k];
         const Eigen::VectorXd gamma = F.colPivHouseholderQr().solve(f);
         std::vector<Point> accelerated = unstack(g - G * gamma);
-        if (m.energy(accelerated) < m.energy(step)) r.positions = std::move(accelerated);
+        if (objective(accelerated) < objective(step)) r.positions = std::move(accelerated);
         else dg.clear(), df.clear();
       }
-    } else {
+    } else if (m.n_free_x + m.n_free_y > 0) {
       m.solve_joint(r.positions, tw, th, options.alpha, r.iterations, m.weights);
     }
     ++r.iterations;
@@ -399,7 +488,7 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
     for (std::size_t i = 0; i < before.size(); ++i)
       moved = std::max(moved, std::hypot(r.positions[i].x - before[i].x, r.positions[i].y - before[i].y));
     // Oblique lines alternate two forms: judge convergence after a pair of iterations.
-    if (moved < options.tolerance && (fast || r.iterations % 2 == 0)) {
+    if (moved < options.tolerance && (accelerated_path || r.iterations % 2 == 0)) {
       r.converged = true;
       break;
     }
@@ -428,13 +517,21 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
       if (last) w[f] = 1;
       else if (near[t[0]] || near[t[1]] || near[t[2]]) w[f] = std::min(1.0, w[f] * 4);
     }
-    for (int k = 0; k < options.max_iterations; ++k) {
+    // With fixed line normals a round's weights make its system constant: factored once a round.
+    const auto round_joint = options.fixed_line_normals && has_unknowns ? constant_joint(r.positions, w) : nullptr;
+    for (int k = 0; k < options.max_guard_iterations; ++k) {
+      check_stop(options.stop);
       const std::vector<Point> before = r.positions;
-      m.solve_joint(r.positions, tw, th, options.alpha, r.iterations++, w);
+      if (round_joint) {
+        m.write_joint(r.positions, round_joint->solver.solve(round_joint->constant + m.joint_shape_rhs(r.positions, w)));
+        ++r.iterations;
+      } else {
+        m.solve_joint(r.positions, tw, th, options.alpha, r.iterations++, w);
+      }
       double moved = 0;
       for (std::size_t i = 0; i < before.size(); ++i)
         moved = std::max(moved, std::hypot(r.positions[i].x - before[i].x, r.positions[i].y - before[i].y));
-      if (moved < options.tolerance && k % 2 == 1) break;
+      if (moved < options.tolerance && (round_joint || k % 2 == 1)) break;
     }
     bad = m.inverted(r.positions);
     r.guard_rounds = round + 1;
@@ -456,6 +553,7 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
     };
     double lo = 0, hi = 1;
     for (int step = 0; step < 20; ++step) {
+      check_stop(options.stop);
       const double mid = (lo + hi) / 2;
       (m.inverted(blend(mid)).empty() ? hi : lo) = mid;
     }

@@ -16,12 +16,22 @@
 // iteration — for any target size — is two back-substitutions. Oblique lines couple x and y and
 // change the matrix every iteration (alternating D_Line_D / D_Line_O forms); then the joint
 // system's pattern is analysed once and refactored numerically per iteration.
+//
+// Degenerate meshes: when every vertex is fixed along an axis (a mesh with no interior vertex —
+// the coarsest mesh of any image whose short side is below the size criterion's edge, ~150 px
+// for the default 10 000 px² area, e.g. two triangles on a 64×64 image), that axis has no
+// unknowns; it is not factored and its coordinates are the boundary values.
+//
+// Not thread-safe: solve() is const but CHOLMOD's solve writes the factor's common workspace, so
+// one object must not be solved from two threads at once (Icaz serialises its shared coarse
+// warp). Distinct objects are independent and may be used from different threads.
 #pragma once
 
 #include <memory>
 #include <vector>
 
 #include "warp/mesh.h"
+#include "warp/stop_token.h"
 
 namespace zoomwarp::warp {
 
@@ -34,6 +44,19 @@ struct WarpOptions {
   // Converged when no vertex moved more than this many target pixels in an iteration.
   double tolerance = 0.02;
   int max_guard_rounds = 6;  // fold-over guard (see solve())
+  // Local–global iterations per guard round (each refactors the joint system). Bounded well
+  // below max_iterations: a round only has to unfold, and what it leaves folded the affine blend
+  // unfolds — so the guard's cost is bounded (a 4:1 panorama on a square screen at z = 0).
+  int max_guard_iterations = 20;
+  // Oblique lines keep the normal they have in the start positions (orientation form only, no
+  // alternating direction form): the joint system is then constant through the solve — factored
+  // once and Anderson-accelerated like the fast path instead of refactored every iteration. For
+  // solves started from a warp whose lines are already straight (the fine level, from the
+  // coarse result, §6.2), where the normal is all but settled.
+  bool fixed_line_normals = false;
+  // Checked before every local–global iteration and fold-over guard step (Stopped is thrown).
+  // Not owned; none: runs to the end.
+  const StopToken* stop = nullptr;
 };
 
 struct WarpResult {

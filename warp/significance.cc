@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <opencv2/core/utility.hpp>
+#include <stdexcept>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/objdetect.hpp>
 
@@ -104,6 +105,10 @@ std::vector<tiles::Rect> detect_faces(const tiles::Raster& image, const std::str
   if (cascade_path.empty() || !std::filesystem::exists(cascade_path, ec)) return out;
   cv::CascadeClassifier cascade;
   if (!cascade.load(cascade_path)) return out;
+  // An image smaller than the cascade's window holds no face it could find (and OpenCV's
+  // scaling loop is not meant for it): checked rather than left to detectMultiScale.
+  const cv::Size window = cascade.getOriginalWindowSize();
+  if (image.width < window.width || image.height < window.height) return out;
   cv::Mat grey = grey_of(image);
   cv::equalizeHist(grey, grey);
   std::vector<cv::Rect> faces;
@@ -115,6 +120,7 @@ std::vector<tiles::Rect> detect_faces(const tiles::Raster& image, const std::str
 }
 
 SignificanceMap compute_significance(const tiles::Raster& image, int image_width, const SignificanceOptions& options) {
+  if (image.empty() || image_width < 1) throw std::invalid_argument("significance of an empty image");
   const cv::Mat grey = grey_of(image);
   cv::Mat s = gradient_norm(grey).mul(spectral_residual(grey, grey.size()));
   normalise(s);

@@ -15,7 +15,10 @@ ZoomGeometry zoom_geometry(double W, double H, double sw, double sh, double z, Z
   const double full_view_w = std::sqrt(W * H * screen_aspect);  // the whole z = 0 target
   double view_w = curve == ZoomCurve::kLinear ? (1 - z) * full_view_w + z * sw
                                               : full_view_w * std::pow(sw / full_view_w, z);
-  view_w = std::min({view_w, g.target_width, g.target_height * screen_aspect});
+  // Fit the viewing area inside the warped image, but never shrink it below the screen (a
+  // magnification above 1): an image smaller than the screen is letterboxed instead, so z = 1 is
+  // 1:1 on every image. Both bounds are continuous in z, and so is the curve.
+  view_w = std::min({view_w, std::max(g.target_width, sw), std::max(g.target_height, sh) * screen_aspect});
   g.view_width = view_w;
   g.view_height = view_w / screen_aspect;
   g.screen_scale = sw / view_w;

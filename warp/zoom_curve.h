@@ -20,8 +20,13 @@ struct ZoomGeometry {
 };
 
 // The screen is screen_w × screen_h; the image W × H. z is clamped to [0, 1]. The viewing area
-// always fits inside the warped image (shrunk, keeping the screen's aspect, when the curve would
-// make it larger), so the screen is always covered.
+// fits inside the warped image (shrunk, keeping the screen's aspect, when the curve would make it
+// larger), so the screen is covered — except that it is never shrunk below the screen itself
+// (screen_scale > 1): along an axis where the warped image is then smaller than the viewing
+// area, the view is letterboxed (centred, black bands). So z = 1 is the 1:1 crop on every image,
+// also one smaller than the screen (a 1024×512 image on a 360×640 screen: 1:1 with 64 px bands
+// above and below, not magnified ×1.25); for 0 < z < 1 the magnification follows the curve
+// down to 1 and the bands appear once the image no longer fills the screen at that scale.
 ZoomGeometry zoom_geometry(double image_w, double image_h, double screen_w, double screen_h, double z,
                            ZoomCurve curve = ZoomCurve::kGeometric);
 

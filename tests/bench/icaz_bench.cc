@@ -1,6 +1,9 @@
 // Time per zoom and per pan action of the ICAZ operator at 480×360 with 500 px² triangles, along
 // the zoom range, on a ≥ 10 MP wide photo and on a ≥ 300 MP synthetic mosaic; plus the paper's
 // Fig. 9 comparison with a uniform mesh of the finest resolution, and the model-building cost.
+// Then the bounds of warp/limits.h: the same views with 0 and with kMaxLines line constraints of
+// kMaxTotalLineLength in all (axis-aligned and oblique mixed), and the largest screen (4096×4096)
+// on a 4:1 panorama at z = 0.
 //
 //   build/bin/icaz_bench [IMAGE]   (default: ../shared/corpus/world_satellite_map.jpg, 5400×2500)
 //
@@ -9,12 +12,14 @@
 // which is why the mosaic needs no 300 MP of pixels here.
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <filesystem>
 #include <memory>
 
 #include "tests/support/images.h"
 #include "tests/support/server_process.h"
 #include "warp/icaz.h"
+#include "warp/limits.h"
 
 namespace {
 
@@ -99,6 +104,63 @@ void BM_UniformMeshZoom(benchmark::State& state, int which) {
   state.SetLabel(s.name);
 }
 
+// kMaxLines lines summing to kMaxTotalLineLength × the larger side, on an 8 × 8 grid of centres
+// (jittered so that no two lines are collinear): horizontal, vertical and oblique (30°) in turn.
+std::vector<warp::Segment> max_lines(double w, double h) {
+  namespace limits = warp::limits;
+  const double len = limits::kMaxTotalLineLength / limits::kMaxLines * std::max(w, h);
+  std::vector<warp::Segment> out;
+  for (int i = 0; i < limits::kMaxLines; ++i) {
+    const double cx = w * (0.1 + 0.8 * (i % 8) / 7 + 0.003 * i), cy = h * (0.1 + 0.8 * (i / 8) / 7 + 0.002 * i);
+    const double angle = (i % 3 == 0 ? 0 : i % 3 == 1 ? 90 : 30) * M_PI / 180;
+    const double dx = std::cos(angle) * len / 2, dy = std::sin(angle) * len / 2;
+    out.push_back({{cx - dx, cy - dy}, {cx + dx, cy + dy}});
+  }
+  return out;
+}
+
+// Views (zoom actions along the range and pans) with 0 or kMaxLines lines: arg 0 = 0 lines.
+void BM_Lines(benchmark::State& state) {
+  static std::unique_ptr<warp::Icaz> engines[2];
+  const Subject& s = subjects()[0];
+  const int with = state.range(0) ? 1 : 0;
+  if (!engines[with])
+    engines[with] = std::make_unique<warp::Icaz>(
+        warp::make_image_model(s.reduced, s.width, s.height, with ? max_lines(s.width, s.height) : std::vector<warp::Segment>{}));
+  int i = 0;
+  double iterations = 0;
+  for (auto _ : state) {
+    warp::ViewRequest r;
+    r.zoom = 0.1 * (i % 11) + 1e-4 * (i / 11 % 50);
+    r.cx = s.width * (0.1 + 0.8 * ((i * 37) % 100) / 100.0), r.cy = s.height * (0.2 + 0.6 * ((i * 61) % 100) / 100.0);
+    ++i;
+    iterations += engines[with]->view(r).fine_stats.iterations;
+  }
+  state.counters["fine_iterations"] = benchmark::Counter(iterations, benchmark::Counter::kAvgIterations);
+  state.SetLabel(s.name + (with ? ", 64 lines" : ", no lines"));
+}
+
+// The largest screen of limits.h on a 4:1 panorama, zoomed out (and at z = 0.5).
+void BM_BigScreen(benchmark::State& state) {
+  static std::unique_ptr<warp::Icaz> pano;
+  if (!pano) {
+    const tiles::Raster full = testing::load_image(testing::samples_dir() + "/pano_grossmugl_field_4to1.png");
+    pano = std::make_unique<warp::Icaz>(warp::make_image_model(reduce(full, 1024), full.width, full.height));
+  }
+  const double z = state.range(0) / 100.0;
+  int i = 0;
+  std::size_t vertices = 0;
+  for (auto _ : state) {
+    warp::ViewRequest r;
+    r.zoom = z + 1e-4 * (i++ % 50);
+    r.cx = pano->model().width / 2, r.cy = pano->model().height / 2;
+    r.screen_width = r.screen_height = warp::limits::kMaxScreenSide;
+    vertices = pano->view(r).source.vertices.size();
+  }
+  state.counters["vertices"] = double(vertices);
+  state.SetLabel("pano 4:1, 4096×4096");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -129,6 +191,8 @@ int main(int argc, char** argv) {
     benchmark::RegisterBenchmark(("Pan/" + tag).c_str(), BM_Pan, which)->DenseRange(0, 100, 20)->Unit(benchmark::kMillisecond);
   }
   benchmark::RegisterBenchmark("UniformMeshZoom/photo", BM_UniformMeshZoom, 0)->Arg(50)->Unit(benchmark::kMillisecond)->Iterations(3);
+  benchmark::RegisterBenchmark("Lines/photo", BM_Lines)->Arg(0)->Arg(warp::limits::kMaxLines)->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark("BigScreen/pano", BM_BigScreen)->Arg(0)->Arg(50)->Unit(benchmark::kMillisecond)->Iterations(3);
   benchmark::RunSpecifiedBenchmarks();
   return 0;
 }
