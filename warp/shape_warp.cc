@@ -22,6 +22,16 @@ struct Line {
   LineKind kind;
 };
 
+// The unit normal n of a line's orientation form ((v'_i − v'_s)·n)² [ICAZ §4.3]: fixed for
+// horizontal and vertical lines, else perpendicular to the chord of its end points in `positions`.
+Point line_normal(const Line& l, const std::vector<Point>& positions) {
+  if (l.kind == LineKind::kHorizontal) return {0, 1};
+  if (l.kind == LineKind::kVertical) return {1, 0};
+  const Point &s = positions[l.vertices.front()], &e = positions[l.vertices.back()];
+  const double dx = e.x - s.x, dy = e.y - s.y, len = std::hypot(dx, dy);
+  return len > 0 ? Point{-dy / len, dx / len} : Point{0, 1};
+}
+
 // Adds w·(Σ_k a_k u_k)² to a quadratic form over variables u (indices into `col`): w·a·aᵀ.
 template <std::size_t N>
 void add_square(Triplets& t, const std::array<int, N>& var, const std::array<double, N>& a, double w) {
@@ -308,13 +318,7 @@ struct ShapeWarp::Impl {
       }
     for (const Line& l : lines) {
       const int st = l.vertices.front(), en = l.vertices.back();
-      double nx = 0, ny = 0;
-      if (l.kind == LineKind::kHorizontal) ny = 1;
-      else if (l.kind == LineKind::kVertical) nx = 1;
-      else {
-        const double dx = normals[en].x - normals[st].x, dy = normals[en].y - normals[st].y, len = std::hypot(dx, dy);
-        nx = len > 0 ? -dy / len : 0, ny = len > 0 ? dx / len : 1;
-      }
+      const auto [nx, ny] = line_normal(l, normals);
       const bool direction_form = l.kind == LineKind::kOblique && direction_form_step;
       const double ex = cur[en].x - cur[st].x, ey = cur[en].y - cur[st].y, e2 = ex * ex + ey * ey;
       // The direction form says nothing about the end point itself (r = 1); the orientation form
@@ -341,14 +345,8 @@ struct ShapeWarp::Impl {
   double line_energy(const std::vector<Point>& p, const std::vector<Point>& normals, double alpha) const {
     double e = 0;
     for (const Line& l : lines) {
-      const int st = l.vertices.front(), en = l.vertices.back();
-      double nx = 0, ny = 0;
-      if (l.kind == LineKind::kHorizontal) ny = 1;
-      else if (l.kind == LineKind::kVertical) nx = 1;
-      else {
-        const double dx = normals[en].x - normals[st].x, dy = normals[en].y - normals[st].y, len = std::hypot(dx, dy);
-        nx = len > 0 ? -dy / len : 0, ny = len > 0 ? dx / len : 1;
-      }
+      const int st = l.vertices.front();
+      const auto [nx, ny] = line_normal(l, normals);
       for (int i : l.vertices) {
         const double d = (p[i].x - p[st].x) * nx + (p[i].y - p[st].y) * ny;
         e += alpha * d * d;
