@@ -9,6 +9,10 @@
 // images/ID link, so a reader sees the old version or the new one, never a half-written one.
 // Superseded and deleted versions stay on disk for a grace period, for readers that resolved them
 // just before; collect_garbage() removes them and staging folders of processes that died.
+//
+// Threads: every member may be called from any thread (the cache of loaded versions is under a
+// mutex); across processes, publishing is atomic by rename and conditional publishes of one id
+// are serialised by the flock on ROOT/locks/ID.
 #pragma once
 
 #include <chrono>
