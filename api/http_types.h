@@ -23,6 +23,9 @@ struct Request {
   std::string if_none_match;
   std::string if_match;       // edits: the image ETag (GET /v1/images/{id}) they were made against
   std::string accept;
+  std::string authorization;   // Authorization header, e.g. "Bearer …" (never logged)
+  std::string origin;          // Origin header (CORS)
+  std::string client_address;  // the peer's IP address as the server saw it (no port)
   std::string body;           // small bodies (JSON)
   std::string body_file;      // uploads: a file the server streamed the body into
   // The request's deadline and cancel flag (warp/stop_token.h), owned by the server and alive

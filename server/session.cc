@@ -53,7 +53,10 @@ Session::Session(net::ip::tcp::socket&& socket, ServerState& state)
   ++state_.open_connections;
   beast::error_code ec;
   auto ep = stream_.socket().remote_endpoint(ec);
-  if (!ec) remote_ = ep.address().to_string() + ":" + std::to_string(ep.port());
+  if (!ec) {
+    remote_address_ = ep.address().to_string();
+    remote_ = remote_address_ + ":" + std::to_string(ep.port());
+  }
 }
 
 Session::~Session() {
@@ -138,6 +141,9 @@ void Session::on_header(beast::error_code ec) {
   req_.if_none_match = std::string(h[http::field::if_none_match]);
   req_.if_match = std::string(h[http::field::if_match]);
   req_.accept = std::string(h[http::field::accept]);
+  req_.authorization = std::string(h[http::field::authorization]);
+  req_.origin = std::string(h[http::field::origin]);
+  req_.client_address = remote_address_;
   const bool expect_continue = beast::iequals(h[http::field::expect], "100-continue");
   if (auto refusal = refuse_transfer_encoding(h)) {
     keep_alive_ = false;  // the body's length is unknown: the rest of the stream cannot be trusted

@@ -97,7 +97,8 @@ class Session : public std::enable_shared_from_this<Session> {
   boost::beast::tcp_stream stream_;
   boost::beast::flat_buffer buffer_;
   ServerState& state_;
-  std::string remote_;
+  std::string remote_;          // "ADDRESS:PORT", for logs
+  std::string remote_address_;  // "ADDRESS", for api::Request::client_address
 
   std::optional<boost::beast::http::request_parser<boost::beast::http::empty_body>> header_parser_;
   std::optional<boost::beast::http::request_parser<boost::beast::http::string_body>> string_parser_;

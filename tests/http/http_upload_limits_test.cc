@@ -5,12 +5,7 @@
 // spin or flood the log.
 #include <gtest/gtest.h>
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <poll.h>
 #include <sys/resource.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 #include <chrono>
 #include <filesystem>
@@ -20,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include "tests/http/raw_connection.h"
 #include "tests/support/http_client.h"
 #include "tests/support/server_process.h"
 
@@ -29,88 +25,15 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 using testing::HttpClient;
+using testing::RawConnection;
 using testing::ServerProcess;
 using testing::TempDir;
 using namespace std::chrono_literals;
 
 std::string sample(const std::string& name) { return testing::read_file(testing::samples_dir() + "/" + name); }
 
-// One raw TCP connection to the server (plain POSIX: a test must control every byte and pause).
-class Connection {
- public:
-  explicit Connection(int port) : fd_(::socket(AF_INET, SOCK_STREAM, 0)) {
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_port = htons(static_cast<std::uint16_t>(port));
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    connected_ = ::connect(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
-  }
-  ~Connection() { ::close(fd_); }
-  Connection(const Connection&) = delete;
-  Connection& operator=(const Connection&) = delete;
-
-  bool connected() const { return connected_; }
-
-  // False once the server has closed (or reset) the connection.
-  bool send(const std::string& bytes) {
-    return ::send(fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL) == ssize_t(bytes.size());
-  }
-
-  // Whether something (bytes or the end of the stream) arrives within `timeout`.
-  bool readable(std::chrono::milliseconds timeout) {
-    pollfd p{fd_, POLLIN, 0};
-    return ::poll(&p, 1, int(timeout.count())) > 0;
-  }
-
-  // What arrives until the server closes the connection; `closed` is false if it had not within
-  // `timeout` (a bound for the test's own sake, not an assertion about speed).
-  struct Received {
-    std::string bytes;
-    bool closed = false;
-  };
-  Received read_until_closed(std::chrono::milliseconds timeout = 30s) {
-    Received r;
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    char buf[16384];
-    while (true) {
-      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
-      if (left.count() <= 0 || !readable(left)) return r;
-      const ssize_t n = ::recv(fd_, buf, sizeof buf, 0);
-      if (n <= 0) {
-        r.closed = true;
-        return r;
-      }
-      r.bytes.append(buf, std::size_t(n));
-    }
-  }
-
-  // One response's head and body (Content-Length framed), leaving the connection open.
-  std::string read_response(std::chrono::milliseconds timeout = 30s) {
-    std::string out;
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    char buf[16384];
-    while (!complete(out)) {
-      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
-      if (left.count() <= 0 || !readable(left)) break;
-      const ssize_t n = ::recv(fd_, buf, sizeof buf, 0);
-      if (n <= 0) break;
-      out.append(buf, std::size_t(n));
-    }
-    return out;
-  }
-
- private:
-  static bool complete(const std::string& r) {
-    const auto end = r.find("\r\n\r\n");
-    if (end == std::string::npos) return false;
-    const auto cl = r.find("Content-Length: ");
-    const std::size_t length = cl < end ? std::stoul(r.substr(cl + 16)) : 0;
-    return r.size() >= end + 4 + length;
-  }
-
-  int fd_;
-  bool connected_ = false;
-};
+// A bound on each wait for the server, for the test's own sake, not an assertion about speed.
+constexpr int kWaitMs = 30'000;
 
 int status_of(const std::string& response) {
   return response.rfind("HTTP/1.1 ", 0) == 0 ? std::stoi(response.substr(9, 3)) : 0;
@@ -148,10 +71,10 @@ TEST(UploadLimits, StalledBodyIsDroppedAndItsStagingFileRemoved) {
   const std::string png = sample("astronaut_portrait.png");
   ASSERT_GT(png.size(), 200'000u);
 
-  Connection stalled(server.port());
-  ASSERT_TRUE(stalled.send(upload_head("stalled", png.size()) + png.substr(0, 150'000)));
+  RawConnection stalled(server.port());
+  ASSERT_TRUE(stalled.try_send(upload_head("stalled", png.size()) + png.substr(0, 150'000)));
   ASSERT_EQ(wait_for_staging(store, 1), 1u) << "the body's first bytes are being staged";
-  const auto r = stalled.read_until_closed();
+  const auto r = stalled.read_until_close(kWaitMs);
   EXPECT_TRUE(r.closed) << "a body that stops arriving is dropped after --body-timeout";
   EXPECT_EQ(wait_for_staging(store, 0), 0u) << "and its staging folder removed";
 
@@ -163,16 +86,16 @@ TEST(UploadLimits, StalledBodyIsDroppedAndItsStagingFileRemoved) {
 TEST(UploadLimits, SlowHeaderIsDroppedButAnIdleConnectionIsNot) {
   TempDir dir;
   ServerProcess server(dir.path() + "/store", {"--header-timeout", "1", "--idle-timeout", "3600"});
-  Connection idle(server.port());
-  Connection dripping(server.port());
-  ASSERT_TRUE(dripping.send("GET /healthz HTTP/1.1\r\nHost: te"));
-  const auto r = dripping.read_until_closed();
+  RawConnection idle(server.port());
+  RawConnection dripping(server.port());
+  ASSERT_TRUE(dripping.try_send("GET /healthz HTTP/1.1\r\nHost: te"));
+  const auto r = dripping.read_until_close(kWaitMs);
   EXPECT_TRUE(r.closed) << "a header not finished within --header-timeout of its first byte";
   EXPECT_EQ(r.bytes, "");
 
   // The connection that has sent nothing yet waits under the idle timeout, not the header's.
-  ASSERT_TRUE(idle.send("GET /healthz HTTP/1.1\r\nHost: test\r\n\r\n"));
-  EXPECT_EQ(status_of(idle.read_response()), 200);
+  ASSERT_TRUE(idle.try_send("GET /healthz HTTP/1.1\r\nHost: test\r\n\r\n"));
+  EXPECT_EQ(status_of(idle.read_response(kWaitMs)), 200);
 }
 
 TEST(UploadLimits, UploadsBeyondIngestCapacityAreRefusedAfterTheirHeader) {
@@ -182,18 +105,18 @@ TEST(UploadLimits, UploadsBeyondIngestCapacityAreRefusedAfterTheirHeader) {
   const std::string png = sample("astronaut_portrait.png");
 
   // Two uploads take both slots (one ingest thread, one queue place) and pause mid-body.
-  std::vector<std::unique_ptr<Connection>> holding;
+  std::vector<std::unique_ptr<RawConnection>> holding;
   for (const char* id : {"first", "second"}) {
-    holding.push_back(std::make_unique<Connection>(server.port()));
-    ASSERT_TRUE(holding.back()->send(upload_head(id, png.size()) + png.substr(0, 100'000)));
+    holding.push_back(std::make_unique<RawConnection>(server.port()));
+    ASSERT_TRUE(holding.back()->try_send(upload_head(id, png.size()) + png.substr(0, 100'000)));
   }
   ASSERT_EQ(wait_for_staging(store, 2), 2u);
 
   // More uploads: 503 with Retry-After after the header alone (no body was sent), connection closed.
   for (int i = 0; i < 5; ++i) {
-    Connection extra(server.port());
-    ASSERT_TRUE(extra.send(upload_head("extra" + std::to_string(i), png.size())));
-    const auto r = extra.read_until_closed();
+    RawConnection extra(server.port());
+    ASSERT_TRUE(extra.try_send(upload_head("extra" + std::to_string(i), png.size())));
+    const auto r = extra.read_until_close(kWaitMs);
     EXPECT_TRUE(r.closed);
     EXPECT_EQ(status_of(r.bytes), 503) << r.bytes;
     EXPECT_NE(r.bytes.find("\r\nRetry-After: 1\r\n"), std::string::npos) << r.bytes;
@@ -202,8 +125,8 @@ TEST(UploadLimits, UploadsBeyondIngestCapacityAreRefusedAfterTheirHeader) {
     EXPECT_EQ(entries(store + "/staging"), 2u) << "nothing staged for a refused upload";
   }
 
-  for (auto& c : holding) ASSERT_TRUE(c->send(png.substr(100'000)));
-  for (auto& c : holding) EXPECT_EQ(status_of(c->read_response()), 201);
+  for (auto& c : holding) ASSERT_TRUE(c->try_send(png.substr(100'000)));
+  for (auto& c : holding) EXPECT_EQ(status_of(c->read_response(kWaitMs)), 201);
   // Their slots are free again.
   HttpClient http(server.port());
   EXPECT_EQ(http.request("POST", "/v1/images?id=third", png).status, 201);
@@ -217,31 +140,31 @@ TEST(UploadLimits, BytesStagedAtOnceAreCapped) {
   const std::string png = sample("astronaut_portrait.png");  // 773 KiB: two do not fit in 1 MiB
   ASSERT_GT(png.size(), 512u * 1024);
 
-  Connection first(server.port());
-  ASSERT_TRUE(first.send(upload_head("first", png.size()) + png.substr(0, 100'000)));
+  RawConnection first(server.port());
+  ASSERT_TRUE(first.try_send(upload_head("first", png.size()) + png.substr(0, 100'000)));
   ASSERT_EQ(wait_for_staging(store, 1), 1u);
-  Connection second(server.port());
-  ASSERT_TRUE(second.send(upload_head("second", png.size())));
-  const auto refused = second.read_until_closed();
+  RawConnection second(server.port());
+  ASSERT_TRUE(second.try_send(upload_head("second", png.size())));
+  const auto refused = second.read_until_close(kWaitMs);
   EXPECT_EQ(status_of(refused.bytes), 503) << refused.bytes;
   EXPECT_EQ(error_code_of(refused.bytes), "ingest_busy");
   EXPECT_TRUE(refused.closed);
 
-  ASSERT_TRUE(first.send(png.substr(100'000)));
-  EXPECT_EQ(status_of(first.read_response()), 201);
+  ASSERT_TRUE(first.try_send(png.substr(100'000)));
+  EXPECT_EQ(status_of(first.read_response(kWaitMs)), 201);
   HttpClient http(server.port());
   EXPECT_EQ(http.request("POST", "/v1/images?id=second", png).status, 201) << "the bytes are free again";
 }
 
 // Sends the head of a `declared`-byte upload, then `first` and up to 1 MiB of filler, and returns
 // what the server answered and whether it then closed the connection.
-Connection::Received refused_upload(int port, std::uint64_t declared, const std::string& first, char filler) {
-  Connection c(port);
-  c.send(upload_head("x", declared) + first);
+RawConnection::Received refused_upload(int port, std::uint64_t declared, const std::string& first, char filler) {
+  RawConnection c(port);
+  c.try_send(upload_head("x", declared) + first);  // the server may refuse and close before all of it
   const std::string chunk(64 * 1024, filler);
-  for (int i = 0; i < 16 && !c.readable(0ms); ++i)
-    if (!c.send(chunk)) break;
-  return c.read_until_closed();
+  for (int i = 0; i < 16 && !c.readable(0); ++i)
+    if (!c.try_send(chunk)) break;
+  return c.read_until_close(kWaitMs);
 }
 
 TEST(UploadLimits, BadImagesAreRefusedFromTheirFirstBytes) {
@@ -280,19 +203,19 @@ TEST(UploadLimits, ConnectionsOverTheCapWaitForAFreeOne) {
   TempDir dir;
   ServerProcess server(dir.path() + "/store", {"--max-connections", "2", "--idle-timeout", "3600"});
   const std::string get = "GET /healthz HTTP/1.1\r\nHost: test\r\n\r\n";
-  auto first = std::make_unique<Connection>(server.port());
-  Connection second(server.port());
-  ASSERT_TRUE(first->send(get));
-  ASSERT_TRUE(second.send(get));
-  EXPECT_EQ(status_of(first->read_response()), 200);
-  EXPECT_EQ(status_of(second.read_response()), 200);
+  auto first = std::make_unique<RawConnection>(server.port());
+  RawConnection second(server.port());
+  ASSERT_TRUE(first->try_send(get));
+  ASSERT_TRUE(second.try_send(get));
+  EXPECT_EQ(status_of(first->read_response(kWaitMs)), 200);
+  EXPECT_EQ(status_of(second.read_response(kWaitMs)), 200);
 
-  Connection third(server.port());  // completed by the kernel, not accepted while two are open
+  RawConnection third(server.port(), std::nothrow);  // completed by the kernel, not accepted while two are open
   ASSERT_TRUE(third.connected());
-  ASSERT_TRUE(third.send(get));
-  EXPECT_FALSE(third.readable(500ms)) << "a third connection was served beyond --max-connections 2";
+  ASSERT_TRUE(third.try_send(get));
+  EXPECT_FALSE(third.readable(500)) << "a third connection was served beyond --max-connections 2";
   first.reset();
-  EXPECT_EQ(status_of(third.read_response()), 200);
+  EXPECT_EQ(status_of(third.read_response(kWaitMs)), 200);
 }
 
 std::size_t open_fds(pid_t pid) { return entries("/proc/" + std::to_string(pid) + "/fd"); }
@@ -306,11 +229,11 @@ TEST(UploadLimits, OutOfFileDescriptorsTheServerWaitsAndRecovers) {
   ASSERT_EQ(::prlimit(server.pid(), RLIMIT_NOFILE, &low, nullptr), 0);
 
   const std::string get = "GET /healthz HTTP/1.1\r\nHost: test\r\n\r\n";
-  std::vector<std::unique_ptr<Connection>> clients;
+  std::vector<std::unique_ptr<RawConnection>> clients;
   for (int i = 0; i < 30; ++i) {
-    clients.push_back(std::make_unique<Connection>(server.port()));
+    clients.push_back(std::make_unique<RawConnection>(server.port(), std::nothrow));
     ASSERT_TRUE(clients.back()->connected());
-    ASSERT_TRUE(clients.back()->send(get));
+    ASSERT_TRUE(clients.back()->try_send(get));
   }
   std::this_thread::sleep_for(3s);  // the listener at EMFILE for a while
   const std::string log = server.log();
@@ -321,7 +244,7 @@ TEST(UploadLimits, OutOfFileDescriptorsTheServerWaitsAndRecovers) {
 
   // Every client is answered as the ones before it close: the listener takes them up again.
   for (auto& c : clients) {
-    EXPECT_EQ(status_of(c->read_response()), 200);
+    EXPECT_EQ(status_of(c->read_response(kWaitMs)), 200);
     c.reset();
   }
   HttpClient http(server.port());
