@@ -36,13 +36,6 @@ std::vector<std::string_view> fields_of(std::string_view line) {
   return fields;
 }
 
-bool valid_key_id(std::string_view id) {
-  if (id.empty() || id.size() > kMaxKeyIdChars) return false;
-  for (char c : id)
-    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-')) return false;
-  return true;
-}
-
 int hex_value(char c) {
   if (c >= '0' && c <= '9') return c - '0';
   if (c >= 'a' && c <= 'f') return c - 'a' + 10;
@@ -76,7 +69,7 @@ KeyEntry parse_line(std::string_view line, const std::string& where) {
   const auto fields = fields_of(line);
   if (fields.size() != 3) throw KeyFileError(where + ": expected KEY_ID ROLE KEY");
   KeyEntry e;
-  if (!valid_key_id(fields[0]))
+  if (!is_valid_key_id(fields[0]))
     throw KeyFileError(where + ": a key id is 1-64 characters from A-Z a-z 0-9 . _ -");
   e.key_id = std::string(fields[0]);
   try {
@@ -109,6 +102,13 @@ std::string read_whole(const std::string& path) {
 }
 
 }  // namespace
+
+bool is_valid_key_id(std::string_view id) {
+  if (id.empty() || id.size() > kMaxKeyIdChars) return false;
+  for (char c : id)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-')) return false;
+  return true;
+}
 
 std::string_view role_name(Role role) {
   switch (role) {

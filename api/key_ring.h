@@ -58,6 +58,9 @@ class KeyFileError : public std::runtime_error {
 // Parses the text of a key file (format above). Throws KeyFileError.
 std::vector<KeyEntry> parse_key_file(std::string_view text);
 
+// Whether `id` may name a key: 1-64 characters from A-Z a-z 0-9 . _ -
+bool is_valid_key_id(std::string_view id);
+
 // SHA-256 of `key`.
 KeyDigest key_digest(std::string_view key);
 
