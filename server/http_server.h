@@ -1,6 +1,7 @@
 // The HTTP/1.1 server (Boost.Beast, keep-alive): a listener accepts connections, one session per
 // connection reads requests and writes responses on the I/O threads; anything that needs CPU
 // (rendering, encoding, ingest) goes to a bounded worker pool and comes back to the session.
+// SIGHUP calls HttpServerOptions::on_reload (the key file is read again) and changes nothing else.
 // SIGTERM/SIGINT drains: readiness fails, then no new connections, idle connections close,
 // in-flight requests finish, and run() returns 0. Requests still running when --drain-timeout has
 // passed are cancelled (their StopTokens) and get what they can in a last half second; then run()
@@ -12,6 +13,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -41,6 +43,7 @@ struct HttpServerOptions {
   std::chrono::seconds gc_grace{600};         // age of unreferenced versions before removal
   bool log_requests = true;
   std::string face_detection = "on";          // "off: why" — a /readyz detail, not a readiness failure
+  std::function<void()> on_reload;            // SIGHUP, on an I/O thread; empty: SIGHUP is logged and ignored
 };
 
 // Threads: construct, run() and destroy on one thread; run() runs the I/O threads itself.

@@ -157,6 +157,10 @@ void Session::on_header(beast::error_code ec) {
       return send(api::error_response(413, "upload_too_large",
                                       "uploads are limited to " + std::to_string(state_.options.max_upload_bytes) + " bytes"));
     }
+    if (auto refusal = state_.router.authorize(req_)) {  // before a byte of the body is staged
+      keep_alive_ = false;  // the body is not read, so the connection cannot be reused
+      return send(std::move(*refusal));
+    }
     if (auto refusal = admit_upload()) return send(std::move(*refusal));
     upload_parser_.emplace(std::move(*header_parser_));
     upload_parser_->body_limit(state_.options.max_upload_bytes);
@@ -330,7 +334,7 @@ void Session::answer() {
     return send(std::move(r));
   }
   try {
-    if (auto r = answer_ops(req_, OpsContext{state_.store, state_.metrics, state_.draining, state_.options.face_detection})) return send(std::move(*r));
+    if (auto r = answer_ops(req_, OpsContext{state_.store, state_.metrics, state_.draining, state_.options.face_detection, state_.router.config().access})) return send(std::move(*r));
     if (auto r = state_.router.try_answer_now(req_)) return send(std::move(*r));
   } catch (const std::exception& e) {
     return send(api::internal_error_response(e.what()));
