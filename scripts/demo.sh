@@ -2,8 +2,8 @@
 # Sets up, builds, ingests the bundled sample image and serves it on http://127.0.0.1:8080/.
 # Environment variables ZOOMWARP_* configure the server (see `build/bin/zoomwarp serve --help`).
 # It listens on loopback only, with --open-writes: anyone on this machine may upload and edit (the
-# viewer's curator tools work without a key). With ZOOMWARP_KEYS set, keys govern writes instead
-# (and ZOOMWARP_HOST is honoured).
+# viewer shows its curator tools once any text is entered as its curator key). With ZOOMWARP_KEYS
+# set, keys govern writes instead (and ZOOMWARP_HOST is honoured).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh

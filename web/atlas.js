@@ -1,6 +1,7 @@
 // Deep Zoom tiles, fetched once and kept decoded, composited into the one texture a mesh is drawn
 // with (geometry.js planAtlas says which tiles and where).
 
+import { authorizedFetch } from './curator.js';
 import { tileRect } from './geometry.js';
 
 // Decoded tiles by URL, the least recently used dropped first. A tile's pixels never change for a
@@ -28,7 +29,7 @@ export class TileCache {
 }
 
 async function fetchBitmap(url) {
-  const response = await fetch(url);
+  const response = await authorizedFetch(url);
   if (!response.ok) throw new Error(`tile ${url}: HTTP ${response.status}`);
   // Colours exactly as encoded, as the server's own renderer reads them; premultiplied, as the
   // renderer blends.

@@ -1,5 +1,11 @@
 // The curator's edits as the server takes them: significance regions and line constraints, in
 // source pixels. Each publishes a new image version and answers with the image JSON.
+//
+// And the curator's key, which the server asks of every edit (and of reads of private images):
+// kept in sessionStorage, so it lives as long as the tab and no longer, and sent by
+// authorizedFetch as `Authorization: Bearer …` with every request the viewer makes. Never in
+// localStorage (it would outlive the session), in a URL (it would reach logs and history) or on
+// the console.
 
 // Points per side of a marked rectangle: under a warp a screen rectangle is a curved region of
 // the source, so its outline is sent as a polygon, not as the bounding box of its corners.
@@ -44,7 +50,7 @@ export async function markImportant(imageId, polygon) {
 
 export async function fetchLines(imageId) {
   // no-cache: the lines change under the same URL with every version.
-  const response = await fetch(`/v1/images/${encodeURIComponent(imageId)}/lines`, { cache: 'no-cache' });
+  const response = await authorizedFetch(`/v1/images/${encodeURIComponent(imageId)}/lines`, { cache: 'no-cache' });
   if (!response.ok) throw new Error(`lines: HTTP ${response.status}`);
   return (await response.json()).lines;
 }
@@ -54,11 +60,83 @@ export async function putLines(imageId, lines) {
 }
 
 async function send(method, url, body) {
-  const response = await fetch(url, {
+  const response = await authorizedFetch(url, {
     method,
     headers: { 'Content-Type': 'application/json' },
     body: JSON.stringify(body),
   });
+  if (response.status === 401 || response.status === 403) {
+    throw new Error(refusalMessage({ status: response.status, message: await errorMessage(response) }));
+  }
   if (!response.ok) throw new Error(`${method} ${url}: HTTP ${response.status} ${await response.text()}`);
   return response.json();
+}
+
+// What the viewer says when the server refuses the key: the same whether the edit that was
+// refused or the key's listeners say it first.
+export function refusalMessage({ status, message }) {
+  return `the server refused the curator key (HTTP ${status}${message ? `: ${message}` : ''}); it is forgotten`;
+}
+
+const KEY_ITEM = 'zoomwarp.curatorKey';
+
+// The key of this tab, and who wants to hear of it changing. One instance (curatorKey) serves
+// every module, so a key refused by one request is gone for all of them.
+class CuratorKey {
+  constructor(storage) {
+    this.storage = storage;
+    this.listeners = [];
+  }
+
+  get() {
+    return this.storage.getItem(KEY_ITEM);
+  }
+
+  set(key) {
+    this.storage.setItem(KEY_ITEM, key);
+    this.changed({ refused: null });
+  }
+
+  // refused: null when the user asked, else {status, message} of the answer that refused the key.
+  forget(refused = null) {
+    this.storage.removeItem(KEY_ITEM);
+    this.changed({ refused });
+  }
+
+  // listener({key, refused}) after every change; key is null once forgotten.
+  onChange(listener) {
+    this.listeners.push(listener);
+  }
+
+  changed({ refused }) {
+    for (const listener of this.listeners) listener({ key: this.get(), refused });
+  }
+}
+
+export const curatorKey = new CuratorKey(sessionStorage);
+
+// fetch(), with the tab's key as a bearer token when there is one and the URL is on the viewer's
+// own server (tile URLs may name another host, e.g. a CDN, which must never see the key). A 401 or
+// 403 to a request that carried the key means the server does not take it (unknown, rotated
+// away, or without the role the request needs): the key is forgotten, and the listeners told why.
+// Requests without a key change nothing, so a private image refused to a reader does not touch
+// the key.
+export async function authorizedFetch(url, init = {}) {
+  const key = curatorKey.get();
+  if (key === null || new URL(url, location.href).origin !== location.origin) return fetch(url, init);
+  const response = await fetch(url, { ...init, headers: { ...init.headers, Authorization: `Bearer ${key}` } });
+  // Requests in flight together may all be refused; the first one forgets the key.
+  if ((response.status === 401 || response.status === 403) && curatorKey.get() === key) {
+    curatorKey.forget({ status: response.status, message: await errorMessage(response.clone()) });
+  }
+  return response;
+}
+
+// The message of the server's JSON error ({"error": {"code", "message"}}), or '' if there is none.
+async function errorMessage(response) {
+  try {
+    return (await response.json()).error?.message ?? '';
+  } catch {
+    return '';
+  }
 }

@@ -4,6 +4,7 @@
 // costs as many requests as the server can answer, not one per mouse event.
 
 import { loadAtlas } from './atlas.js';
+import { authorizedFetch } from './curator.js';
 import { interpolatePositions, locate, magnificationAt, parseMesh, planAtlas, positionAt, textureCoordinates } from './geometry.js';
 
 const ANIMATION_MS = 250;
@@ -81,7 +82,7 @@ export class Pane {
 
   async load(request) {
     this.counters.meshRequests++;
-    const response = await fetch(this.meshUrl(request), { cache: 'no-cache' });  // versions change under the same URL
+    const response = await authorizedFetch(this.meshUrl(request), { cache: 'no-cache' });  // versions change under the same URL
     if (!response.ok) throw new Error(`mesh: HTTP ${response.status} ${await response.text()}`);
     const mesh = parseMesh(await response.json());
     if (mesh.triangles.length === 0) return { request, mesh, plan: null, texture: null };

@@ -2,13 +2,16 @@
 // content-aware zoom (ICAZ) and drawn with WebGL from its Deep Zoom tiles. The view is
 // {zoom 0…1, cx, cy in full-resolution pixels}; every change asks the server for the mesh of the
 // new view as a geomorph from the drawn one and animates between the two. Curator tools mark
-// regions important and draw line constraints; compare shows ICAZ beside traditional zooming.
+// regions important and draw line constraints, shown only while the tab holds a curator key
+// (curator.js); compare shows ICAZ beside traditional zooming.
 //
 // For tests and scripts, window.zoomwarp = {ready, setView, getView, imageId, meshRequests, frames}
 // (web/README.md).
 
 import { TileCache } from './atlas.js';
-import { fetchLines, insideImage, markImportant, outlineInSource, putLines } from './curator.js';
+import {
+  authorizedFetch, curatorKey, fetchLines, insideImage, markImportant, outlineInSource, putLines, refusalMessage,
+} from './curator.js';
 import { Overlay } from './overlay.js';
 import { Pane, VIEW_DIGITS } from './pane.js';
 import { Renderer } from './renderer.js';
@@ -290,7 +293,7 @@ function spread(points) {
 // --- page ---------------------------------------------------------------------------------
 
 async function listImages() {
-  const response = await fetch('/v1/images', { cache: 'no-cache' });
+  const response = await authorizedFetch('/v1/images', { cache: 'no-cache' });
   if (!response.ok) throw new Error(`image list: HTTP ${response.status}`);
   return (await response.json()).images;
 }
@@ -313,8 +316,65 @@ function wireControls(viewer) {
   document.getElementById('compare').addEventListener('change', (e) => viewer.setCompare(e.target.checked));
 }
 
+// A key is printable ASCII without spaces, as a header value must be: fetch() refuses anything else.
+const KEY_SYNTAX = /^[\x21-\x7e]+$/;
+
+// The curator key control. The tools show while the tab holds a key; the server alone knows what
+// a key may do, so a key without the curator role shows them too, until its first edit is
+// refused and the key forgotten (curator.js authorizedFetch).
+function wireCuratorKey(status) {
+  const button = document.getElementById('key-button');
+  const form = document.getElementById('key-form');
+  const input = document.getElementById('key-input');
+  const forget = document.getElementById('forget-key');
+  const showForm = (shown) => {
+    form.hidden = !shown;
+    button.setAttribute('aria-expanded', String(shown));
+    if (shown) input.focus();
+  };
+  const showKeyHeld = (held) => {
+    showCuratorTools(held);
+    button.hidden = held;
+    forget.hidden = !held;
+    if (held) showForm(false);
+  };
+  button.addEventListener('click', () => showForm(form.hidden));
+  form.addEventListener('submit', (e) => {
+    e.preventDefault();  // a plain form submission would navigate
+    const key = input.value.trim();
+    input.value = '';
+    if (!KEY_SYNTAX.test(key)) {
+      status.textContent = 'a key is printable ASCII without spaces';
+      return;
+    }
+    curatorKey.set(key);
+    status.textContent = 'curator key kept for this tab and sent with every request';
+  });
+  forget.addEventListener('click', () => {
+    curatorKey.forget();
+    status.textContent = 'curator key forgotten';
+  });
+  curatorKey.onChange(({ key, refused }) => {
+    showKeyHeld(key !== null);
+    if (refused) status.textContent = refusalMessage(refused);
+  });
+  showKeyHeld(curatorKey.get() !== null);
+}
+
+// Hiding the tools goes back to pan & zoom, so no gesture can start an edit without a key.
+function showCuratorTools(shown) {
+  document.getElementById('curator-tools').hidden = !shown;
+  const pan = document.getElementById('tool-pan');
+  if (!shown && !pan.checked) {
+    pan.checked = true;
+    pan.dispatchEvent(new Event('change'));
+  }
+}
+
 async function start() {
   const status = document.getElementById('status');
+  // First, so that a key refused by the very first request is reported.
+  wireCuratorKey(status);
   const images = await listImages();
   if (images.length === 0) throw new Error('no images yet: add one with POST /v1/images');
   const wanted = new URLSearchParams(location.search).get('image');

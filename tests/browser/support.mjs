@@ -59,8 +59,8 @@ export async function ingest(store, file, id) {
 
 // Starts `zoomwarp serve` on a free loopback port and returns that port, read from the
 // server's JSON 'listening' log line. Cleanup stops it with SIGTERM and expects a clean exit.
-// `extraArgs` default to --open-writes (the viewer's curator tools write; these tests are not
-// about access); pass e.g. ['--keys', file] to test with keys.
+// `extraArgs` default to --open-writes, for tests not about access; the viewer test passes
+// ['--keys', file] instead, so that its edits need a key as in production.
 export async function startZoomwarp(store, cleanups, extraArgs = ['--open-writes']) {
   const server = spawn(ZOOMWARP, ['serve', '--host', '127.0.0.1', '--port', '0', '--store', store,
                                   '--log-requests', '0', ...extraArgs],

@@ -1,11 +1,13 @@
 // zoomwarp's own web viewer (web/, served at /) in headless Chromium against a real server:
 // it draws, a wheel notch zooms, its WebGL picture of a view matches the server's own rendering
-// of that view (/viewport), and a curator edit made with the mouse publishes a new version.
+// of that view (/viewport), a curator edit made with the mouse publishes a new version, and the
+// curator tools are there only for a key the server takes as a curator's.
 //
 // Run: cd tests/browser && npm ci && node --test viewer.test.mjs
 // Needs: a built zoomwarp (ZOOMWARP_BINARY), /usr/bin/chromium, Node >= 18.
 
 import assert from 'node:assert/strict';
+import crypto from 'node:crypto';
 import fs from 'node:fs/promises';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -19,9 +21,10 @@ const __dirname = path.dirname(fileURLToPath(import.meta.url));
 const OUT_DIR = path.join(__dirname, 'out', 'viewer');
 const SAMPLE = path.join(SAMPLES, 'boats_lake_sunset.jpg');  // 2560×1600
 const IMAGE_ID = 'boats_lake_sunset';
-// The same picture under another id for the edit test, so that the other tests see the image
+// The same picture under other ids for the edit tests, so that the other tests see the image
 // as ingested whatever order they run in.
 const EDITED_ID = 'boats-edited';
+const LINES_ID = 'boats-lines';
 const VIEWPORT = { width: 480, height: 360 };
 
 // The viewer draws the server's mesh with the GPU's bilinear filtering from JPEG tiles of one
@@ -35,15 +38,26 @@ const VIEWS = [
   { name: 'zoom-0', zoom: 0, cx: 1280, cy: 800 },
 ];
 
+// The server's key file (`--keys`, `KEY_ID ROLE KEY` a line) holds one key of each role the
+// viewer meets; writes are not opened to everyone (no --open-writes).
+const CURATOR_KEY = crypto.randomBytes(24).toString('base64url');
+const READER_KEY = crypto.randomBytes(24).toString('base64url');
+// Where the viewer keeps the key (web/curator.js).
+const KEY_ITEM = 'zoomwarp.curatorKey';
+
 const cleanups = new Cleanups();
 let browser;
 let base;
 
 before(async () => {
-  const store = path.join(await tempDir(cleanups), 'store');
+  const dir = await tempDir(cleanups);
+  const store = path.join(dir, 'store');
+  const keys = path.join(dir, 'keys');
+  await fs.writeFile(keys, `curator-1 curator ${CURATOR_KEY}\nreader-1 reader ${READER_KEY}\n`, { mode: 0o600 });
   await ingest(store, SAMPLE, IMAGE_ID);
   await ingest(store, SAMPLE, EDITED_ID);
-  base = `http://127.0.0.1:${await startZoomwarp(store, cleanups)}`;
+  await ingest(store, SAMPLE, LINES_ID);
+  base = `http://127.0.0.1:${await startZoomwarp(store, cleanups, ['--keys', keys])}`;
   browser = await launchChromium(cleanups);
   await fs.mkdir(OUT_DIR, { recursive: true });
 }, { timeout: 90_000 });
@@ -96,6 +110,7 @@ test('marking a region important with the mouse publishes a new version', { time
   const page = await openViewer(t, `/?image=${EDITED_ID}`);
   const { version, width, height } = await getJson(`/v1/images/${EDITED_ID}`);
 
+  await enterKey(page, CURATOR_KEY);
   await page.check('#tool-important');
   const patch = page.waitForResponse((r) => r.request().method() === 'PATCH' &&
                                             r.url().endsWith(`/v1/images/${EDITED_ID}/significance`));
@@ -115,6 +130,107 @@ test('marking a region important with the mouse publishes a new version', { time
   assert.notEqual(edited.version, version, 'a new image version');
   assert.equal((await response.json()).version, edited.version);
 });
+
+test('without a key the curator tools are hidden and a drag writes nothing', { timeout: 60_000 }, async (t) => {
+  const page = await openViewer(t, `/?image=${LINES_ID}`);
+  const { lines } = await getJson(`/v1/images/${LINES_ID}/lines`);
+  const requests = recordRequests(page);
+
+  assert.equal(await page.isVisible('#key-button'), true, 'the key control is offered');
+  for (const tool of ['#tool-important', '#tool-line']) assert.equal(await page.isVisible(tool), false, `${tool} hidden`);
+  await drag(page);
+  await page.evaluate(() => window.zoomwarp.setView({}));  // the drag's view, drawn
+
+  assert.deepEqual(requests.filter((r) => r.method() !== 'GET').map((r) => `${r.method()} ${r.url()}`), []);
+  for (const request of requests) assert.equal((await request.allHeaders()).authorization, undefined, request.url());
+  assert.deepEqual((await getJson(`/v1/images/${LINES_ID}/lines`)).lines, lines, 'the lines as they were');
+});
+
+test('a reader key is refused at its first edit, forgotten, and the tools hidden', { timeout: 60_000 }, async (t) => {
+  const page = await openViewer(t, `/?image=${LINES_ID}`);
+  const { lines } = await getJson(`/v1/images/${LINES_ID}/lines`);
+
+  await enterKey(page, READER_KEY);
+  await page.check('#tool-line');
+  const put = page.waitForResponse((r) => r.request().method() === 'PUT');
+  await drag(page);
+  const response = await put;
+
+  assert.equal(response.status(), 403, await response.text());
+  await page.waitForSelector('#curator-tools', { state: 'hidden' });
+  assert.match(await page.textContent('#status'), /refused the curator key \(HTTP 403.*forgotten/);
+  assert.equal(await page.isChecked('#tool-pan'), true, 'back to pan & zoom');
+  assert.equal(await page.isVisible('#key-button'), true, 'a key can be entered again');
+  assert.equal(await storedKey(page), null);
+  assert.deepEqual((await getJson(`/v1/images/${LINES_ID}/lines`)).lines, lines, 'the lines as they were');
+});
+
+test('a curator key shows the tools, goes with every request, and can be forgotten', { timeout: 60_000 }, async (t) => {
+  const page = await openViewer(t, `/?image=${LINES_ID}`);
+  const { lines } = await getJson(`/v1/images/${LINES_ID}/lines`);
+
+  await enterKey(page, CURATOR_KEY);
+  const requests = recordRequests(page);
+  assert.equal(await page.isVisible('#tool-line'), true, 'the tools appear');
+  assert.equal(await storedKey(page), CURATOR_KEY, 'the key in sessionStorage');
+  assert.equal(await page.evaluate(() => localStorage.length), 0, 'nothing in localStorage');
+  assert.ok(!page.url().includes(CURATOR_KEY), 'the key is not in the URL');
+
+  await page.check('#tool-line');
+  const put = page.waitForResponse((r) => r.request().method() === 'PUT');
+  await drag(page);
+  const response = await put;
+  assert.equal(response.status(), 200, await response.text());
+  await page.waitForFunction(() => document.getElementById('status').textContent.startsWith('saved: version'));
+  const edited = (await getJson(`/v1/images/${LINES_ID}/lines`)).lines;
+  assert.equal(edited.length, lines.length + 1, 'one more line on the server');
+  assert.deepEqual(edited.slice(0, lines.length), lines);
+  await page.evaluate(() => window.zoomwarp.setView({}));  // the new version's mesh, drawn
+
+  const sent = requests.splice(0);
+  for (const kind of [/PUT .*\/lines$/, /GET .*\/lines$/, /GET .*\/mesh\?/]) {
+    assert.ok(sent.some((r) => kind.test(`${r.method()} ${r.url()}`)), `a request ${kind} was sent`);
+  }
+  for (const request of sent) {
+    assert.equal((await request.allHeaders()).authorization, `Bearer ${CURATOR_KEY}`, `${request.method()} ${request.url()}`);
+  }
+
+  await page.click('#forget-key');
+  assert.equal(await page.isVisible('#tool-line'), false, 'the tools hidden again');
+  assert.equal(await page.isChecked('#tool-pan'), true, 'back to pan & zoom');
+  assert.equal(await storedKey(page), null, 'the key gone from sessionStorage');
+  await page.evaluate(() => window.zoomwarp.setView({ zoom: 0.2 }));
+  assert.ok(requests.some((r) => r.url().includes('/mesh?')), 'a mesh fetched after forgetting');
+  for (const request of requests) assert.equal((await request.allHeaders()).authorization, undefined, request.url());
+});
+
+// Enters a key with the viewer's key control, as a person would, and waits for it to be taken.
+async function enterKey(page, key) {
+  await page.click('#key-button');
+  await page.fill('#key-input', key);
+  await page.press('#key-input', 'Enter');
+  await page.waitForSelector('#forget-key', { state: 'visible' });
+}
+
+async function storedKey(page) {
+  return page.evaluate((item) => sessionStorage.getItem(item), KEY_ITEM);
+}
+
+// The requests the page makes from now on (kept live in the returned array).
+function recordRequests(page) {
+  const requests = [];
+  page.on('request', (request) => requests.push(request));
+  return requests;
+}
+
+// A mouse drag across the middle of the picture: a pan, a marked rectangle or a line by the tool.
+async function drag(page) {
+  await page.mouse.move(120, 120);
+  await page.mouse.down();
+  await page.mouse.move(240, 180, { steps: 5 });
+  await page.mouse.move(360, 240, { steps: 5 });
+  await page.mouse.up();
+}
 
 // A page of the viewer in its own context (480×360 CSS pixels, one device pixel each), ready:
 // the first frame is drawn. Page errors fail the test; the context is closed after it.
