@@ -6,6 +6,7 @@
 
 #include "api/errors.h"
 #include "api/url.h"
+#include "api/url_signing.h"
 #include "warp/limits.h"
 
 namespace zoomwarp::api {
