@@ -117,11 +117,7 @@ std::string Router::base_url(const Request& req) const {
   return scheme + "://" + (host_is_sane(req.host) ? req.host : std::string("localhost"));
 }
 
-bool Router::has_curator_key(const Request& req) const {
-  if (!config_.authenticator || req.authorization.empty()) return false;
-  const auto result = config_.authenticator->authenticate(req.authorization);
-  return result.outcome == Authenticator::Outcome::kValid && result.principal.role >= Role::kCurator;
-}
+bool Router::has_curator_key(const Request& req) const { return has_role(config_.access, Role::kCurator, req); }
 
 std::shared_ptr<const tiles::ImageEntry> Router::readable_image(const Request& req, const std::string& id) const {
   auto entry = find_image(store_, id);
@@ -235,7 +231,8 @@ Response Router::compute_once(const std::string& cache_key, const warp::StopToke
 // The route table: every path the api serves, by method, in OpenAPI path-template syntax.
 // api/openapi.json documents exactly these (RouterRoutes test) plus the server's /healthz,
 // /readyz and /metrics. A template segment may hold parameters between literals
-// ("{id}.dzi", "{quality}.{format}"); HEAD is answered as GET.
+// ("{id}.dzi", "{quality}.{format}"); HEAD is answered as GET. The last field says who may call
+// a route (api/authorize.h); without it, anyone.
 const std::vector<Router::Route>& Router::routes() {
   static const std::vector<Route> table = {
       {"GET", "/", &Router::web_page},
@@ -244,15 +241,15 @@ const std::vector<Router::Route>& Router::routes() {
       {"GET", "/v1", &Router::index},
       {"GET", "/openapi.json", &Router::openapi},
       {"GET", "/v1/images", &Router::list_images},
-      {"POST", "/v1/images", &Router::upload_image},
+      {"POST", "/v1/images", &Router::upload_image, Access::kCurator},
       {"GET", "/v1/images/{id}", &Router::describe_image},
-      {"DELETE", "/v1/images/{id}", &Router::delete_image},
+      {"DELETE", "/v1/images/{id}", &Router::delete_image, Access::kCurator},
       {"GET", "/v1/images/{id}/viewport", &Router::view_route},
       {"GET", "/v1/images/{id}/mesh", &Router::view_route},
       {"GET", "/v1/images/{id}/significance.png", &Router::view_route},
       {"GET", "/v1/images/{id}/lines", &Router::view_route},
-      {"PUT", "/v1/images/{id}/lines", &Router::edit_route},
-      {"PATCH", "/v1/images/{id}/significance", &Router::edit_route},
+      {"PUT", "/v1/images/{id}/lines", &Router::edit_route, Access::kCurator},
+      {"PATCH", "/v1/images/{id}/significance", &Router::edit_route, Access::kCurator},
       {"GET", "/dzi/{id}.dzi", &Router::dzi_descriptor_route},
       {"GET", "/dzi/{id}_files/{level}/{tile}", &Router::dzi_tile_route},
       {"GET", "/iiif/3/{id}", &Router::iiif_base},
@@ -306,6 +303,14 @@ bool match_path(std::string_view tmpl, const std::vector<std::string>& segments,
   return i == segments.size();
 }
 
+// The decoded segments routes match against (a trailing slash ignored: "/v1/images/"); nullopt
+// for a malformed path.
+std::optional<std::vector<std::string>> route_segments(std::string_view path) {
+  auto segments = split_path(path);
+  if (segments && segments->size() > 1 && segments->back().empty()) segments->pop_back();
+  return segments;
+}
+
 }  // namespace
 
 const std::string& Router::param(const PathParams& params, std::string_view name) {
@@ -314,19 +319,36 @@ const std::string& Router::param(const PathParams& params, std::string_view name
   throw std::logic_error("route parameter missing from the template");
 }
 
+const Router::Route* Router::find_route(const std::string& req_method, const std::vector<std::string>& segments,
+                                        PathParams& params, std::string& allowed) {
+  const std::string method = req_method == "HEAD" ? "GET" : req_method;
+  for (const Route& route : routes()) {
+    if (!match_path(route.path, segments, params)) continue;
+    if (route.method == method) return &route;
+    allowed += (allowed.empty() ? "" : ", ") + std::string(route.method == "GET" ? "GET, HEAD" : route.method);
+  }
+  return nullptr;
+}
+
+std::optional<Response> Router::authorize(const Request& req) const {
+  const auto segments = route_segments(req.path);
+  if (!segments) return std::nullopt;
+  PathParams params;
+  std::string allowed;
+  const Route* route = find_route(req.method, *segments, params, allowed);
+  return route ? check_access(config_.access, route->access, req) : std::nullopt;
+}
+
 std::optional<Response> Router::dispatch(const Request& req, bool may_compute) {
   try {
-    auto segments = split_path(req.path);
+    const auto segments = route_segments(req.path);
     if (!segments) throw ApiError(400, "invalid_path", "the path is not well-formed");
-    if (segments->size() > 1 && segments->back().empty()) segments->pop_back();  // "/v1/images/"
     reject_repeated_parameters(req.query);
-    const std::string method = req.method == "HEAD" ? "GET" : req.method;
     PathParams params;
-    std::string allowed;  // methods of the routes whose path matches
-    for (const Route& route : routes()) {
-      if (!match_path(route.path, *segments, params)) continue;
-      if (route.method == method) return (this->*route.handler)(req, params, may_compute);
-      allowed += (allowed.empty() ? "" : ", ") + std::string(route.method == "GET" ? "GET, HEAD" : route.method);
+    std::string allowed;
+    if (const Route* route = find_route(req.method, *segments, params, allowed)) {
+      if (auto refusal = check_access(config_.access, route->access, req)) return refusal;
+      return (this->*route->handler)(req, params, may_compute);
     }
     if (!allowed.empty()) return method_not_allowed(allowed);
     if (segments->size() > 3 && (*segments)[0] == "iiif" && (*segments)[1] == "3")

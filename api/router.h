@@ -16,7 +16,7 @@
 #include <utility>
 #include <vector>
 
-#include "api/access.h"
+#include "api/authorize.h"
 #include "api/deepzoom.h"
 #include "api/http_types.h"
 #include "api/iiif.h"
@@ -42,10 +42,9 @@ struct RouterConfig {
   std::size_t warp_cache_bytes = 256u << 20;  // ICAZ operators (models, forests, coarse warps) kept in memory
   warp::SignificanceOptions significance;     // for models built from the pyramid (the face cascade)
   EventLog log;                               // damaged models are reported here
-  // Who a request's Authorization header names (api/access.h); null: nobody (a curator key never
-  // matches, so private images are readable by signed URL only).
-  std::shared_ptr<const Authenticator> authenticator;
-  // Verifies signed URLs (api/url_signing.h); null: none is valid (no --signing-key).
+  AccessPolicy access;                        // who may call the curator routes (api/authorize.h)
+  // Verifies signed URLs of private images (api/url_signing.h); null: none is valid (no
+  // --signing-key). Curator keys are the access policy's.
   std::shared_ptr<const UrlSigner> url_signer;
 };
 
@@ -64,6 +63,12 @@ class Router {
   // Answers any request; may decode, resample, encode or ingest.
   Response handle(const Request& req);
 
+  // The 401/403 answer if `req` names a route its credentials do not allow (api/authorize.h),
+  // else nullopt (also for paths no route has: dispatch answers those). dispatch() checks this
+  // before every handler; the server also asks before reading an upload's body, so a refused
+  // upload costs no disk.
+  std::optional<Response> authorize(const Request& req) const;
+
   // Whether the request's body is an image upload that the server streams into a file
   // (Request::body_file) instead of memory.
   static bool is_upload(std::string_view method, std::string_view path);
@@ -72,19 +77,25 @@ class Router {
   std::size_t warp_cache_bytes() { return engines_.memory_bytes(); }
   const RouterConfig& config() const { return config_; }
 
- // A route: method and OpenAPI path template, and the member answering it. A handler returns
-  // nullopt when the answer must be computed and may_compute is false.
+ // A route: method, OpenAPI path template, the member answering it, and who may call it (the
+  // OpenAPI document declares the same as the route's `security`). A handler returns nullopt when
+  // the answer must be computed and may_compute is false.
   using PathParams = std::vector<std::pair<std::string_view, std::string>>;
   using Handler = std::optional<Response> (Router::*)(const Request&, const PathParams&, bool may_compute);
   struct Route {
     std::string_view method;
     std::string_view path;
     Handler handler;
+    Access access = Access::kPublic;
   };
   static const std::vector<Route>& routes();
 
  private:
   std::optional<Response> dispatch(const Request& req, bool may_compute);
+  // The route matching `method` and the path's segments (parameters into `params`), or null;
+  // `allowed` gathers the methods of routes with the same path.
+  static const Route* find_route(const std::string& method, const std::vector<std::string>& segments,
+                                 PathParams& params, std::string& allowed);
   static const std::string& param(const PathParams& params, std::string_view name);
 
   std::optional<Response> index(const Request&, const PathParams&, bool);

@@ -35,6 +35,11 @@ readonly APP_BINARY=/usr/local/bin/zoomwarp
 readonly FACE_CASCADE=/usr/share/opencv4/haarcascades/haarcascade_frontalface_default.xml
 readonly SAMPLE=boats_lake_sunset.jpg SAMPLE_ID=boats UPLOAD_ID=boats-upload
 readonly VIEW_QUERY='zoom=0.5&w=480&h=360' VIEW_SIZE=480x360
+# The key file the server reads (ZOOMWARP_KEYS), as a Kubernetes Secret mounts it; its curator
+# key is made per run.
+readonly KEYS_FILE=/etc/zoomwarp/keys
+CURATOR_KEY=$(head -c 24 /dev/urandom | od -An -tx1 | tr -d ' \n')
+readonly CURATOR_KEY
 readonly ROOT_PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin
 # Part of every cache key: bump it when this script changes how it builds a cached layer.
 readonly CACHE_FORMAT=2
@@ -478,9 +483,13 @@ ingest_sample() {
 }
 
 # The image's CMD (serve), on loopback and a port the kernel picks (read from the 'listening'
-# log line), instead of the image's 0.0.0.0:8080.
+# log line), instead of the image's 0.0.0.0:8080; with a key file readable by its group only.
 start_server() {
-  "${APP[@]}" ZOOMWARP_HOST=127.0.0.1 ZOOMWARP_PORT=0 zoomwarp serve >"$SERVER_LOG" 2>&1 &
+  install -d -m 0755 "$(dirname "$ROOT$KEYS_FILE")"
+  printf 'rootfs-test curator %s\n' "$CURATOR_KEY" >"$ROOT$KEYS_FILE"
+  chown "0:$APP_GID" "$ROOT$KEYS_FILE"
+  chmod 0640 "$ROOT$KEYS_FILE"
+  "${APP[@]}" ZOOMWARP_HOST=127.0.0.1 ZOOMWARP_PORT=0 ZOOMWARP_KEYS="$KEYS_FILE" zoomwarp serve >"$SERVER_LOG" 2>&1 &
   SERVER_PID=$!
   local deadline=$((SECONDS + 30))
   until PORT=$(sed -n 's/.*"msg":"listening".*"port":\([0-9]*\).*/\1/p' "$SERVER_LOG") && [[ -n $PORT ]]; do
@@ -566,9 +575,13 @@ check_requests() {
 
   check_image_healthcheck
 
-  # An upload makes the server itself (uid 10001) write a new image into the store.
-  expect_http POST "/v1/images?id=$UPLOAD_ID" 201 application/json "$out/upload.json" \
+  # An upload makes the server itself (uid 10001) write a new image into the store; only with
+  # the curator key of the key file it read (a container never starts open to writes).
+  expect_http POST "/v1/images?id=$UPLOAD_ID" 401 application/json "$out/upload-nokey.json" \
     --data-binary "@$REPO/samples/$SAMPLE" -H 'Content-Type: application/octet-stream'
+  expect_http POST "/v1/images?id=$UPLOAD_ID" 201 application/json "$out/upload.json" \
+    --data-binary "@$REPO/samples/$SAMPLE" -H 'Content-Type: application/octet-stream' \
+    -H "Authorization: Bearer $CURATOR_KEY"
 }
 
 # The Dockerfile's HEALTHCHECK, `zoomwarp health` (the slim image has no curl), run in the root as

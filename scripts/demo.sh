@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # Sets up, builds, ingests the bundled sample image and serves it on http://127.0.0.1:8080/.
 # Environment variables ZOOMWARP_* configure the server (see `build/bin/zoomwarp serve --help`).
+# It listens on loopback only, with --open-writes: anyone on this machine may upload and edit (the
+# viewer's curator tools work without a key). With ZOOMWARP_KEYS set, keys govern writes instead
+# (and ZOOMWARP_HOST is honoured).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
@@ -19,4 +22,7 @@ zoomwarp is starting on http://127.0.0.1:${port}/  (Ctrl-C stops it)
   metrics:   curl http://127.0.0.1:${port}/metrics
 
 TXT
-exec build/bin/zoomwarp serve
+# Open writes only where nobody else can reach them: loopback, whatever ZOOMWARP_HOST says.
+access=(--host 127.0.0.1 --open-writes)
+if [ -n "${ZOOMWARP_KEYS:-}" ]; then access=(); fi
+exec build/bin/zoomwarp serve "${access[@]}"

@@ -19,7 +19,8 @@ for arg in "$@"; do
   esac
 done
 
-# Build of the zoomwarp binary: compiler, CMake, and the libraries fixed by DESIGN.md §3.
+# Build of the zoomwarp binary: compiler, CMake, and the libraries fixed by DESIGN.md §3
+# (libssl-dev: libcrypto, SHA-256 and constant-time comparison of API keys).
 # openimageio-tools too: OpenImageIO's CMake package fails unless the tools it lists exist.
 build_pkgs=(
   build-essential cmake ninja-build pkg-config
@@ -27,6 +28,7 @@ build_pkgs=(
   libeigen3-dev libsuitesparse-dev libcgal-dev libboost-dev
   nlohmann-json3-dev libturbojpeg0-dev libpng-dev libwebp-dev libssl-dev
   libopencv-imgproc-dev libopencv-objdetect-dev
+  libssl-dev
 )
 # Working on it: the face cascades the binary loads at run time (the container image gets them
 # from deploy/runtime-packages.txt), git, and the test and benchmark libraries.

@@ -27,6 +27,7 @@ struct HttpServer::Impl {
       : state(std::move(options), store, router, cpu, ingest, metrics),
         ioc(std::max(1, state.options.io_threads)),
         signals(ioc, SIGINT, SIGTERM),
+        reload_signals(ioc, SIGHUP),
         drain_timer(ioc),
         gc_timer(ioc) {}
 
@@ -38,6 +39,16 @@ struct HttpServer::Impl {
     auto results = resolver.resolve(state.options.host, std::to_string(state.options.port), ec);
     if (ec || results.empty()) throw std::runtime_error("cannot resolve host '" + state.options.host + "'");
     return *results.begin();
+  }
+
+  // SIGHUP, for as long as the server runs: the operator rotated the keys (--keys).
+  void await_reload() {
+    reload_signals.async_wait([this](boost::system::error_code ec, int) {
+      if (ec) return;
+      if (state.options.on_reload) state.options.on_reload();
+      else log_event("info", "SIGHUP ignored: nothing to reload without --keys");
+      await_reload();
+    });
   }
 
   void schedule_gc() {
@@ -59,6 +70,7 @@ struct HttpServer::Impl {
     if (state.draining.exchange(true)) return;
     log_event("info", "draining", {{"signal", signal}, {"delay_s", state.options.drain_delay.count()}});
     gc_timer.cancel();
+    reload_signals.cancel();
     drain_timer.expires_after(state.options.drain_delay);
     drain_timer.async_wait([this](boost::system::error_code) {
       listener->stop();
@@ -121,6 +133,7 @@ struct HttpServer::Impl {
   ServerState state;
   net::io_context ioc;
   net::signal_set signals;
+  net::signal_set reload_signals;
   net::steady_timer drain_timer, gc_timer;
   std::chrono::steady_clock::time_point drain_deadline;
   bool timed_out = false;  // the drain timeout passed with connections open
@@ -142,6 +155,7 @@ int HttpServer::run() {
   m.signals.async_wait([&m](boost::system::error_code ec, int signal) {
     if (!ec) m.begin_drain(signal);
   });
+  m.await_reload();
   m.schedule_gc();
   log_event("info", "listening",
             {{"host", m.state.options.host}, {"port", m.listener->port()}, {"io_threads", m.state.options.io_threads},

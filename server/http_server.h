@@ -1,6 +1,7 @@
 // The HTTP/1.1 server (Boost.Beast, keep-alive): a listener accepts connections, one session per
 // connection reads requests and writes responses on the I/O threads; anything that needs CPU
 // (rendering, encoding, ingest) goes to a bounded worker pool and comes back to the session.
+// SIGHUP calls HttpServerOptions::on_reload (the key file is read again) and changes nothing else.
 // SIGTERM/SIGINT drains: readiness fails, then no new connections, idle connections close,
 // in-flight requests finish, and run() returns 0. Requests still running when --drain-timeout has
 // passed are cancelled (their StopTokens) and get what they can in a last half second; then run()
@@ -12,6 +13,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -48,6 +50,7 @@ struct HttpServerOptions {
   // instead of the peer's; only behind a proxy that sets it, or clients choose their address.
   bool trust_forwarded_for = false;
   api::RateLimitConfig upload_limits;         // uploads per minute and bytes per day, per key or address
+  std::function<void()> on_reload;            // SIGHUP, on an I/O thread; empty: SIGHUP is logged and ignored
 };
 
 // Threads: construct, run() and destroy on one thread; run() runs the I/O threads itself.

@@ -30,11 +30,14 @@ std::optional<api::Response> answer_ops(const api::Request& req, const OpsContex
   if (req.path == "/readyz") {
     // Face detection is a detail: without it significance maps are coarser, views still work.
     const bool store_ok = ctx.store.readable(), draining = ctx.draining.load();
-    const nlohmann::json body = {
-        {"status", draining ? "draining" : store_ok ? "ready" : "store not readable"},
-        {"checks", {{"store", store_ok ? "ok" : "not readable"}, {"face_detection", std::string(ctx.face_detection)}}}};
+    nlohmann::json body = {{"status", draining ? "draining" : store_ok ? "ready" : "store not readable"}};
+    // The details are for the operator: with keys configured, an admin key shows them.
+    const bool keys = ctx.access.keys && ctx.access.keys->has_keys();
+    if (!keys || api::has_role(ctx.access, api::Role::kAdmin, req))
+      body["checks"] = {{"store", store_ok ? "ok" : "not readable"}, {"face_detection", std::string(ctx.face_detection)}};
     return text(!draining && store_ok ? 200 : 503, "application/json", body.dump() + "\n", "readyz");
   }
+  if (auto refusal = api::check_access(ctx.access, api::Access::kAdmin, req)) return refusal;
   return text(200, "text/plain; version=0.0.4; charset=utf-8", ctx.metrics.render(), "metrics");
 }
 

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "api/key_ring.h"
 #include "api/router.h"
 #include "server/commands.h"
 #include "server/http_server.h"
@@ -51,6 +52,8 @@ std::vector<OptionSpec> serve_specs() {
       {"request-timeout", "5", "seconds a computed request (view, tile, IIIF image, edit) may take from read to answer, queue included; then 503 + Retry-After"},
       {"gc-grace", "600", "seconds a superseded or deleted image version stays on disk"},
       {"log-requests", "1", "one JSON log line per request (1/0)"},
+      {"keys", "", "API key file, one 'KEY_ID ROLE KEY' per line (README \"Access\"); re-read when it changes and on SIGHUP. Without it writes are refused"},
+      {"open-writes", "0", "without --keys, let anyone upload, delete and edit (demos and tests on loopback)", true},
       {"signing-key", "", "file holding the secret of signed URLs for private images (>= 32 random bytes, hex or raw: openssl rand -hex 32); none: no signed URLs"},
       {"cors-write-origins", "", "origins whose pages may write (POST, PUT, PATCH, DELETE), comma-separated, e.g. https://curate.example.org; reads are open to every origin"},
       {"trust-forwarded-for", "0", "behind a proxy: the client address (rate limits) is the last X-Forwarded-For entry (1/0)"},
@@ -75,6 +78,26 @@ std::uint64_t upload_rate(std::string text) {
   const bool digits = !text.empty() && text.size() <= 9 && text.find_first_not_of("0123456789") == std::string::npos;
   if (!digits) throw std::invalid_argument("--upload-rate must be N or N/min, not '" + text + "'");
   return std::stoull(text);
+}
+
+// The key ring of --keys (null without), or --open-writes; they exclude each other, so a server
+// with keys never also lets anyone write. Logs which way writes are governed.
+std::unique_ptr<api::KeyRing> access_settings(const Options& o, api::AccessPolicy& access) {
+  const std::string path = o.str("keys");
+  access.open_writes = o.flag("open-writes");
+  if (!path.empty() && access.open_writes)
+    throw std::invalid_argument("--keys and --open-writes exclude each other: with keys, only their holders write");
+  if (access.open_writes)
+    log_event("warn", "open writes: anyone who reaches this server may upload, delete and edit images (--open-writes)");
+  if (path.empty()) {
+    if (!access.open_writes) log_event("info", "no --keys: uploads, deletions and edits are refused");
+    return nullptr;
+  }
+  auto keys = std::make_unique<api::KeyRing>(
+      path, [](std::string_view level, std::string_view msg) { log_event(level, msg); });
+  log_event("info", "keys loaded", {{"keys", keys->size()}});
+  access.keys = keys.get();
+  return keys;
 }
 
 }  // namespace
@@ -129,6 +152,8 @@ int serve_command(const std::vector<std::string>& args) {
       log_event(level, msg, fields);
     };
     http.face_detection = analysis.face_detection;
+    const std::unique_ptr<api::KeyRing> keys = access_settings(o, rc.access);
+    if (keys) http.on_reload = [&keys] { keys->reload(); };
     const std::uint64_t tile_cache = o.bytes("tile-cache", 1ULL << 20, 1ULL << 40);
     const int workers = int(o.integer("workers", 1, 256));
     const auto queue = std::size_t(o.integer("queue", 1, 1 << 20));

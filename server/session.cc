@@ -172,6 +172,10 @@ void Session::on_header(beast::error_code ec) {
       return send(api::error_response(413, "upload_too_large",
                                       "uploads are limited to " + std::to_string(state_.options.max_upload_bytes) + " bytes"));
     }
+    if (auto refusal = state_.router.authorize(req_)) {  // before a byte of the body is staged
+      keep_alive_ = false;  // the body is not read, so the connection cannot be reused
+      return send(std::move(*refusal));
+    }
     if (auto refusal = admit_upload()) return send(std::move(*refusal));
     upload_parser_.emplace(std::move(*header_parser_));
     upload_parser_->body_limit(state_.options.max_upload_bytes);
@@ -247,7 +251,7 @@ std::optional<api::Response> Session::admit_upload() {
 // header (Content-Length; a chunked one as --max-upload), so it is refused before its body is read.
 std::optional<api::Response> Session::rate_limit_upload(std::uint64_t bytes) {
   std::string key_id;  // "" for no valid key: metrics count those together, never per address
-  if (const auto& auth = state_.router.config().authenticator; auth && !req_.authorization.empty()) {
+  if (const api::Authenticator* auth = state_.router.config().access.keys; auth && !req_.authorization.empty()) {
     const auto result = auth->authenticate(req_.authorization);
     if (result.outcome == api::Authenticator::Outcome::kValid) key_id = result.principal.key_id;
   }
@@ -375,7 +379,7 @@ void Session::answer() {
     return send(std::move(r));
   }
   try {
-    if (auto r = answer_ops(req_, OpsContext{state_.store, state_.metrics, state_.draining, state_.options.face_detection})) return send(std::move(*r));
+    if (auto r = answer_ops(req_, OpsContext{state_.store, state_.metrics, state_.draining, state_.options.face_detection, state_.router.config().access})) return send(std::move(*r));
     if (auto r = state_.router.try_answer_now(req_)) return send(std::move(*r));
   } catch (const std::exception& e) {
     return send(api::internal_error_response(e.what()));

@@ -59,9 +59,11 @@ export async function ingest(store, file, id) {
 
 // Starts `zoomwarp serve` on a free loopback port and returns that port, read from the
 // server's JSON 'listening' log line. Cleanup stops it with SIGTERM and expects a clean exit.
-export async function startZoomwarp(store, cleanups) {
+// `extraArgs` default to --open-writes (the viewer's curator tools write; these tests are not
+// about access); pass e.g. ['--keys', file] to test with keys.
+export async function startZoomwarp(store, cleanups, extraArgs = ['--open-writes']) {
   const server = spawn(ZOOMWARP, ['serve', '--host', '127.0.0.1', '--port', '0', '--store', store,
-                                  '--log-requests', '0'],
+                                  '--log-requests', '0', ...extraArgs],
                        { env: childEnv, stdio: ['ignore', 'ignore', 'pipe'] });
   // The log is read to the end (not just up to 'listening') so that the server never blocks
   // on a full pipe, and is kept for error messages.

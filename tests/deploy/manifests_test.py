@@ -373,6 +373,20 @@ class Kubernetes(unittest.TestCase):
     def test_pvc(self):
         self.assertIn("ReadWriteMany", self.r["PersistentVolumeClaim"]["spec"]["accessModes"])
 
+    def test_keys_come_from_the_secret(self):
+        # ZOOMWARP_KEYS names a file in a read-only mount of the Secret examples/keys-secret.yaml
+        # shows; not a subPath mount, which would never see the Secret's updates (rotation).
+        keys = self.config["ZOOMWARP_KEYS"]
+        mount = [m for m in self.container["volumeMounts"] if keys.startswith(m["mountPath"].rstrip("/") + "/")]
+        self.assertEqual(len(mount), 1, f"no volume mounted where {keys} lies")
+        self.assertIs(mount[0].get("readOnly"), True)
+        self.assertNotIn("subPath", mount[0])
+        volume = {v["name"]: v for v in self.pod["spec"]["volumes"]}[mount[0]["name"]]
+        example = load_yaml("deploy", "k8s", "examples", "keys-secret.yaml")
+        self.assertEqual(example["kind"], "Secret")
+        self.assertEqual(volume["secret"]["secretName"], example["metadata"]["name"])
+        self.assertEqual(os.path.relpath(keys, mount[0]["mountPath"]), list(example["stringData"])[0])
+
     def test_ingest_job_example(self):
         job = load_yaml("deploy", "k8s", "examples", "ingest-job.yaml")
         self.assertEqual(job["kind"], "Job")
@@ -477,6 +491,17 @@ class Consistency(unittest.TestCase):
         self.assertIn("./nginx.conf:/etc/nginx/nginx.conf:ro", nginx["volumes"])
         self.assertEqual(nginx["depends_on"]["zoomwarp"]["condition"], "service_healthy")
 
+    def test_keys_and_never_open_writes(self):
+        # compose reads the keys from its secret; no deployment file lets anyone write.
+        secret = self.server["environment"]["ZOOMWARP_KEYS"]
+        self.assertTrue(secret.startswith("/run/secrets/"), secret)
+        name = secret[len("/run/secrets/"):]
+        self.assertIn(name, self.server.get("secrets", []))
+        self.assertIn(name, self.compose.get("secrets", {}))
+        self.assertIn("ZOOMWARP_KEYS", self.k8s["ConfigMap"]["data"])
+        for source in (self.env, self.server.get("environment", {}), self.k8s["ConfigMap"]["data"]):
+            self.assertNotIn("ZOOMWARP_OPEN_WRITES", source)
+
     def test_upload_limit(self):
         conf = read("deploy", "nginx.conf")
         uploads = nginx_directives(nginx_block(conf, r"location\s+~\s+\^/v1/images/\?\$"))
@@ -515,6 +540,19 @@ class Nginx(unittest.TestCase):
         # Our Cache-Control decides what is cached; a proxy_cache_valid would cache no-cache JSON.
         self.assertEqual(self.values("proxy_cache_valid"), [])
         self.assertEqual(self.values("proxy_ignore_headers"), [])
+
+    def test_keyed_answers_are_cached_only_when_public(self):
+        # The API key (Authorization) goes on to the replicas (no proxy_set_header replaces it), and
+        # an answer to a keyed request is stored only when the replica marked it public.
+        self.assertFalse([a for a in self.values("proxy_set_header") if a.lower().startswith("authorization")])
+        self.assertFalse([a for a in self.values("proxy_pass_request_headers") if a == "off"])
+        no_cache = self.values("proxy_no_cache")
+        self.assertEqual(len(no_cache), 1, "proxy_no_cache")
+        variable = no_cache[0]
+        maps = re.findall(r"map\s+\"([^\"]*)\"\s+(\$\w+)", self.conf)
+        self.assertIn(variable, [v for _, v in maps], f"{variable} is not a map's result")
+        source = dict((v, k) for k, v in maps)[variable]
+        self.assertIn("$http_authorization", source)
 
     def test_upstream_keepalive(self):
         upstream = nginx_directives(nginx_block(self.conf, r"upstream\s+zoomwarp"))
@@ -601,7 +639,7 @@ class Dockerfile(unittest.TestCase):
 
     def test_dockerignore(self):
         for rel in (".git", "build", "build-deploy/bin/zoomwarp", "store", "tests/browser/node_modules",
-                    "tests/browser/out", "deploy/compose.yaml"):
+                    "tests/browser/out", "deploy/compose.yaml", "deploy/keys"):
             self.assertTrue(dockerignore_excludes(rel), f".dockerignore should exclude {rel}")
         # Everything the Dockerfile copies and CMake builds from must stay in the context.
         needed = ["CMakeLists.txt", "scripts/setup.sh", "deploy/runtime-packages.txt"]

@@ -128,6 +128,7 @@ parse_args() {
 declare -a replica_pid replica_port replica_log
 declare nginx_port nginx_bypass_port
 work=""                  # the one temp folder
+soak_key=""              # the curator key of the writes (start_cluster)
 declare -a worker_pid
 nginx_pid=""
 t0=0                     # start of the load, epoch seconds
@@ -160,8 +161,12 @@ running() { [ "$(now)" -lt "$deadline" ]; }
 # every request; a line per request would cost CPU and ~250 MB per replica over 30 minutes) and
 # caches a quarter of their default size, so that they are full well within the first third of
 # the run and RSS growth after that means a leak: see start_cluster.
+# Writes carry a curator key (--keys), as they would in a deployment: through nginx, which passes
+# Authorization on.
 start_cluster() {
-  start_replicas "$replicas" publish_replica \
+  soak_key=$(head -c 24 /dev/urandom | od -An -tx1 | tr -d ' \n')
+  printf 'soak curator %s\n' "$soak_key" >"$work/keys"
+  start_replicas "$replicas" publish_replica --keys "$work/keys" \
     --log-requests 0 --tile-cache 64M --response-cache 64M --warp-cache 64M
   start_nginx
 }
@@ -180,11 +185,12 @@ start_nginx() {
 event() { printf '%s\t%s\t%s\t%s\n' "$(now)" "$1" "$2" "${*:3}" >>"$work/events.tsv"; }
 
 # http WORKER METHOD URL [CURL ARGS...]: one request; prints the status (000: no answer), keeps the
-# body in $work/WORKER.body and the headers in $work/WORKER.headers.
+# body in $work/WORKER.body and the headers in $work/WORKER.headers. Writes send the curator key.
 http() {
-  local worker=$1 method=$2 url=$3; shift 3
+  local worker=$1 method=$2 url=$3 auth=(); shift 3
+  [ "$method" = GET ] || auth=(-H "Authorization: Bearer $soak_key")
   curl -s -X "$method" --max-time 120 -o "$work/$worker.body" -D "$work/$worker.headers" \
-    -w '%{http_code}' "$@" "$url" || true
+    -w '%{http_code}' "${auth[@]}" "$@" "$url" || true
 }
 
 header_of() { sed -n "s/^$2: *//Ip" "$work/$1.headers" | tr -d '\r' | tail -n 1; }
@@ -396,7 +402,7 @@ stalled_upload() {
   port=$(some_replica_port)
   start=$(now)
   if ! exec {fd}<>"/dev/tcp/127.0.0.1/$port"; then event slow refused "stalled upload to $port"; return 0; fi
-  printf 'POST /v1/images?id=stalled HTTP/1.1\r\nHost: soak\r\nContent-Type: application/octet-stream\r\nContent-Length: 10000000\r\n\r\n' 1>&"$fd" 2>/dev/null || true
+  printf 'POST /v1/images?id=stalled HTTP/1.1\r\nHost: soak\r\nAuthorization: Bearer %s\r\nContent-Type: application/octet-stream\r\nContent-Length: 10000000\r\n\r\n' "$soak_key" 1>&"$fd" 2>/dev/null || true
   head -c 65536 "$repo_dir/samples/boats_lake_sunset.jpg" 1>&"$fd" 2>/dev/null || true
   answer=$(timeout "$(at_most 90)" head -n 1 <&"$fd" 2>/dev/null | tr -d '\r' || true)
   exec {fd}>&-

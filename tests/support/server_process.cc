@@ -10,6 +10,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
@@ -71,12 +72,14 @@ pid_t spawn(const std::vector<std::string>& argv, const std::string& output_path
 
 }  // namespace
 
-ServerProcess::ServerProcess(const std::string& store, const std::vector<std::string>& extra_args) {
+ServerProcess::ServerProcess(const std::string& store, const std::vector<std::string>& extra_args, Writes writes) {
   static int counter = 0;
   log_path_ = store + ".server-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + ".log";
   std::vector<std::string> argv = {zoomwarp_binary(), "serve", "--host", "127.0.0.1", "--port", "0",
                                    "--store", store};
   argv.insert(argv.end(), extra_args.begin(), extra_args.end());
+  const bool has_keys = std::find(extra_args.begin(), extra_args.end(), "--keys") != extra_args.end();
+  if (writes == Writes::kOpen && !has_keys) argv.push_back("--open-writes");
   pid_ = spawn(argv, log_path_);
   const std::regex listening(R"re("msg":"listening".*"port":(\d+))re");
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);

@@ -27,9 +27,16 @@ class TempDir {
 
 class ServerProcess {
  public:
-  // Starts `zoomwarp serve --host 127.0.0.1 --port 0 --store STORE ARGS...` and waits for its
-  // "listening" log line. Throws std::runtime_error if it does not come up within 20 s.
-  ServerProcess(const std::string& store, const std::vector<std::string>& extra_args = {});
+  // Tests that are not about access write freely: by default the server gets --open-writes
+  // (anyone may upload, delete and edit), unless ARGS hold --keys (then keys govern writes).
+  // kAsConfigured passes ARGS alone: the server's own default, which refuses writes without keys.
+  enum class Writes { kOpen, kAsConfigured };
+
+  // Starts `zoomwarp serve --host 127.0.0.1 --port 0 --store STORE ARGS...` (and --open-writes,
+  // see Writes) and waits for its "listening" log line. Throws std::runtime_error if it does not
+  // come up within 20 s, or exits first (the message holds its log).
+  ServerProcess(const std::string& store, const std::vector<std::string>& extra_args = {},
+                Writes writes = Writes::kOpen);
   ~ServerProcess();
   ServerProcess(const ServerProcess&) = delete;
   ServerProcess& operator=(const ServerProcess&) = delete;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <functional>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <set>
 
@@ -32,6 +33,45 @@ TEST(OpenApi, DocumentsExactlyTheRoutesServed) {
   for (const auto& d : documented)
     EXPECT_TRUE(served.count(d) || (d.first == "GET" && operations.count(d.second)))
         << d.first << " " << d.second << " is documented but not served";
+}
+
+// The access an operation's `security` declares: none (public), or the least bearer role
+// (api/authorize.h); an operation that may also be called without a key ({} among its
+// alternatives, /readyz) is public.
+api::Access declared_access(const json& op) {
+  if (!op.contains("security")) return api::Access::kPublic;
+  std::optional<api::Access> least;
+  for (const auto& requirement : op["security"]) {
+    if (requirement.empty()) return api::Access::kPublic;
+    const json& roles = requirement.at("bearer");
+    EXPECT_EQ(roles.size(), 1u) << requirement;
+    const api::Access a = roles.at(0) == "admin" ? api::Access::kAdmin : api::Access::kCurator;
+    EXPECT_TRUE(roles.at(0) == "admin" || roles.at(0) == "curator") << requirement;
+    if (!least || a < *least) least = a;
+  }
+  return *least;
+}
+
+TEST(OpenApi, EachRoutesSecurityIsTheAccessTheRouterChecks) {
+  const json doc = json::parse(*api::asset("openapi.json"));
+  ASSERT_TRUE(doc["components"]["securitySchemes"].contains("bearer"));
+  EXPECT_EQ(doc["components"]["securitySchemes"]["bearer"]["scheme"], "bearer");
+  int restricted = 0;
+  for (const auto& r : api::Router::routes()) {
+    std::string method(r.method);
+    for (char& c : method) c = char(std::tolower(static_cast<unsigned char>(c)));
+    const json& op = doc["paths"][std::string(r.path)][method];
+    EXPECT_EQ(declared_access(op), r.access) << r.method << " " << r.path;
+    if (r.access != api::Access::kPublic) {
+      ++restricted;
+      EXPECT_TRUE(op["responses"].contains("401") && op["responses"].contains("403")) << r.method << " " << r.path;
+    }
+  }
+  EXPECT_GE(restricted, 4) << "the write routes";
+  // The server's operations endpoints (server/ops.cc): /metrics is admin, /readyz open to probes.
+  EXPECT_EQ(declared_access(doc["paths"]["/metrics"]["get"]), api::Access::kAdmin);
+  EXPECT_EQ(declared_access(doc["paths"]["/readyz"]["get"]), api::Access::kPublic);
+  EXPECT_EQ(declared_access(doc["paths"]["/healthz"]["get"]), api::Access::kPublic);
 }
 
 TEST(OpenApi, EveryReferenceResolvesAndEveryOperationHasAnId) {

@@ -30,13 +30,14 @@ class FakeKeys : public Authenticator {
 class PrivateImages : public ::testing::Test {
  protected:
   testing::TempDir dir;
+  FakeKeys keys;
   tiles::Store store{dir.path() + "/store"};
   tiles::PyramidReader reader{16u << 20};
   api::Router router{store, reader, config()};
 
-  static api::RouterConfig config() {
+  api::RouterConfig config() const {
     api::RouterConfig c;
-    c.authenticator = std::make_shared<FakeKeys>();
+    c.access.keys = &keys;
     c.url_signer = std::make_shared<api::UrlSigner>(std::string(32, 's'));
     return c;
   }
