@@ -31,7 +31,7 @@ void RateLimits::make_room(Clock::time_point now) {
   }
   if (clients_.size() < config_.max_clients) return;
   auto oldest = std::min_element(clients_.begin(), clients_.end(),
-                                 [](const auto& a, const auto& b) { return a.second.updated < b.second.updated; });
+                                 [](const auto& a, const auto& b) { return a.second.seen < b.second.seen; });
   clients_.erase(oldest);
 }
 
@@ -42,10 +42,11 @@ std::optional<RateLimits::Refusal> RateLimits::admit(const std::string& client, 
   auto it = clients_.find(client);
   if (it == clients_.end()) {
     if (clients_.size() >= std::max<std::size_t>(1, config_.max_clients)) make_room(now);
-    it = clients_.emplace(client, Budget{double(config_.uploads_per_minute), double(config_.bytes_per_day), now}).first;
+    it = clients_.emplace(client, Budget{double(config_.uploads_per_minute), double(config_.bytes_per_day), now, now}).first;
   }
   Budget& b = it->second;
   refill(b, now);
+  b.seen = now;
   if (config_.uploads_per_minute > 0 && b.uploads < 1)
     return Refusal{"uploads_per_minute", whole_seconds((1 - b.uploads) * kMinute / config_.uploads_per_minute)};
   if (config_.bytes_per_day > 0 && b.bytes < double(bytes)) {

@@ -54,7 +54,8 @@ class RateLimits {
   struct Budget {
     double uploads = 0;  // tokens left
     double bytes = 0;
-    Clock::time_point updated;
+    Clock::time_point updated;  // of the token counts
+    Clock::time_point seen;     // the client's last admit(): who is forgotten first
   };
   void refill(Budget& b, Clock::time_point now) const;
   bool is_full(const Budget& b) const;

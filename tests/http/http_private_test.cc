@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 
 #include "api/url_signing.h"
@@ -129,7 +130,8 @@ TEST_F(Private, ExpiredAndTamperedUrlsAreForbidden) {
 
 TEST_F(Private, AbsentFromTheListWithoutAKey) {
   std::vector<std::string> ids;
-  for (const auto& image : json::parse(http.get("/v1/images").body)["images"]) ids.push_back(image["id"]);
+  const json body = json::parse(http.get("/v1/images").body);
+  for (const auto& image : body["images"]) ids.push_back(image["id"]);
   EXPECT_EQ(ids, std::vector<std::string>{"open"});
 }
 
@@ -160,6 +162,59 @@ TEST_F(Private, EditsKeepItPrivateAndAReUploadSaysAgain) {
   const auto bad = http.request("POST", "/v1/images?id=x&private=yes", jpg);
   EXPECT_EQ(bad.status, 400);
   EXPECT_EQ(http.get("/v1/images/x").status, 404) << "nothing stored";
+}
+
+// With keys: a curator key reads private images and sees them listed; a reader key does not.
+class PrivateWithKeys : public ::testing::Test {
+ protected:
+  testing::TempDir dir;
+  const std::string curator = "Bearer curator-key-CCCCCCCCCCCCCCCC";
+  const std::string reader = "Bearer reader-key-RRRRRRRRRRRRRRRR";
+  const std::string keys_file = [this] {
+    const std::string path = dir.path() + "/keys";
+    std::ofstream(path) << "cur curator " << curator.substr(7) << "\nrd reader " << reader.substr(7) << "\n";
+    return path;
+  }();
+  testing::ServerProcess server{dir.path() + "/store", {"--keys", keys_file}};
+  HttpClient http{server.port()};
+
+  void SetUp() override {
+    const std::string jpg = testing::read_file(testing::samples_dir() + "/boats_lake_sunset.jpg");
+    ASSERT_EQ(http.request("POST", "/v1/images?id=secret&private=true", jpg, {{"Authorization", curator}}).status, 201);
+  }
+
+  std::vector<std::string> listed(const std::map<std::string, std::string>& headers) {
+    std::vector<std::string> ids;
+    const json body = json::parse(http.get("/v1/images", headers).body);
+    for (const auto& image : body["images"]) ids.push_back(image["id"]);
+    return ids;
+  }
+};
+
+TEST_F(PrivateWithKeys, ListedAndReadableForCuratorsOnly) {
+  EXPECT_TRUE(listed({}).empty());
+  EXPECT_TRUE(listed({{"Authorization", reader}}).empty());
+  EXPECT_EQ(listed({{"Authorization", curator}}), std::vector<std::string>{"secret"});
+  EXPECT_EQ(http.get("/v1/images", {{"Authorization", curator}}).header("cache-control"), "private, no-cache");
+  for (const std::string target : {"/v1/images/secret", "/dzi/secret.dzi", "/iiif/3/secret/info.json",
+                                   "/v1/images/secret/mesh?w=64&h=48"}) {
+    SCOPED_TRACE(target);
+    EXPECT_EQ(http.get(target, {{"Authorization", reader}}).status, 404);
+    const auto r = http.get(target, {{"Authorization", curator}});
+    EXPECT_EQ(r.status, 200);
+    EXPECT_EQ(r.header("cache-control").rfind("private", 0), 0u) << r.header("cache-control");
+  }
+}
+
+// Read with a key first (the answer is cached), then without: still refused.
+TEST_F(PrivateWithKeys, NoLeakThroughTheSharedCache) {
+  const std::string tile = "/dzi/secret_files/9/0_0.jpg";
+  const auto first = http.get(tile, {{"Authorization", curator}});
+  ASSERT_EQ(first.status, 200);
+  ASSERT_EQ(http.get(tile, {{"Authorization", curator}}).status, 200);
+  EXPECT_EQ(http.get(tile).status, 404);
+  EXPECT_EQ(http.get(tile, {{"Authorization", reader}}).status, 404);
+  EXPECT_EQ(http.get(tile, {{"If-None-Match", first.header("etag")}}).status, 404);
 }
 
 TEST(PrivateSign, UsageMistakesExit2) {

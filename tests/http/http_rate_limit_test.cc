@@ -4,6 +4,7 @@
 // per key id, never per address.
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "tests/support/http_client.h"
@@ -88,6 +89,33 @@ TEST(RateLimitFlags, MalformedRateIsAUsageError) {
       {testing::zoomwarp_binary(), "serve", "--store", dir.path(), "--port", "0", "--upload-rate", "2/hour"});
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_NE(run.output.find("--upload-rate"), std::string::npos);
+}
+
+// With keys, a key is one client wherever it comes from; /metrics (admin) counts per key id.
+TEST(RateLimitKeys, PerKeyWhereverItComesFrom) {
+  testing::TempDir dir;
+  const std::string alice = "alice-key-AAAAAAAAAAAAAAAA", bob = "bob-key-BBBBBBBBBBBBBBBB", ops = "ops-key-OOOOOOOOOOOOOOOO";
+  std::ofstream(dir.path() + "/keys") << "alice curator " << alice << "\nbob curator " << bob << "\nops admin " << ops << "\n";
+  testing::ServerProcess server{dir.path() + "/store", {"--keys", dir.path() + "/keys", "--upload-rate", "1",
+                                                       "--trust-forwarded-for", "1"}};
+  HttpClient http{server.port()};
+  const std::string jpg = small_jpeg(dir.path());
+  auto upload = [&](const std::string& id, const std::string& key, const std::string& address) {
+    return http.request("POST", "/v1/images?id=" + id, jpg,
+                        {{"Authorization", "Bearer " + key}, {"X-Forwarded-For", address}});
+  };
+  EXPECT_EQ(upload("a1", alice, "10.0.0.1").status, 201);
+  const auto refused = upload("a2", alice, "10.0.0.2");
+  EXPECT_EQ(refused.status, 429) << "another address, the same key";
+  EXPECT_GE(std::stoi(refused.header("retry-after")), 1);
+  EXPECT_LE(std::stoi(refused.header("retry-after")), 60);
+  EXPECT_EQ(upload("b1", bob, "10.0.0.1").status, 201) << "another key from the same address";
+
+  const std::string metrics = http.get("/metrics", {{"Authorization", "Bearer " + ops}}).body;
+  EXPECT_NE(metrics.find("zoomwarp_uploads_total{key=\"alice\"} 1"), std::string::npos) << metrics;
+  EXPECT_NE(metrics.find("zoomwarp_uploads_total{key=\"bob\"} 1"), std::string::npos);
+  EXPECT_NE(metrics.find("zoomwarp_rate_limited_total{key=\"alice\",limit=\"uploads_per_minute\"} 1"), std::string::npos);
+  for (const std::string& secret : {alice, bob, std::string("10.0.0.")}) EXPECT_EQ(metrics.find(secret), std::string::npos);
 }
 
 }  // namespace

@@ -67,7 +67,10 @@ class PrivateImages : public ::testing::Test {
 
   std::vector<std::string> listed(const std::string& authorization) {
     std::vector<std::string> ids;
-    for (const auto& image : json::parse(*get("/v1/images", authorization).body)["images"]) ids.push_back(image["id"]);
+    const api::Response r = get("/v1/images", authorization);
+    EXPECT_EQ(r.status, 200) << *r.body;
+    const json body = json::parse(*r.body);  // named: a range-for over a temporary's member dangles
+    for (const auto& image : body["images"]) ids.push_back(image["id"]);
     return ids;
   }
 };
