@@ -47,10 +47,4 @@ std::optional<Response> check_access(const AccessPolicy& policy, Access needed, 
                 std::string(kRealm) + ", error=\"insufficient_scope\"");
 }
 
-bool has_role(const AccessPolicy& policy, Role role, const Request& req) {
-  if (!keys_configured(policy)) return false;
-  const Authenticator::Result who = policy.keys->authenticate(req.authorization);
-  return who.outcome == Authenticator::Outcome::kValid && who.principal.role >= role;
-}
-
 }  // namespace zoomwarp::api

@@ -31,7 +31,4 @@ struct AccessPolicy {
 // route "access_denied"). Never names the key in its answer.
 std::optional<Response> check_access(const AccessPolicy& policy, Access needed, const Request& req);
 
-// Whether `req` carries a key of at least `role` (false without keys configured).
-bool has_role(const AccessPolicy& policy, Role role, const Request& req);
-
 }  // namespace zoomwarp::api

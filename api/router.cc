@@ -232,29 +232,29 @@ Response Router::compute_once(const std::string& cache_key, const warp::StopToke
 // api/openapi.json documents exactly these (RouterRoutes test) plus the server's /healthz,
 // /readyz and /metrics. A template segment may hold parameters between literals
 // ("{id}.dzi", "{quality}.{format}"); HEAD is answered as GET. The last field says who may call
-// a route (api/authorize.h); without it, anyone.
+// a route (api/authorize.h): every route states it, and every write needs a key.
 const std::vector<Router::Route>& Router::routes() {
   static const std::vector<Route> table = {
-      {"GET", "/", &Router::web_page},
-      {"GET", "/{file}.js", &Router::web_script},
-      {"GET", "/{file}.css", &Router::web_style},
-      {"GET", "/v1", &Router::index},
-      {"GET", "/openapi.json", &Router::openapi},
-      {"GET", "/v1/images", &Router::list_images},
+      {"GET", "/", &Router::web_page, Access::kPublic},
+      {"GET", "/{file}.js", &Router::web_script, Access::kPublic},
+      {"GET", "/{file}.css", &Router::web_style, Access::kPublic},
+      {"GET", "/v1", &Router::index, Access::kPublic},
+      {"GET", "/openapi.json", &Router::openapi, Access::kPublic},
+      {"GET", "/v1/images", &Router::list_images, Access::kPublic},
       {"POST", "/v1/images", &Router::upload_image, Access::kCurator},
-      {"GET", "/v1/images/{id}", &Router::describe_image},
+      {"GET", "/v1/images/{id}", &Router::describe_image, Access::kPublic},
       {"DELETE", "/v1/images/{id}", &Router::delete_image, Access::kCurator},
-      {"GET", "/v1/images/{id}/viewport", &Router::view_route},
-      {"GET", "/v1/images/{id}/mesh", &Router::view_route},
-      {"GET", "/v1/images/{id}/significance.png", &Router::view_route},
-      {"GET", "/v1/images/{id}/lines", &Router::view_route},
+      {"GET", "/v1/images/{id}/viewport", &Router::view_route, Access::kPublic},
+      {"GET", "/v1/images/{id}/mesh", &Router::view_route, Access::kPublic},
+      {"GET", "/v1/images/{id}/significance.png", &Router::view_route, Access::kPublic},
+      {"GET", "/v1/images/{id}/lines", &Router::view_route, Access::kPublic},
       {"PUT", "/v1/images/{id}/lines", &Router::edit_route, Access::kCurator},
       {"PATCH", "/v1/images/{id}/significance", &Router::edit_route, Access::kCurator},
-      {"GET", "/dzi/{id}.dzi", &Router::dzi_descriptor_route},
-      {"GET", "/dzi/{id}_files/{level}/{tile}", &Router::dzi_tile_route},
-      {"GET", "/iiif/3/{id}", &Router::iiif_base},
-      {"GET", "/iiif/3/{id}/info.json", &Router::iiif_info},
-      {"GET", "/iiif/3/{id}/{region}/{size}/{rotation}/{quality}.{format}", &Router::iiif_image},
+      {"GET", "/dzi/{id}.dzi", &Router::dzi_descriptor_route, Access::kPublic},
+      {"GET", "/dzi/{id}_files/{level}/{tile}", &Router::dzi_tile_route, Access::kPublic},
+      {"GET", "/iiif/3/{id}", &Router::iiif_base, Access::kPublic},
+      {"GET", "/iiif/3/{id}/info.json", &Router::iiif_info, Access::kPublic},
+      {"GET", "/iiif/3/{id}/{region}/{size}/{rotation}/{quality}.{format}", &Router::iiif_image, Access::kPublic},
   };
   return table;
 }

@@ -86,7 +86,7 @@ class Router {
     std::string_view method;
     std::string_view path;
     Handler handler;
-    Access access = Access::kPublic;
+    Access access;  // no default: a route says who may call it
   };
   static const std::vector<Route>& routes();
 

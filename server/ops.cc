@@ -31,9 +31,8 @@ std::optional<api::Response> answer_ops(const api::Request& req, const OpsContex
     // Face detection is a detail: without it significance maps are coarser, views still work.
     const bool store_ok = ctx.store.readable(), draining = ctx.draining.load();
     nlohmann::json body = {{"status", draining ? "draining" : store_ok ? "ready" : "store not readable"}};
-    // The details are for the operator: with keys configured, an admin key shows them.
-    const bool keys = ctx.access.keys && ctx.access.keys->has_keys();
-    if (!keys || api::has_role(ctx.access, api::Role::kAdmin, req))
+    // The details are for the operator, as /metrics are: with keys configured, for an admin key.
+    if (!api::check_access(ctx.access, api::Access::kAdmin, req))
       body["checks"] = {{"store", store_ok ? "ok" : "not readable"}, {"face_detection", std::string(ctx.face_detection)}};
     return text(!draining && store_ok ? 200 : 503, "application/json", body.dump() + "\n", "readyz");
   }

@@ -36,7 +36,7 @@ TEST(KeyFile, RefusesMalformedLinesWithoutQuotingTheKey) {
       {"# ok\nal/ice curator " + secret + "\n", "line 2: a key id"},
       {std::string(65, 'a') + " curator " + secret + "\n", "line 1: a key id"},
       {"alice owner " + secret + "\n", "line 1: the role must be"},
-      {"alice curator short-" + std::string(10, 'x') + "\n", "line 1: the key is shorter than 16"},
+      {"alice curator short-" + std::string(9, 'x') + "\n", "line 1: the key is shorter than 16"},  // 15
       {"alice curator sha256:abcd\n", "line 1: a sha256: key must be followed by 64 hex digits"},
       {"alice curator sha256:" + std::string(64, 'g') + "\n", "line 1: a sha256: key"},
       {"a reader " + secret + "\na curator other-" + secret + "\n", "line 2: key id 'a' is given twice"},
