@@ -117,7 +117,12 @@ std::string Router::base_url(const Request& req) const {
   return scheme + "://" + (host_is_sane(req.host) ? req.host : std::string("localhost"));
 }
 
-bool Router::has_curator_key(const Request& req) const { return has_role(config_.access, Role::kCurator, req); }
+bool Router::has_curator_key(const Request& req) const {
+  const Authenticator* keys = config_.access.keys;
+  if (!keys || req.authorization.empty()) return false;
+  const auto result = keys->authenticate(req.authorization);
+  return result.outcome == Authenticator::Outcome::kValid && result.principal.role >= Role::kCurator;
+}
 
 std::shared_ptr<const tiles::ImageEntry> Router::readable_image(const Request& req, const std::string& id) const {
   auto entry = find_image(store_, id);
