@@ -2,6 +2,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <chrono>
 #include <set>
 #include <nlohmann/json.hpp>
 
@@ -35,6 +36,7 @@ json image_json(const tiles::Manifest& m) {
           {"tile_size", m.tile_size},
           {"version", m.version},
           {"status", "ready"},
+          {"private", m.is_private},
           {"channels", m.channels},
           {"created", http_date(m.created_ms)},
           {"source", {{"format", m.source_format}, {"bits", m.source_bits}, {"bytes", m.source_bytes}}},
@@ -51,6 +53,13 @@ std::string content_id(const std::string& path) {
   char buf[1 << 16];
   while (in.read(buf, sizeof buf) || in.gcount() > 0) h = fnv1a64(std::string_view(buf, std::size_t(in.gcount())), h);
   return "img-" + hex64(h);
+}
+
+// An upload's private=: true/1 or false/0, nothing else.
+bool parse_private_flag(const std::string& v) {
+  if (v == "true" || v == "1") return true;
+  if (v == "false" || v == "0") return false;
+  throw ApiError(400, "invalid_query", "private must be true, 1, false or 0, not '" + v + "'");
 }
 
 Response method_not_allowed(const std::string& allow) {
@@ -108,6 +117,31 @@ std::string Router::base_url(const Request& req) const {
   return scheme + "://" + (host_is_sane(req.host) ? req.host : std::string("localhost"));
 }
 
+bool Router::has_curator_key(const Request& req) const {
+  const Authenticator* keys = config_.access.keys;
+  if (!keys || req.authorization.empty()) return false;
+  const auto result = keys->authenticate(req.authorization);
+  return result.outcome == Authenticator::Outcome::kValid && result.principal.role >= Role::kCurator;
+}
+
+std::shared_ptr<const tiles::ImageEntry> Router::readable_image(const Request& req, const std::string& id) const {
+  auto entry = find_image(store_, id);
+  if (!entry->manifest.is_private || has_curator_key(req)) return entry;
+  const auto now = std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch());
+  using Verdict = UrlSigner::Verdict;
+  const Verdict verdict = config_.url_signer ? config_.url_signer->verify(req.path, req.query, now.count())
+                                             : Verdict::kUnsigned;
+  switch (verdict) {
+    case Verdict::kValid: return entry;
+    case Verdict::kExpired: throw ApiError(403, "url_expired", "this signed URL has expired; ask for a new one");
+    case Verdict::kBadSignature:
+      throw ApiError(403, "bad_signature", "the signature does not match this URL (path, query and expiry are signed)");
+    case Verdict::kUnsigned: break;
+  }
+  // The same answer as for an id that does not exist (responses.cc find_image).
+  throw ApiError(404, "image_not_found", "no image with id '" + id + "'");
+}
+
 std::optional<Response> Router::image_response(const Request& req, const tiles::ImageEntry& entry,
                                                const std::string& route, const std::string& key_extra,
                                                bool may_compute,
@@ -119,7 +153,9 @@ std::optional<Response> Router::image_response(const Request& req, const tiles::
     r.route = route;
     r.set_header("ETag", etag);
     r.set_header("Last-Modified", http_date(m.created_ms));
-    r.set_header("Cache-Control", "public, max-age=" + std::to_string(config_.cache_max_age));
+    // A private image's answers are for this client only: a shared cache (nginx) must not keep them.
+    r.set_header("Cache-Control", std::string(m.is_private ? "private" : "public") +
+                                      ", max-age=" + std::to_string(config_.cache_max_age));
     return r;
   };
   if (!req.if_none_match.empty() && if_none_match_matches(req.if_none_match, etag)) {
@@ -381,7 +417,7 @@ std::optional<Response> Router::openapi(const Request&, const PathParams&, bool)
 }
 
 std::optional<Response> Router::dzi_descriptor_route(const Request& req, const PathParams& p, bool) {
-  return image_response(req, *find_image(store_, param(p, "id")), "dzi_descriptor", "", true,
+  return image_response(req, *readable_image(req, param(p, "id")), "dzi_descriptor", "", true,
                         [&](const tiles::ImageEntry& e) {
                           return body_response("application/xml", dzi_descriptor(e.manifest, config_.dzi,
                                                                                  e.manifest.has_alpha() ? "png" : "jpg"));
@@ -395,7 +431,7 @@ std::optional<Response> Router::dzi_tile_route(const Request& req, const PathPar
     throw ApiError(400, "invalid_tile", "tile paths are /dzi/{id}_files/{level}/{col}_{row}.{jpg|png|webp}");
   auto format = tiles::format_from_extension(name->extension);
   if (!format) throw ApiError(400, "invalid_format", "tile format must be jpg, png or webp");
-  auto entry = find_image(store_, param(p, "id"));
+  auto entry = readable_image(req, param(p, "id"));
   auto tile = dzi_tile(entry->manifest, config_.dzi, *level, name->col, name->row);
   if (!tile)
     throw ApiError(404, "tile_not_found",
@@ -409,7 +445,7 @@ std::optional<Response> Router::dzi_tile_route(const Request& req, const PathPar
 
 // IIIF base URI: redirect to the image information (§2.1).
 std::optional<Response> Router::iiif_base(const Request& req, const PathParams& p, bool) {
-  find_image(store_, param(p, "id"));
+  readable_image(req, param(p, "id"));
   Response r;
   r.status = 303;
   r.route = "iiif_base";
@@ -420,7 +456,7 @@ std::optional<Response> Router::iiif_base(const Request& req, const PathParams& 
 std::optional<Response> Router::iiif_info(const Request& req, const PathParams& p, bool) {
   const std::string base = base_url(req);
   const bool ld = req.accept.find("application/ld+json") != std::string::npos;
-  return image_response(req, *find_image(store_, param(p, "id")), "iiif_info", base + (ld ? "|ld" : ""), true,
+  return image_response(req, *readable_image(req, param(p, "id")), "iiif_info", base + (ld ? "|ld" : ""), true,
                         [&](const tiles::ImageEntry& e) {
                           Response r = body_response(
                               ld ? "application/ld+json;profile=\"http://iiif.io/api/image/3/context.json\""
@@ -432,7 +468,7 @@ std::optional<Response> Router::iiif_info(const Request& req, const PathParams& 
 }
 
 std::optional<Response> Router::iiif_image(const Request& req, const PathParams& p, bool may_compute) {
-  auto entry = find_image(store_, param(p, "id"));
+  auto entry = readable_image(req, param(p, "id"));
   const IiifPlan plan =
       plan_iiif_request(param(p, "region"), param(p, "size"), param(p, "rotation"),
                         param(p, "quality") + "." + param(p, "format"), entry->manifest.width, entry->manifest.height,
@@ -454,25 +490,27 @@ std::optional<Response> Router::iiif_image(const Request& req, const PathParams&
   });
 }
 
-std::optional<Response> Router::list_images(const Request&, const PathParams&, bool) {
+// Private images are listed for curator keys only; such a list is for that client alone.
+std::optional<Response> Router::list_images(const Request& req, const PathParams&, bool) {
+  const bool curator = has_curator_key(req);
   json images = json::array();
-  for (const auto& entry : store_.list()) images.push_back(image_json(entry->manifest));
+  for (const auto& entry : store_.list())
+    if (curator || !entry->manifest.is_private) images.push_back(image_json(entry->manifest));
   Response r = json_response(200, {{"images", images}});
   r.route = "images_list";
-  r.set_header("Cache-Control", "no-cache");
+  r.set_header("Cache-Control", curator ? "private, no-cache" : "no-cache");
   return r;
 }
 
-std::optional<Response> Router::describe_image(const Request&, const PathParams& p, bool) {
-  return describe(param(p, "id"));
+std::optional<Response> Router::describe_image(const Request& req, const PathParams& p, bool) {
+  return describe(*readable_image(req, param(p, "id")));
 }
 
-Response Router::describe(const std::string& id) const {
-  auto entry = find_image(store_, id);
-  Response r = json_response(200, image_json(entry->manifest));
+Response Router::describe(const tiles::ImageEntry& entry) const {
+  Response r = json_response(200, image_json(entry.manifest));
   r.route = "image_get";
-  r.set_header("ETag", make_etag(entry->manifest.version, "image"));
-  r.set_header("Cache-Control", "no-cache");
+  r.set_header("ETag", make_etag(entry.manifest.version, "image"));
+  r.set_header("Cache-Control", entry.manifest.is_private ? "private, no-cache" : "no-cache");
   return r;
 }
 
@@ -494,9 +532,11 @@ std::optional<Response> Router::upload_image(const Request& req, const PathParam
   auto query = parse_query(req.query);
   if (!query) throw ApiError(400, "invalid_query", "the query string is not well-formed");
   std::string id;
+  tiles::IngestOptions options = config_.ingest;
   for (const auto& [k, v] : *query) {
     if (k == "id") id = v;
-    else throw ApiError(400, "invalid_query", "unknown parameter '" + k + "' (only id is accepted)");
+    else if (k == "private") options.is_private = parse_private_flag(v);
+    else throw ApiError(400, "invalid_query", "unknown parameter '" + k + "' (only id and private are accepted)");
   }
   std::error_code ec;
   if (req.body_file.empty() || std::filesystem::file_size(req.body_file, ec) == 0 || ec)
@@ -506,7 +546,7 @@ std::optional<Response> Router::upload_image(const Request& req, const PathParam
     throw ApiError(400, "invalid_id",
                    "image ids are 1-128 characters from A-Z a-z 0-9 . _ - and start with a letter or digit");
   try {
-    tiles::Manifest m = tiles::ingest_image(store_, req.body_file, id, config_.ingest);
+    tiles::Manifest m = tiles::ingest_image(store_, req.body_file, id, options);
     Response r = json_response(201, image_json(m));
     r.route = "image_upload";
     r.set_header("Location", "/v1/images/" + m.id);

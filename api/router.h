@@ -20,6 +20,7 @@
 #include "api/deepzoom.h"
 #include "api/http_types.h"
 #include "api/iiif.h"
+#include "api/url_signing.h"
 #include "api/view_query.h"
 #include "api/warp_engines.h"
 #include "tiles/byte_lru_cache.h"
@@ -42,6 +43,9 @@ struct RouterConfig {
   warp::SignificanceOptions significance;     // for models built from the pyramid (the face cascade)
   EventLog log;                               // damaged models are reported here
   AccessPolicy access;                        // who may call the curator routes (api/authorize.h)
+  // Verifies signed URLs of private images (api/url_signing.h); null: none is valid (no
+  // --signing-key). Curator keys are the access policy's.
+  std::shared_ptr<const UrlSigner> url_signer;
 };
 
 // Threads: try_answer_now() and handle() may be called concurrently from any threads (I/O threads
@@ -105,7 +109,7 @@ class Router {
   std::optional<Response> describe_image(const Request&, const PathParams&, bool);
   std::optional<Response> delete_image(const Request&, const PathParams&, bool);
   std::optional<Response> upload_image(const Request&, const PathParams&, bool may_compute);
-  Response describe(const std::string& id) const;
+  Response describe(const tiles::ImageEntry& entry) const;
   // /v1/images/{id}/… of the warp engine (router_views.cc)
   std::optional<Response> view_route(const Request&, const PathParams&, bool may_compute);
   std::optional<Response> edit_route(const Request&, const PathParams&, bool may_compute);
@@ -131,6 +135,16 @@ class Router {
                         const std::function<Response()>& compute);
 
   std::string base_url(const Request& req) const;
+
+  // Private images (tiles::Manifest::is_private): whether the request carries a curator (or admin)
+  // key.
+  bool has_curator_key(const Request& req) const;
+  // The image `id` for reading, like find_image(). A private image only for a curator key or a
+  // validly signed URL; otherwise 404 image_not_found exactly as for an image that does not exist
+  // (a private image's existence is not revealed), and 403 url_expired / bad_signature for a
+  // signed URL that fails. Every read route calls this before its cache lookup or 304, so a cached
+  // answer is never served around the check.
+  std::shared_ptr<const tiles::ImageEntry> readable_image(const Request& req, const std::string& id) const;
 
   tiles::Store& store_;
   tiles::PyramidReader& reader_;

@@ -10,6 +10,7 @@
 #include "api/http_caching.h"
 #include "api/mesh_json.h"
 #include "api/responses.h"
+#include "api/url.h"
 #include "api/router.h"
 #include "warp/image_analysis.h"
 #include "warp/render.h"
@@ -38,16 +39,20 @@ json lines_json(const std::vector<warp::Segment>& lines) {
 // The route's last path segment says which: viewport, mesh, significance.png or lines.
 std::string_view last_segment(const std::string& path) { return std::string_view(path).substr(path.rfind('/') + 1); }
 
-// significance.png and GET lines take no parameters; like /mesh, they refuse what they do not know.
+// significance.png and GET lines take no parameters but a signed URL's; like /mesh, they refuse
+// what they do not know.
 void reject_query(const Request& req, std::string_view route) {
-  if (!req.query.empty())
-    throw ApiError(400, "bad_request", std::string(route) + " takes no query parameters, not '" + req.query + "'");
+  const auto pairs = parse_query(req.query);
+  if (!pairs) throw ApiError(400, "bad_request", "malformed query string");
+  for (const auto& [name, value] : *pairs)
+    if (!is_signature_parameter(name))
+      throw ApiError(400, "bad_request", std::string(route) + " takes no query parameters but expires and sig, not '" + name + "'");
 }
 
 }  // namespace
 
 std::optional<Response> Router::view_route(const Request& req, const PathParams& p, bool may_compute) {
-  auto entry = find_image(store_, param(p, "id"));
+  auto entry = readable_image(req, param(p, "id"));
   const std::string what(last_segment(req.path));
   if (what == "significance.png") {
     reject_query(req, what);
@@ -124,7 +129,7 @@ std::optional<Response> Router::edit_route(const Request& req, const PathParams&
   } catch (const tiles::VersionConflict& err) {
     throw ApiError(409, "conflict", std::string(err.what()) + "; read the image again and retry");
   }
-  Response r = describe(id);
+  Response r = describe(*find_image(store_, id));
   r.route = route;
   return r;
 }

@@ -6,6 +6,7 @@
 
 #include "api/errors.h"
 #include "api/url.h"
+#include "api/url_signing.h"
 #include "warp/limits.h"
 
 namespace zoomwarp::api {
@@ -80,6 +81,7 @@ ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double W
       if (!f) bad("format must be jpg, png or webp, not '" + value + "'");
       q.format = *f;
     } else if (route == ViewRoute::kViewport && name == "quality") q.quality = integer(name, value, 1, 100);
+    else if (is_signature_parameter(name)) continue;  // the router checks them; they name no view
     else bad("unknown parameter '" + name + "'");
   }
   if (!have_w || !have_h)

@@ -6,6 +6,8 @@
 //   curve    geometric (default) | linear
 //   from_zoom, from_cx, from_cy   (mesh only) the previous view, for the geomorph pair
 //   format   jpg (default) | png | webp,  quality 1…100   (viewport only)
+//   expires, sig   a signed URL's (api/url_signing.h): accepted once each, checked by the router,
+//                  not part of canonical()
 //
 // Parsing is strict: a missing w or h, a number that is not a plain finite decimal, a value out
 // of range, an unknown or repeated parameter is a 400 (ApiError), never a guess.

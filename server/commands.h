@@ -11,6 +11,7 @@ int serve_command(const std::vector<std::string>& args);
 int ingest_command(const std::vector<std::string>& args);
 int replay_command(const std::vector<std::string>& args);
 int health_command(const std::vector<std::string>& args);
+int sign_command(const std::vector<std::string>& args);
 int keys_command(const std::vector<std::string>& args);
 
 }  // namespace zoomwarp::server

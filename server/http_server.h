@@ -17,7 +17,9 @@
 #include <memory>
 #include <string>
 
+#include "api/rate_limits.h"
 #include "api/router.h"
+#include "server/cors.h"
 #include "server/metrics.h"
 #include "server/worker_pool.h"
 #include "tiles/store.h"
@@ -43,6 +45,11 @@ struct HttpServerOptions {
   std::chrono::seconds gc_grace{600};         // age of unreferenced versions before removal
   bool log_requests = true;
   std::string face_detection = "on";          // "off: why" — a /readyz detail, not a readiness failure
+  CorsPolicy cors;                            // which origins may write (server/cors.h)
+  // The client address (rate limits) is the last X-Forwarded-For entry, the one our proxy added,
+  // instead of the peer's; only behind a proxy that sets it, or clients choose their address.
+  bool trust_forwarded_for = false;
+  api::RateLimitConfig upload_limits;         // uploads per minute and bytes per day, per key or address
   std::function<void()> on_reload;            // SIGHUP, on an I/O thread; empty: SIGHUP is logged and ignored
 };
 

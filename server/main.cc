@@ -14,6 +14,7 @@ constexpr const char* kUsage =
     "  ingest    add an image file to the store as a tile pyramid\n"
     "  replay    replay view paths against a running server (load test of /mesh and /viewport)\n"
     "  health    exit 0 if a running server answers /healthz with 200 (container health checks)\n"
+    "  sign      print a URL of a private image signed to work without a key until it expires\n"
     "  keys      'keys new': make an API key and its line for the key file (serve --keys)\n"
     "\n"
     "'zoomwarp COMMAND --help' lists a command's options; each option --some-name can also be\n"
@@ -36,6 +37,7 @@ int main(int argc, char** argv) {
   if (command == "ingest") return zoomwarp::server::ingest_command(args);
   if (command == "replay") return zoomwarp::server::replay_command(args);
   if (command == "health") return zoomwarp::server::health_command(args);
+  if (command == "sign") return zoomwarp::server::sign_command(args);
   if (command == "keys") return zoomwarp::server::keys_command(args);
   std::fprintf(stderr, "zoomwarp: unknown command '%s'\n\n%s", command.c_str(), kUsage);
   return 2;

@@ -20,6 +20,29 @@ void Metrics::observe_stopped(const std::string& route, const std::string& reaso
   ++stopped_[{route, reason}];
 }
 
+void Metrics::observe_upload(const std::string& key_id) {
+  std::lock_guard lock(mu_);
+  ++uploads_[key_id];
+}
+
+void Metrics::observe_rate_limited(const std::string& key_id, const std::string& limit) {
+  std::lock_guard lock(mu_);
+  ++rate_limited_[{key_id, limit}];
+}
+
+namespace {
+// A label value as the exposition format wants it: key ids come from the operator's key file.
+std::string escaped(const std::string& v) {
+  std::string out;
+  for (char c : v) {
+    if (c == '\\' || c == '"') out += '\\';
+    if (c == '\n') out += "\\n";
+    else out += c;
+  }
+  return out;
+}
+}  // namespace
+
 void Metrics::add_sampler(Sampler s) {
   std::lock_guard lock(mu_);
   samplers_.push_back(std::move(s));
@@ -51,6 +74,14 @@ std::string Metrics::render() const {
            "# TYPE zoomwarp_http_requests_stopped_total counter\n";
     for (const auto& [key, n] : stopped_)
       out << "zoomwarp_http_requests_stopped_total{route=\"" << key.first << "\",reason=\"" << key.second << "\"} " << n
+          << "\n";
+    out << "# HELP zoomwarp_uploads_total Uploads admitted by the rate limits, by key id (\"\": no valid key).\n"
+           "# TYPE zoomwarp_uploads_total counter\n";
+    for (const auto& [key, n] : uploads_) out << "zoomwarp_uploads_total{key=\"" << escaped(key) << "\"} " << n << "\n";
+    out << "# HELP zoomwarp_rate_limited_total Uploads refused with 429, by key id (\"\": no valid key) and limit.\n"
+           "# TYPE zoomwarp_rate_limited_total counter\n";
+    for (const auto& [key, n] : rate_limited_)
+      out << "zoomwarp_rate_limited_total{key=\"" << escaped(key.first) << "\",limit=\"" << key.second << "\"} " << n
           << "\n";
     samplers = samplers_;
   }

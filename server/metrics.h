@@ -21,6 +21,11 @@ class Metrics {
   void observe_request(const std::string& route, int status, double seconds);
   // A request whose work its StopToken ended: reason "deadline" or "cancelled".
   void observe_stopped(const std::string& route, const std::string& reason);
+  // Uploads let through the rate limits, and refused by one ("uploads_per_minute",
+  // "bytes_per_day"), by key id ("" for requests without a valid key: never per address, whose
+  // number is unbounded).
+  void observe_upload(const std::string& key_id);
+  void observe_rate_limited(const std::string& key_id, const std::string& limit);
 
   // A gauge or counter sampled at each scrape: name, help, type ("gauge"/"counter"), labels
   // (e.g. R"(cache="response")" or ""), value.
@@ -45,6 +50,8 @@ class Metrics {
   std::map<std::pair<std::string, int>, std::uint64_t> requests_;
   std::map<std::string, Histogram> latency_;
   std::map<std::pair<std::string, std::string>, std::uint64_t> stopped_;
+  std::map<std::string, std::uint64_t> uploads_;
+  std::map<std::pair<std::string, std::string>, std::uint64_t> rate_limited_;
   std::vector<Sampler> samplers_;
 };
 

@@ -54,6 +54,11 @@ std::vector<OptionSpec> serve_specs() {
       {"log-requests", "1", "one JSON log line per request (1/0)"},
       {"keys", "", "API key file, one 'KEY_ID ROLE KEY' per line (README \"Access\"); re-read when it changes and on SIGHUP. Without it writes are refused"},
       {"open-writes", "0", "without --keys, let anyone upload, delete and edit (demos and tests on loopback)", true},
+      {"signing-key", "", "file holding the secret of signed URLs for private images (>= 32 random bytes, hex or raw: openssl rand -hex 32); none: no signed URLs"},
+      {"cors-write-origins", "", "origins whose pages may write (POST, PUT, PATCH, DELETE), comma-separated, e.g. https://curate.example.org; reads are open to every origin"},
+      {"trust-forwarded-for", "0", "behind a proxy: the client address (rate limits) is the last X-Forwarded-For entry (1/0)"},
+      {"upload-rate", "0", "uploads per minute per key (or client address without one), N or N/min; 0: no limit"},
+      {"upload-bytes-per-day", "0", "upload bytes per day per key (or client address without one), K/M/G; 0: no limit"},
   };
   for (auto& s : store_option_specs()) specs.push_back(s);
   return specs;
@@ -65,6 +70,14 @@ std::size_t connections_for_fd_limit() {
   rlimit limit{};
   if (getrlimit(RLIMIT_NOFILE, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY) return 1 << 16;
   return std::size_t(limit.rlim_cur > 80 ? limit.rlim_cur - 64 : 16);
+}
+
+// --upload-rate: "N" or "N/min".
+std::uint64_t upload_rate(std::string text) {
+  if (text.size() > 4 && text.compare(text.size() - 4, 4, "/min") == 0) text.resize(text.size() - 4);
+  const bool digits = !text.empty() && text.size() <= 9 && text.find_first_not_of("0123456789") == std::string::npos;
+  if (!digits) throw std::invalid_argument("--upload-rate must be N or N/min, not '" + text + "'");
+  return std::stoull(text);
 }
 
 // The key ring of --keys (null without), or --open-writes; they exclude each other, so a server
@@ -114,6 +127,10 @@ int serve_command(const std::vector<std::string>& args) {
     http.request_timeout = std::chrono::seconds(o.integer("request-timeout", 1, 3600));
     http.gc_grace = std::chrono::seconds(o.integer("gc-grace", 0, 30 * 86400));
     http.log_requests = o.flag("log-requests");
+    http.cors = CorsPolicy::parse(o.str("cors-write-origins"));
+    http.trust_forwarded_for = o.flag("trust-forwarded-for");
+    http.upload_limits.uploads_per_minute = upload_rate(o.str("upload-rate"));
+    http.upload_limits.bytes_per_day = o.bytes("upload-bytes-per-day", 0, 1ULL << 50);
 
     api::RouterConfig rc;
     rc.response_cache_bytes = o.bytes("response-cache", 0, 1ULL << 40);
@@ -129,6 +146,8 @@ int serve_command(const std::vector<std::string>& args) {
     const AnalysisSettings analysis = analysis_settings(o);
     rc.ingest = ingest_options(o, analysis.significance);
     rc.significance = analysis.significance;
+    if (!o.str("signing-key").empty())
+      rc.url_signer = std::make_shared<const api::UrlSigner>(api::UrlSigner::from_file(o.str("signing-key")));
     rc.log = [](std::string_view level, std::string_view msg, const nlohmann::json& fields) {
       log_event(level, msg, fields);
     };

@@ -46,6 +46,18 @@ std::optional<api::Response> refuse_transfer_encoding(const http::request_header
     return api::error_response(400, "bad_transfer_encoding", "Transfer-Encoding must be chunked (or absent), not '" + std::string(te) + "'");
   return api::error_response(501, "unsupported_transfer_encoding", "the only transfer coding understood is chunked, not '" + std::string(te) + "'");
 }
+// The client's address behind a proxy: the last X-Forwarded-For entry, the one the proxy in front
+// of us appended (earlier ones the client may have made up). `peer` if there is none or it is not
+// an IP address.
+std::string forwarded_client(std::string_view forwarded_for, const std::string& peer) {
+  const std::size_t comma = forwarded_for.rfind(',');
+  std::string last(comma == std::string_view::npos ? forwarded_for : forwarded_for.substr(comma + 1));
+  last.erase(0, last.find_first_not_of(" \t"));
+  last.erase(last.find_last_not_of(" \t") + 1);
+  boost::system::error_code ec;
+  const auto address = net::ip::make_address(last, ec);
+  return ec ? peer : address.to_string();
+}
 }  // namespace
 
 Session::Session(net::ip::tcp::socket&& socket, ServerState& state)
@@ -143,7 +155,10 @@ void Session::on_header(beast::error_code ec) {
   req_.accept = std::string(h[http::field::accept]);
   req_.authorization = std::string(h[http::field::authorization]);
   req_.origin = std::string(h[http::field::origin]);
-  req_.client_address = remote_address_;
+  req_.client_address = state_.options.trust_forwarded_for
+                            ? forwarded_client(h["X-Forwarded-For"], remote_address_)
+                            : remote_address_;
+  preflight_method_ = std::string(h[http::field::access_control_request_method]);
   const bool expect_continue = beast::iequals(h[http::field::expect], "100-continue");
   if (auto refusal = refuse_transfer_encoding(h)) {
     keep_alive_ = false;  // the body's length is unknown: the rest of the stream cannot be trusted
@@ -217,11 +232,43 @@ void Session::on_body(beast::error_code ec) {
 std::optional<api::Response> Session::admit_upload() {
   const std::uint64_t bytes = header_parser_->content_length().value_or(state_.options.max_upload_bytes);
   upload_slot_ = state_.uploads.try_admit(bytes);
-  if (upload_slot_) return std::nullopt;
+  std::optional<api::Response> refusal;
+  if (!upload_slot_) {
+    refusal = api::error_response(503, "ingest_busy", "the server is ingesting as many uploads as it can; retry shortly");
+    refusal->set_header("Retry-After", "1");
+    refusal->route = "overloaded";
+  } else if ((refusal = rate_limit_upload(bytes))) {
+    upload_slot_.reset();
+  } else {
+    return std::nullopt;
+  }
   keep_alive_ = false;  // the body is not read, so the connection cannot be reused
-  api::Response r = api::error_response(503, "ingest_busy", "the server is ingesting as many uploads as it can; retry shortly");
-  r.set_header("Retry-After", "1");
-  r.route = "overloaded";
+  return refusal;
+}
+
+// --upload-rate and --upload-bytes-per-day: a request with a valid key is counted against its key
+// wherever it comes from, one without against its client address. The upload is counted from the
+// header (Content-Length; a chunked one as --max-upload), so it is refused before its body is read.
+std::optional<api::Response> Session::rate_limit_upload(std::uint64_t bytes) {
+  std::string key_id;  // "" for no valid key: metrics count those together, never per address
+  if (const api::Authenticator* auth = state_.router.config().access.keys; auth && !req_.authorization.empty()) {
+    const auto result = auth->authenticate(req_.authorization);
+    if (result.outcome == api::Authenticator::Outcome::kValid) key_id = result.principal.key_id;
+  }
+  const std::string client = key_id.empty() ? "address:" + req_.client_address : "key:" + key_id;
+  const auto refusal = state_.upload_limits.admit(client, bytes, std::chrono::steady_clock::now());
+  if (!refusal) {
+    state_.metrics.observe_upload(key_id);
+    return std::nullopt;
+  }
+  state_.metrics.observe_rate_limited(key_id, std::string(refusal->limit));
+  api::Response r = api::error_response(
+      429, "rate_limited",
+      std::string(refusal->limit == "bytes_per_day" ? "over the upload bytes per day" : "over the uploads per minute") +
+          " allowed to " + (key_id.empty() ? "this address" : "this key") + "; retry after " +
+          std::to_string(refusal->retry_after_seconds) + " s");
+  r.set_header("Retry-After", std::to_string(refusal->retry_after_seconds));
+  r.route = "rate_limited";
   return r;
 }
 
@@ -324,13 +371,11 @@ void Session::finish_upload() {
 
 void Session::answer() {
   stream_.expires_never();  // a slow computation is not the client's fault
-  if (req_.method == "OPTIONS") {  // CORS preflight
+  if (req_.method == "OPTIONS") {  // CORS preflight (server/cors.h)
     api::Response r;
     r.status = 204;
     r.route = "preflight";
-    r.set_header("Access-Control-Allow-Methods", "GET, HEAD, POST, PUT, PATCH, DELETE, OPTIONS");
-    r.set_header("Access-Control-Allow-Headers", "Content-Type, If-None-Match");
-    r.set_header("Access-Control-Max-Age", "86400");
+    r.headers = state_.options.cors.preflight(req_.origin, preflight_method_);
     return send(std::move(r));
   }
   try {
@@ -427,8 +472,8 @@ void Session::send(api::Response r) {
   append_field(head_, "Server", "zoomwarp");
   if (!current_.content_type.empty()) append_field(head_, "Content-Type", current_.content_type);
   for (const auto& [name, value] : current_.headers) append_field(head_, name, value);
-  append_field(head_, "Access-Control-Allow-Origin", "*");
-  append_field(head_, "Access-Control-Expose-Headers", "ETag, Last-Modified, Location, Retry-After, Content-Length");
+  if (req_.method != "OPTIONS")  // a preflight's answer has its own (answer())
+    for (const auto& [name, value] : state_.options.cors.response(req_.method, req_.origin)) append_field(head_, name, value);
   if (!bodiless_status) append_field(head_, "Content-Length", std::to_string(size));
   if (!keep) append_field(head_, "Connection", "close");
   else if (version_ == 10) append_field(head_, "Connection", "keep-alive");

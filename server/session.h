@@ -53,6 +53,7 @@ struct ServerState {
   std::atomic<std::uint64_t> connections_accepted{0};  // logged when the server stops
   std::atomic<std::size_t> open_connections{0};        // sessions alive, against max_connections
   UploadAdmission uploads{options.upload_slots, options.max_staging_bytes};
+  api::RateLimits upload_limits{options.upload_limits};
 
   std::mutex sessions_mu;
   std::unordered_map<Session*, std::weak_ptr<Session>> sessions;  // for draining
@@ -88,6 +89,7 @@ class Session : public std::enable_shared_from_this<Session> {
   void linger();
   void discard_upload();
   std::optional<api::Response> admit_upload();
+  std::optional<api::Response> rate_limit_upload(std::uint64_t bytes);
   void read_upload();
   void on_upload_chunk(boost::beast::error_code ec);
   std::optional<api::Response> refuse_upload_head(bool whole_body) const;
@@ -113,6 +115,7 @@ class Session : public std::enable_shared_from_this<Session> {
 
   api::Request req_;
   std::string target_;
+  std::string preflight_method_;  // Access-Control-Request-Method of an OPTIONS request
   unsigned version_ = 11;
   bool keep_alive_ = true;
   bool idle_ = true;

@@ -22,6 +22,7 @@ Manifest ingest_image(Store& store, const std::string& source_path, const std::s
     m.levels = info.levels;
     m.tile_size = options.pyramid.tile_size;
     m.compression = options.pyramid.compression;
+    m.is_private = options.is_private;
     m.source_format = info.source_format;
     m.source_bits = info.source_bits;
     m.source_channels = info.source_channels;

@@ -19,6 +19,7 @@ struct IngestOptions {
   // it writes into the entry's folder is published with the image. Throwing fails the ingest.
   // The entry's manifest has no version yet.
   std::function<void(const ImageEntry& staged)> analyse;
+  bool is_private = false;  // Manifest::is_private of the published version
 };
 
 // Throws IngestError (bad input or write failure) or std::invalid_argument (invalid id).

@@ -30,6 +30,7 @@ std::string manifest_to_json(const Manifest& m) {
         {"channels", m.source_channels},
         {"orientation", m.source_orientation},
         {"bytes", m.source_bytes}}},
+      {"private", m.is_private},
   };
   return j.dump(2) + "\n";
 }
@@ -47,6 +48,7 @@ Manifest manifest_from_json(std::string_view text) {
     m.tile_size = j.at("tile_size").get<int>();
     m.compression = j.value("compression", "");
     m.created_ms = j.value("created_ms", std::int64_t(0));
+    m.is_private = j.value("private", false);
     if (auto s = j.find("source"); s != j.end()) {
       m.source_format = s->value("format", "");
       m.source_bits = s->value("bits", 8);

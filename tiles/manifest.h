@@ -23,6 +23,10 @@ struct Manifest {
   int source_channels = 3;
   int source_orientation = 1;   // EXIF orientation that was applied
   std::int64_t source_bytes = 0;
+  // Readable only with a curator key or a signed URL (api/README.md, "Private images"). Set at
+  // upload; edits publish from the old manifest, so it carries over; a re-upload states it again.
+  // Manifests written before it existed have no "private" member and are public.
+  bool is_private = false;
 
   bool has_alpha() const { return channels == 4; }
   int level_width(int k) const { return int((std::int64_t(width) + (1LL << k) - 1) >> k); }

@@ -72,13 +72,60 @@ TEST_F(Caching, HeadAndPreflight) {
   EXPECT_EQ(head.header("content-length"), std::to_string(get.body.size()));
   EXPECT_EQ(head.header("etag"), get.header("etag"));
 
-  auto pre = http.request("OPTIONS", "/v1/images", "", {{"Origin", "http://example.org"},
-                                                         {"Access-Control-Request-Method", "POST"}});
+  // Reads are open to every origin, also with a key (Authorization) and a validator.
+  auto pre = http.request("OPTIONS", "/dzi/img.dzi", "", {{"Origin", "http://example.org"},
+                                                           {"Access-Control-Request-Method", "GET"},
+                                                           {"Access-Control-Request-Headers", "authorization"}});
   EXPECT_EQ(pre.status, 204);
   EXPECT_EQ(pre.header("access-control-allow-origin"), "*");
-  EXPECT_NE(pre.header("access-control-allow-methods").find("POST"), std::string::npos);
+  EXPECT_NE(pre.header("access-control-allow-headers").find("Authorization"), std::string::npos);
   // Errors carry CORS headers too, so browsers can read them.
   EXPECT_EQ(http.get("/v1/images/nope").header("access-control-allow-origin"), "*");
+}
+
+// Writes only from --cors-write-origins: that exact origin in the answer, never "*", never
+// credentials (keys travel in Authorization, which is not credentials mode; server/cors.h).
+class CorsWrites : public ::testing::Test {
+ protected:
+  testing::TempDir dir;
+  testing::ServerProcess server{dir.path() + "/store", {"--cors-write-origins", "https://curate.example.org, http://localhost:3000"}};
+  HttpClient http{server.port()};
+
+  testing::HttpResponse preflight(const std::string& origin, const std::string& method) {
+    return http.request("OPTIONS", "/v1/images/img/lines", "",
+                        {{"Origin", origin}, {"Access-Control-Request-Method", method},
+                         {"Access-Control-Request-Headers", "authorization,content-type,if-match"}});
+  }
+};
+
+TEST_F(CorsWrites, AnAllowedOriginMayWrite) {
+  for (const std::string origin : {"https://curate.example.org", "http://localhost:3000"}) {
+    SCOPED_TRACE(origin);
+    const auto pre = preflight(origin, "PUT");
+    EXPECT_EQ(pre.status, 204);
+    EXPECT_EQ(pre.header("access-control-allow-origin"), origin);
+    EXPECT_EQ(pre.header("vary"), "Origin");
+    EXPECT_EQ(pre.header("access-control-allow-methods"), "POST, PUT, PATCH, DELETE");
+    EXPECT_EQ(pre.header("access-control-allow-headers"), "Authorization, Content-Type, If-Match");
+    EXPECT_EQ(pre.header("access-control-allow-credentials"), "");
+    const auto write = http.request("DELETE", "/v1/images/nope", "", {{"Origin", origin}});
+    EXPECT_EQ(write.header("access-control-allow-origin"), origin) << "the write's answer is readable there";
+    EXPECT_EQ(write.header("vary"), "Origin");
+  }
+}
+
+TEST_F(CorsWrites, OtherOriginsGetNoAllowHeadersForWrites) {
+  for (const std::string origin : {"https://evil.example.org", "https://curate.example.org.evil.net", "null"}) {
+    SCOPED_TRACE(origin);
+    const auto pre = preflight(origin, "DELETE");
+    EXPECT_EQ(pre.status, 204);
+    EXPECT_EQ(pre.header("access-control-allow-origin"), "");
+    EXPECT_EQ(pre.header("access-control-allow-methods"), "");
+    const auto write = http.request("DELETE", "/v1/images/nope", "", {{"Origin", origin}});
+    EXPECT_EQ(write.header("access-control-allow-origin"), "");
+    EXPECT_EQ(http.get("/v1/images", {{"Origin", origin}}).header("access-control-allow-origin"), "*")
+        << "reads stay open";
+  }
 }
 
 }  // namespace
