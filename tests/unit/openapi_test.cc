@@ -3,10 +3,12 @@
 // endpoints, which tests/http probes on a running server).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <functional>
 #include <optional>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <string_view>
 
 #include "api/assets.h"
 #include "api/router.h"
@@ -68,6 +70,19 @@ TEST(OpenApi, EachRoutesSecurityIsTheAccessTheRouterChecks) {
     }
   }
   EXPECT_GE(restricted, 4) << "the write routes";
+  // Reads of one image may be of a private one: they declare the curator key and the signed URL
+  // (api/url_signing.h) as their alternatives to no credentials.
+  ASSERT_TRUE(doc["components"]["securitySchemes"].contains("signedUrl"));
+  EXPECT_EQ(doc["components"]["securitySchemes"]["signedUrl"]["in"], "query");
+  int image_reads = 0;
+  for (const auto& r : api::Router::routes()) {
+    if (r.method != "GET" || std::string_view(r.path).find("{id}") == std::string_view::npos) continue;
+    ++image_reads;
+    const json& security = doc["paths"][std::string(r.path)]["get"]["security"];
+    EXPECT_NE(std::find(security.begin(), security.end(), json::parse(R"({"bearer": ["curator"]})")), security.end()) << r.path;
+    EXPECT_NE(std::find(security.begin(), security.end(), json::parse(R"({"signedUrl": []})")), security.end()) << r.path;
+  }
+  EXPECT_GE(image_reads, 10);
   // The server's operations endpoints (server/ops.cc): /metrics is admin, /readyz open to probes.
   EXPECT_EQ(declared_access(doc["paths"]["/metrics"]["get"]), api::Access::kAdmin);
   EXPECT_EQ(declared_access(doc["paths"]["/readyz"]["get"]), api::Access::kPublic);
