@@ -12,6 +12,8 @@
 #include <set>
 #include <sstream>
 
+#include "api/hex.h"
+
 namespace zoomwarp::api {
 
 namespace {
@@ -36,21 +38,11 @@ std::vector<std::string_view> fields_of(std::string_view line) {
   return fields;
 }
 
-int hex_value(char c) {
-  if (c >= '0' && c <= '9') return c - '0';
-  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-  return -1;
-}
-
 std::optional<KeyDigest> parse_digest(std::string_view hex) {
   KeyDigest d{};
-  if (hex.size() != 2 * d.size()) return std::nullopt;
-  for (std::size_t i = 0; i < d.size(); ++i) {
-    const int hi = hex_value(hex[2 * i]), lo = hex_value(hex[2 * i + 1]);
-    if (hi < 0 || lo < 0) return std::nullopt;
-    d[i] = static_cast<unsigned char>(hi * 16 + lo);
-  }
+  const auto bytes = hex_decode(hex);
+  if (!bytes || bytes->size() != d.size()) return std::nullopt;
+  std::copy(bytes->begin(), bytes->end(), d.begin());
   return d;
 }
 
@@ -132,12 +124,7 @@ KeyDigest key_digest(std::string_view key) {
   return d;
 }
 
-std::string digest_hex(const KeyDigest& digest) {
-  static constexpr char kHex[] = "0123456789abcdef";
-  std::string hex;
-  for (unsigned char b : digest) hex += {kHex[b >> 4], kHex[b & 15]};
-  return hex;
-}
+std::string digest_hex(const KeyDigest& digest) { return hex_encode(digest.data(), digest.size()); }
 
 std::string random_key() {
   unsigned char bytes[32];

@@ -13,6 +13,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include "api/hex.h"
+
 namespace zoomwarp::api {
 
 namespace {
@@ -29,31 +31,6 @@ Mac hmac_sha256(const std::string& key, std::string_view message) {
   return mac;
 }
 
-std::string to_hex(const Mac& mac) {
-  static constexpr char kDigits[] = "0123456789abcdef";
-  std::string out;
-  for (unsigned char b : mac) out += kDigits[b >> 4], out += kDigits[b & 15];
-  return out;
-}
-
-int hex_digit(char c) {
-  if (c >= '0' && c <= '9') return c - '0';
-  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-  return -1;
-}
-
-// Decodes an even number of hex digits; nullopt for anything else.
-std::optional<std::string> from_hex(std::string_view hex) {
-  if (hex.size() % 2) return std::nullopt;
-  std::string out;
-  for (std::size_t i = 0; i < hex.size(); i += 2) {
-    const int hi = hex_digit(hex[i]), lo = hex_digit(hex[i + 1]);
-    if (hi < 0 || lo < 0) return std::nullopt;
-    out += char(hi * 16 + lo);
-  }
-  return out;
-}
 
 std::string_view name_of(std::string_view pair) { return pair.substr(0, pair.find('=')); }
 
@@ -103,8 +80,8 @@ UrlSigner UrlSigner::from_file(const std::string& path) {
   while (!trimmed.empty() && std::isspace(static_cast<unsigned char>(trimmed.back()))) trimmed.remove_suffix(1);
   while (!trimmed.empty() && std::isspace(static_cast<unsigned char>(trimmed.front()))) trimmed.remove_prefix(1);
   // Raw random bytes are all hex digits with negligible probability: content that is, is hex.
-  const bool hex = !trimmed.empty() && std::all_of(trimmed.begin(), trimmed.end(), [](char c) { return hex_digit(c) >= 0; });
-  auto decoded = hex ? from_hex(trimmed) : std::nullopt;
+  const bool hex = !trimmed.empty() && std::all_of(trimmed.begin(), trimmed.end(), is_hex_digit);
+  auto decoded = hex ? hex_decode(trimmed) : std::nullopt;
   if (hex && !decoded) throw std::runtime_error("the signing key file " + path + " holds an odd number of hex digits");
   std::string secret = decoded ? std::move(*decoded) : raw;
   if (secret.size() < kMinSecretBytes)
@@ -117,14 +94,15 @@ std::string UrlSigner::sign(std::string_view path, std::string_view query, std::
   std::string signed_query = without(query, "expires", "sig");
   signed_query += (signed_query.empty() ? "expires=" : "&expires=") + std::to_string(expires);
   const std::string message = std::string(path) + "?" + signed_query;
-  return message + "&sig=" + to_hex(hmac_sha256(secret_, message));
+  const Mac mac = hmac_sha256(secret_, message);
+  return message + "&sig=" + hex_encode(mac.data(), mac.size());
 }
 
 UrlSigner::Verdict UrlSigner::verify(std::string_view path, std::string_view query, std::int64_t now) const {
   std::string_view sig, expires_text;
   const std::string signed_query = without(query, "sig", "", &sig, &expires_text);
   if (sig.data() == nullptr) return Verdict::kUnsigned;
-  const auto given = from_hex(sig);
+  const auto given = hex_decode(sig);
   const auto expires = unix_seconds(expires_text);
   const Mac mac = hmac_sha256(secret_, std::string(path) + "?" + signed_query);
   // Constant time over the whole MAC: how much of a forged signature is right is not observable.
