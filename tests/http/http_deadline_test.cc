@@ -102,7 +102,7 @@ TEST_F(Deadline, AViewOutOfTimeGets503WithRetryAfterAndTheWorkerIsFreeAfter) {
   EXPECT_EQ(HttpClient(port()).get("/v1/images/pano/viewport?zoom=1&w=64&h=64").status, 200);
   EXPECT_TRUE(wait_for_metric(port(), stopped("deadline"), out_of_time, 10));  // counted once written
   EXPECT_EQ(metric(port(), stopped("deadline")), out_of_time);
-  EXPECT_NE(server_->log().find("\"msg\":\"request stopped\""), std::string::npos);
+  EXPECT_TRUE(server_->wait_for_log("\"msg\":\"request stopped\""));
   EXPECT_EQ(server_->terminate(), 0);
 }
 

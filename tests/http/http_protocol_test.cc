@@ -113,8 +113,8 @@ TEST_F(Protocol, ErrorBodiesNameNoPathHostOrPid) {
   EXPECT_EQ(broken.status, 500) << broken.body;
   EXPECT_EQ(json::parse(broken.body)["error"]["code"], "internal_error");
   expect_nothing_private(broken.body, store_path(), server_->pid());
-  // The operator gets the detail.
-  EXPECT_NE(server_->log().find("\"msg\":\"request failed\""), std::string::npos);
+  // The operator gets the detail (logged once the answer is written).
+  EXPECT_TRUE(server_->wait_for_log("\"msg\":\"request failed\""));
 }
 
 TEST_F(Protocol, IfMatchUsesStrongComparisonAndLists) {

@@ -127,6 +127,15 @@ int ServerProcess::terminate(double timeout_s) {
 
 std::string ServerProcess::log() const { return read_all(log_path_); }
 
+bool ServerProcess::wait_for_log(const std::string& needle, double seconds) const {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (log().find(needle) == std::string::npos) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return true;
+}
+
 int unused_loopback_port() {
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
   sockaddr_in addr{};

@@ -51,6 +51,10 @@ class ServerProcess {
   // Everything the server has logged so far (JSON lines).
   std::string log() const;
 
+  // Waits until the log holds `needle`; false if it has not after `seconds` (a bound on a hang).
+  // For lines written after the response is sent (a request's own lines come once it is written).
+  bool wait_for_log(const std::string& needle, double seconds = 10) const;
+
  private:
   pid_t pid_ = -1;
   int port_ = 0;
