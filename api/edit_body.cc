@@ -6,7 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "api/errors.h"
-#include "warp/limits.h"
+#include "warp/core/limits.h"
 
 namespace zoomwarp::api {
 
@@ -16,7 +16,7 @@ using nlohmann::json;
 
 [[noreturn]] void bad_body(const std::string& message) { throw ApiError(400, "invalid_body", message); }
 
-// Over a limit of warp/limits.h: 413, whose code names the limit (README "Limits").
+// Over a limit of warp/core/limits.h: 413, whose code names the limit (README "Limits").
 [[noreturn]] void over_limit(const std::string& code, const std::string& message) { throw ApiError(413, code, message); }
 
 // Checked before the items are parsed, so an oversized array costs no more than its JSON parse.

@@ -1,7 +1,7 @@
 // The JSON bodies of curator edits (api/openapi.json, "Lines" and "SignificanceEdit"), parsed
 // strictly: exactly the documented members, finite numbers inside the image (W × H), polygons of
 // at least 3 points, weights in [0, 1], rectangles of positive size. Anything else is an
-// ApiError(400, "invalid_body") saying what was wrong. Over a limit of warp/limits.h — lines and
+// ApiError(400, "invalid_body") saying what was wrong. Over a limit of warp/core/limits.h — lines and
 // their total length, regions per edit, points per polygon — it is an ApiError(413) whose code
 // names the limit: too_many_lines, lines_too_long, too_many_regions, too_many_points. (Regions
 // kept over all edits are checked when the edit is applied: warp::edit_image_model.)
@@ -9,7 +9,7 @@
 
 #include <string_view>
 
-#include "warp/image_analysis.h"
+#include "warp/analysis/image_analysis.h"
 
 namespace zoomwarp::api {
 

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "api/http_types.h"
-#include "warp/stop_token.h"
+#include "warp/core/stop_token.h"
 
 namespace zoomwarp::api {
 

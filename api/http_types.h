@@ -28,7 +28,7 @@ struct Request {
   std::string client_address;  // the peer's IP address as the server saw it (no port)
   std::string body;           // small bodies (JSON)
   std::string body_file;      // uploads: a file the server streamed the body into
-  // The request's deadline and cancel flag (warp/stop_token.h), owned by the server and alive
+  // The request's deadline and cancel flag (warp/core/stop_token.h), owned by the server and alive
   // until the response is sent; null: no limit. Computations check it at step boundaries.
   const warp::StopToken* stop = nullptr;
 };

@@ -64,7 +64,7 @@ std::string mesh_json(const tiles::Manifest& image, const ViewQuery& q, const wa
                     {"cy", q.view.cy},
                     {"w", q.view.screen_width},
                     {"h", q.view.screen_height},
-                    {"method", std::string(method_name(q.method))},
+                    {"method", std::string(q.method_name())},
                     {"curve", q.view.curve == warp::ZoomCurve::kLinear ? "linear" : "geometric"},
                     {"target", {{"width", milli(g.target_width)}, {"height", milli(g.target_height)}}},
                     {"viewing_area",

@@ -10,7 +10,7 @@
 #include "api/deepzoom.h"
 #include "api/view_query.h"
 #include "tiles/manifest.h"
-#include "warp/icaz.h"
+#include "warp/icaz/icaz.h"
 
 namespace zoomwarp::api {
 

@@ -12,23 +12,14 @@
 #include "api/responses.h"
 #include "api/url.h"
 #include "api/router.h"
-#include "warp/image_analysis.h"
-#include "warp/render.h"
+#include "warp/analysis/image_analysis.h"
+#include "warp/render/render.h"
 
 namespace zoomwarp::api {
 
 namespace {
 
 using nlohmann::json;
-
-warp::View view_by(warp::Icaz& engine, ViewMethod method, const warp::ViewRequest& r) {
-  switch (method) {
-    case ViewMethod::kTraditional: return engine.traditional(r);
-    case ViewMethod::kRetargetZoom: return engine.retarget_zoom(r);
-    case ViewMethod::kIcaz: break;
-  }
-  return engine.view(r);
-}
 
 json lines_json(const std::vector<warp::Segment>& lines) {
   json out = json::array();
@@ -74,25 +65,43 @@ std::optional<Response> Router::view_route(const Request& req, const PathParams&
   q.view.stop = req.stop;  // both ends of a geomorph: the from-view is as much work as the view
   if (q.from) q.from->stop = req.stop;
   return image_response(req, *entry, what, q.canonical(), may_compute, [&](const tiles::ImageEntry& e) {
-    auto engine = engines_.get(e);
     try {
+      // ICAZ and traditional zoom are the ICAZ operator's; every other method is a Retargeter.
+      std::shared_ptr<warp::Icaz> icaz;
+      std::shared_ptr<warp::Retargeter> retargeter;
+      if (q.method == ViewMethod::kRetargeting) retargeter = engines_.retargeter(e, *q.retargeting, q.saliency);
+      else icaz = engines_.get(e, q.method == ViewMethod::kTraditional ? warp::Saliency::kDefault : q.saliency, q.auto_lines);
+      const auto view_of = [&](const warp::ViewRequest& r) {
+        switch (q.method) {
+          case ViewMethod::kTraditional: return icaz->traditional(r);
+          case ViewMethod::kRetargetZoom: return icaz->retarget_zoom(r);
+          case ViewMethod::kRetargeting: return retargeter->view(r);
+          case ViewMethod::kIcaz: break;
+        }
+        return icaz->view(r);
+      };
       if (route == ViewRoute::kViewport) {
-        const warp::View v = view_by(*engine, q.method, q.view);
-        const tiles::Raster screen = warp::render_view(v, q.view.screen_width, q.view.screen_height, e, reader_, req.stop);
+        const tiles::Raster screen = retargeter ? retargeter->render(q.view, e, reader_)
+                                                : warp::render_view(view_of(q.view), q.view.screen_width,
+                                                                    q.view.screen_height, e, reader_, req.stop);
         warp::check_stop(req.stop);  // not worth encoding a view nobody waits for any more
         tiles::EncodeOptions encode = config_.encode;
         if (q.quality > 0) encode.jpeg_quality = encode.webp_quality = q.quality;
         return body_response(std::string(tiles::mime_type(q.format)), tiles::encode_image(screen, q.format, encode));
       }
+      if (retargeter && !retargeter->has_mesh())
+        throw ApiError(501, "not_implemented",
+                       "method=" + std::string(q.method_name()) + " carves pixels away and has no mesh; use /viewport?method=" +
+                           std::string(q.method_name()));
       const std::string tile_ext = e.manifest.has_alpha() ? "png" : "jpg";
-      if (!q.from) return body_response("application/json", mesh_json(e.manifest, q, view_by(*engine, q.method, q.view), nullptr, config_.dzi, tile_ext));
+      if (!q.from) return body_response("application/json", mesh_json(e.manifest, q, view_of(q.view), nullptr, config_.dzi, tile_ext));
       if (q.method == ViewMethod::kIcaz) {
         warp::View to;
-        const warp::Geomorph morph = engine->geomorph(*q.from, q.view, &to);
+        const warp::Geomorph morph = icaz->geomorph(*q.from, q.view, &to);
         return body_response("application/json", mesh_json(e.manifest, q, to, &morph, config_.dzi, tile_ext));
       }
-      // The baselines draw the same (coarsest) mesh in every view: the pair is vertex by vertex.
-      const warp::View to = view_by(*engine, q.method, q.view), from = view_by(*engine, q.method, *q.from);
+      // The other methods draw the same mesh in every view of one screen: the pair is vertex by vertex.
+      const warp::View to = view_of(q.view), from = view_of(*q.from);
       const warp::Geomorph morph{to.source, {}, from.screen, to.screen};
       return body_response("application/json", mesh_json(e.manifest, q, to, &morph, config_.dzi, tile_ext));
     } catch (const std::invalid_argument& err) {

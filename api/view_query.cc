@@ -7,7 +7,7 @@
 #include "api/errors.h"
 #include "api/url.h"
 #include "api/url_signing.h"
-#include "warp/limits.h"
+#include "warp/core/limits.h"
 
 namespace zoomwarp::api {
 
@@ -32,6 +32,13 @@ double in_range(const std::string& name, double v, double lo, double hi) {
   return v;
 }
 
+// "icaz, traditional, retarget-zoom, seam, …", for error messages.
+std::string method_list() {
+  std::string out = "icaz, traditional, retarget-zoom";
+  for (const auto* m : warp::retargeting_methods()) out += ", " + std::string(m->name);
+  return out;
+}
+
 int integer(const std::string& name, const std::string& text, int lo, int hi) {
   const double v = number(name, text);
   if (v != std::floor(v)) bad(name + " must be a whole number, not '" + text + "'");
@@ -40,11 +47,12 @@ int integer(const std::string& name, const std::string& text, int lo, int hi) {
 
 }  // namespace
 
-std::string_view method_name(ViewMethod m) {
-  switch (m) {
+std::string_view ViewQuery::method_name() const {
+  switch (method) {
     case ViewMethod::kIcaz: return "icaz";
     case ViewMethod::kTraditional: return "traditional";
     case ViewMethod::kRetargetZoom: return "retarget-zoom";
+    case ViewMethod::kRetargeting: return retargeting->name;
   }
   return "icaz";
 }
@@ -68,7 +76,15 @@ ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double W
       if (value == "icaz") q.method = ViewMethod::kIcaz;
       else if (value == "traditional") q.method = ViewMethod::kTraditional;
       else if (value == "retarget-zoom") q.method = ViewMethod::kRetargetZoom;
-      else bad("method must be icaz, traditional or retarget-zoom, not '" + value + "'");
+      else if (const auto* m = warp::find_retargeting_method(value)) q.method = ViewMethod::kRetargeting, q.retargeting = m;
+      else bad("method must be one of " + method_list() + ", not '" + value + "'");
+    } else if (name == "saliency") {
+      const auto s = warp::parse_saliency(value);
+      if (!s) bad("saliency must be default or gbvs, not '" + value + "'");
+      q.saliency = *s;
+    } else if (name == "lines") {
+      if (value == "auto") q.auto_lines = true;
+      else if (value != "curator") bad("lines must be curator or auto, not '" + value + "'");
     } else if (name == "curve") {
       if (value == "geometric") q.view.curve = warp::ZoomCurve::kGeometric;
       else if (value == "linear") q.view.curve = warp::ZoomCurve::kLinear;
@@ -88,6 +104,8 @@ ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double W
     bad("w and h (screen size in pixels, 16…" + std::to_string(warp::limits::kMaxScreenSide) + ") are required");
   if ((long long)q.view.screen_width * q.view.screen_height > warp::limits::kMaxScreenPixels)
     bad("the screen (w × h) has at most " + std::to_string(warp::limits::kMaxScreenPixels) + " pixels");
+  if (q.auto_lines && q.method != ViewMethod::kIcaz)
+    bad("lines=auto applies to method=icaz (mp always uses the detected lines; the others use none)");
   if (from_zoom || from_cx || from_cy) {
     q.from = q.view;
     if (from_zoom) q.from->zoom = *from_zoom;
@@ -99,7 +117,8 @@ ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double W
 
 std::string ViewQuery::canonical() const {
   char buf[320];
-  std::snprintf(buf, sizeof buf, "%s|%s|z=%.17g|c=%.17g,%.17g|s=%dx%d", std::string(method_name(method)).c_str(),
+  std::snprintf(buf, sizeof buf, "%s|%s|%s|%s|z=%.17g|c=%.17g,%.17g|s=%dx%d", std::string(method_name()).c_str(),
+                std::string(warp::saliency_name(saliency)).c_str(), auto_lines ? "auto" : "curator",
                 view.curve == warp::ZoomCurve::kLinear ? "linear" : "geometric", view.zoom, view.cx, view.cy,
                 view.screen_width, view.screen_height);
   std::string out = buf;

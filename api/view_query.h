@@ -2,7 +2,10 @@
 //
 //   zoom     0…1, default 0            cx, cy  view centre in full-resolution image pixels,
 //   w, h     screen pixels, 16…4096             0…width / 0…height, default the image centre
-//   method   icaz (default) | traditional | retarget-zoom
+//   method   icaz (default) | traditional | retarget-zoom | a registered retargeting method
+//            (warp/methods/retargeting_method.h: seam, …)
+//   saliency default (default) | gbvs    which saliency map drives a content-aware method
+//   lines    curator (default) | auto    auto: ICAZ with the automatically detected lines too
 //   curve    geometric (default) | linear
 //   from_zoom, from_cx, from_cy   (mesh only) the previous view, for the geomorph pair
 //   format   jpg (default) | png | webp,  quality 1…100   (viewport only)
@@ -18,21 +21,29 @@
 #include <string_view>
 
 #include "tiles/image_format.h"
-#include "warp/icaz.h"
+#include "warp/core/view.h"
+#include "warp/methods/retargeting_method.h"
 
 namespace zoomwarp::api {
 
-enum class ViewMethod { kIcaz, kTraditional, kRetargetZoom };
+// ICAZ and traditional zoom are the icaz/ operator's; every other method is a registered one.
+enum class ViewMethod { kIcaz, kTraditional, kRetargetZoom, kRetargeting };
 
 struct ViewQuery {
   warp::ViewRequest view;
   ViewMethod method = ViewMethod::kIcaz;
+  const warp::RetargetingMethod* retargeting = nullptr;  // for kRetargeting: which one
+  warp::Saliency saliency = warp::Saliency::kDefault;
+  bool auto_lines = false;  // lines=auto
   std::optional<warp::ViewRequest> from;  // from_* given (all three optional, default: this view's)
   tiles::ImageFormat format = tiles::ImageFormat::kJpeg;
   int quality = 0;  // 0: the server's default
 
   // A canonical form of everything that determines the answer, for cache keys and ETags.
   std::string canonical() const;
+
+  // The `method=` value: "icaz", "traditional", "retarget-zoom", "seam", …
+  std::string_view method_name() const;
 };
 
 enum class ViewRoute { kViewport, kMesh };
@@ -40,6 +51,5 @@ enum class ViewRoute { kViewport, kMesh };
 // Throws ApiError(400) for anything malformed or out of range.
 ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double image_width, double image_height);
 
-std::string_view method_name(ViewMethod m);
 
 }  // namespace zoomwarp::api

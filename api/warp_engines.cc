@@ -4,7 +4,8 @@
 #include <nlohmann/json.hpp>
 
 #include "api/errors.h"
-#include "warp/image_analysis.h"
+#include "warp/analysis/image_analysis.h"
+#include "warp/analysis/method_files.h"
 
 namespace zoomwarp::api {
 
@@ -12,11 +13,12 @@ WarpEngines::WarpEngines(tiles::PyramidReader& reader, std::size_t budget_bytes,
                          EventLog log)
     : reader_(reader), budget_(budget_bytes), significance_(std::move(significance)), log_(std::move(log)) {}
 
-std::shared_ptr<warp::Icaz> WarpEngines::load(const tiles::ImageEntry& image) {
+std::shared_ptr<warp::Icaz> WarpEngines::load_icaz(const tiles::ImageEntry& image, warp::Saliency saliency,
+                                                   bool auto_lines) {
   const std::string& id = image.manifest.id;
   warp::LoadedModel loaded;
   try {
-    loaded = warp::load_image_model(image, reader_, significance_);
+    loaded = warp::load_image_model(image, reader_, significance_, {saliency, auto_lines});
   } catch (const warp::ModelFileError& e) {
     if (log_)
       log_("error", "warp model damaged, curator edits unreadable",
@@ -49,9 +51,35 @@ void WarpEngines::evict_over_budget(const std::string& keep) {
   }
 }
 
-std::shared_ptr<warp::Icaz> WarpEngines::get(const tiles::ImageEntry& image) {
-  const std::string key = image.dir;  // one folder per version
-  std::promise<std::shared_ptr<warp::Icaz>> promise;
+std::shared_ptr<warp::Retargeter> WarpEngines::load_retargeter(const tiles::ImageEntry& image,
+                                                               const warp::RetargetingMethod& method,
+                                                               warp::Saliency saliency) {
+  // Every method reads the version's model (size, lines, significance): the default ICAZ
+  // engine's, loaded once and shared.
+  const auto icaz = get(image);
+  warp::LoadedRetargeter loaded = warp::load_retargeter(image, reader_, icaz->model(), method, saliency);
+  if (loaded.source == warp::MethodSource::kRebuiltDamaged && log_)
+    log_("warn", "method model file damaged, precomputed again in memory",
+         {{"image", image.manifest.id}, {"version", image.manifest.version}, {"method", method.name},
+          {"saliency", warp::saliency_name(saliency)}, {"error", loaded.reason}});
+  return std::move(loaded.engine);
+}
+
+std::shared_ptr<warp::Icaz> WarpEngines::get(const tiles::ImageEntry& image, warp::Saliency saliency, bool auto_lines) {
+  const std::string key = image.dir + "|icaz|" + std::string(warp::saliency_name(saliency)) + (auto_lines ? "|auto" : "");
+  return std::get<std::shared_ptr<warp::Icaz>>(cached(key, [&] { return Engine(load_icaz(image, saliency, auto_lines)); }));
+}
+
+std::shared_ptr<warp::Retargeter> WarpEngines::retargeter(const tiles::ImageEntry& image,
+                                                          const warp::RetargetingMethod& method,
+                                                          warp::Saliency saliency) {
+  const std::string key = image.dir + "|" + std::string(method.name) + "|" + std::string(warp::saliency_name(saliency));
+  return std::get<std::shared_ptr<warp::Retargeter>>(
+      cached(key, [&] { return Engine(load_retargeter(image, method, saliency)); }));
+}
+
+WarpEngines::Engine WarpEngines::cached(const std::string& key, const std::function<Engine()>& load) {
+  std::promise<Engine> promise;
   Future existing;
   {
     std::lock_guard lock(mu_);
@@ -63,12 +91,12 @@ std::shared_ptr<warp::Icaz> WarpEngines::get(const tiles::ImageEntry& image) {
       engines_.emplace(key, Entry{promise.get_future().share(), order_.begin(), 0});
     }
   }
-  std::shared_ptr<warp::Icaz> engine;
+  Engine engine;
   if (existing.valid()) {
     engine = existing.get();  // rethrows the loader's error
   } else {
     try {
-      engine = load(image);
+      engine = load();
       promise.set_value(engine);
     } catch (...) {
       promise.set_exception(std::current_exception());
@@ -80,8 +108,8 @@ std::shared_ptr<warp::Icaz> WarpEngines::get(const tiles::ImageEntry& image) {
       throw;
     }
   }
-  // The engine grows as views visit it (lazy forest nodes, coarse warps): measure it again.
-  const std::size_t bytes = engine->memory_bytes();
+  // The engine grows as views visit it (lazy forest nodes, caches per target size): measure it again.
+  const std::size_t bytes = std::visit([](const auto& e) { return e->memory_bytes(); }, engine);
   std::lock_guard lock(mu_);
   if (auto it = engines_.find(key); it != engines_.end()) it->second.bytes = bytes;
   evict_over_budget(key);

@@ -1,6 +1,7 @@
-// One ICAZ operator (warp::Icaz) per image version, made from the model files kept with the
-// image on first use and shared by every request for that version: its forest and its coarse-warp
-// cache (per target size) are what make panning cheap. Identical concurrent first uses load once
+// One ICAZ operator (warp::Icaz) per image version and variant (saliency kind, automatic lines),
+// and one Retargeter per (version, registered method, saliency kind), made from the model files
+// kept with the image on first use and shared by every request for them: the forest and the
+// caches per target size are what make panning cheap. Identical concurrent first uses load once
 // (single flight). Their memory is bounded in bytes: engines are dropped least recently used
 // first while the total is over the budget, and each engine's lazily grown forest is capped at a
 // quarter of it. A new version (an edit, a re-ingest) is simply another key, so an old one's
@@ -26,10 +27,12 @@
 #include <string>
 #include <string_view>
 #include <unordered_map>
+#include <variant>
 
 #include "tiles/pyramid_reader.h"
 #include "tiles/store.h"
-#include "warp/icaz.h"
+#include "warp/icaz/icaz.h"
+#include "warp/methods/retargeting_method.h"
 
 namespace zoomwarp::api {
 
@@ -44,14 +47,25 @@ class WarpEngines {
 
   // Throws ApiError(500, "model_damaged") if the curator's edits cannot be read, and
   // std::runtime_error if the model cannot be built.
-  std::shared_ptr<warp::Icaz> get(const tiles::ImageEntry& image);
+  std::shared_ptr<warp::Icaz> get(const tiles::ImageEntry& image, warp::Saliency saliency = warp::Saliency::kDefault,
+                                  bool auto_lines = false);
+
+  // The registered method's engine for the version (its model file, or precomputed in memory
+  // when the version has none). Throws as get() does.
+  std::shared_ptr<warp::Retargeter> retargeter(const tiles::ImageEntry& image, const warp::RetargetingMethod& method,
+                                               warp::Saliency saliency);
 
   // The engines' bytes as last measured, and how many there are (for /metrics).
   std::size_t memory_bytes();
 
  private:
-  using Future = std::shared_future<std::shared_ptr<warp::Icaz>>;
-  std::shared_ptr<warp::Icaz> load(const tiles::ImageEntry& image);
+  using Engine = std::variant<std::shared_ptr<warp::Icaz>, std::shared_ptr<warp::Retargeter>>;
+  using Future = std::shared_future<Engine>;
+  std::shared_ptr<warp::Icaz> load_icaz(const tiles::ImageEntry& image, warp::Saliency saliency, bool auto_lines);
+  std::shared_ptr<warp::Retargeter> load_retargeter(const tiles::ImageEntry& image, const warp::RetargetingMethod& method,
+                                                    warp::Saliency saliency);
+  // The engine under `key`, loaded by `load` on first use (single flight).
+  Engine cached(const std::string& key, const std::function<Engine()>& load);
 
   void evict_over_budget(const std::string& keep);
 

@@ -31,7 +31,7 @@ readonly SUITE=bookworm
 readonly APP_USER=zoomwarp APP_UID=10001 APP_GID=10001
 readonly STORE=/var/lib/zoomwarp
 readonly APP_BINARY=/usr/local/bin/zoomwarp
-# warp/significance.h reads this file for the face boost and silently does without it when missing.
+# warp/saliency/significance.h reads this file for the face boost and silently does without it when missing.
 readonly FACE_CASCADE=/usr/share/opencv4/haarcascades/haarcascade_frontalface_default.xml
 readonly SAMPLE=boats_lake_sunset.jpg SAMPLE_ID=boats UPLOAD_ID=boats-upload
 readonly VIEW_QUERY='zoom=0.5&w=480&h=360' VIEW_SIZE=480x360

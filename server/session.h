@@ -30,7 +30,7 @@
 #include "server/upload_admission.h"
 #include "server/worker_pool.h"
 #include "tiles/store.h"
-#include "warp/stop_token.h"
+#include "warp/core/stop_token.h"
 
 namespace zoomwarp::server {
 

@@ -4,7 +4,7 @@
 #include <stdexcept>
 
 #include "server/log.h"
-#include "warp/image_analysis.h"
+#include "warp/analysis/image_analysis.h"
 
 namespace zoomwarp::server {
 

@@ -6,7 +6,7 @@
 
 #include "server/options.h"
 #include "tiles/ingest.h"
-#include "warp/significance.h"
+#include "warp/saliency/significance.h"
 
 namespace zoomwarp::server {
 

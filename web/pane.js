@@ -159,7 +159,7 @@ export class Pane {
   }
 
   // The zoom change that magnifies the picture by `ratio` on the server's geometric zoom curve
-  // (warp/zoom_curve.cc): the viewing area shrinks geometrically from the whole image at zoom 0
+  // (warp/core/zoom_curve.cc): the viewing area shrinks geometrically from the whole image at zoom 0
   // to one screen of full-resolution pixels at zoom 1.
   zoomChange(ratio) {
     const { w, h } = this.currentRequest();

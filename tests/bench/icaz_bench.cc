@@ -1,7 +1,7 @@
 // Time per zoom and per pan action of the ICAZ operator at 480×360 with 500 px² triangles, along
 // the zoom range, on a ≥ 10 MP wide photo and on a ≥ 300 MP synthetic mosaic; plus the paper's
 // Fig. 9 comparison with a uniform mesh of the finest resolution, and the model-building cost.
-// Then the bounds of warp/limits.h: the same views with 0 and with kMaxLines line constraints of
+// Then the bounds of warp/core/limits.h: the same views with 0 and with kMaxLines line constraints of
 // kMaxTotalLineLength in all (axis-aligned and oblique mixed), and the largest screen (4096×4096)
 // on a 4:1 panorama at z = 0.
 //
@@ -18,8 +18,8 @@
 
 #include "tests/support/images.h"
 #include "tests/support/server_process.h"
-#include "warp/icaz.h"
-#include "warp/limits.h"
+#include "warp/icaz/icaz.h"
+#include "warp/core/limits.h"
 
 namespace {
 

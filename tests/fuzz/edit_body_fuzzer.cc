@@ -1,5 +1,5 @@
 // Fuzzes the curator-edit body parsers (api/edit_body.h) with arbitrary bytes: each must return
-// an edit whose every number is finite and inside the image and that is within warp/limits.h,
+// an edit whose every number is finite and inside the image and that is within warp/core/limits.h,
 // or throw ApiError(400), or ApiError(413) for an edit over a limit.
 #include <cmath>
 #include <cstdint>
@@ -8,7 +8,7 @@
 
 #include "api/edit_body.h"
 #include "api/errors.h"
-#include "warp/limits.h"
+#include "warp/core/limits.h"
 
 namespace {
 

@@ -13,7 +13,7 @@
 #include "tests/support/http_client.h"
 #include "tests/support/images.h"
 #include "tests/support/server_process.h"
-#include "warp/limits.h"
+#include "warp/core/limits.h"
 
 namespace zoomwarp {
 namespace {
@@ -208,7 +208,7 @@ TEST_F(DamagedStore, AnImageWithADamagedManifestAnswers500AndCanBeDeleted) {
   EXPECT_EQ(list.find("manifest-"), std::string::npos) << list;
 }
 
-// The limits of warp/limits.h at their edges: the largest edit accepted (2xx), one more refused
+// The limits of warp/core/limits.h at their edges: the largest edit accepted (2xx), one more refused
 // with 413 and the limit's code, nothing published.
 class Limits : public ::testing::Test {
  protected:

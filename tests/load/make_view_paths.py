@@ -12,7 +12,7 @@ is used, whose sequence Python guarantees). Run from anywhere:
 
     python3 tests/load/make_view_paths.py
 
-The view geometry is an approximation of the server's geometric zoom curve (warp/zoom_curve.h),
+The view geometry is an approximation of the server's geometric zoom curve (warp/core/zoom_curve.h),
 one screen pixel covering (image/screen)^(1-z) image pixels on each axis; it only shapes the path
 (how far a drag moves, where the view must stay), the server computes the real views.
 """

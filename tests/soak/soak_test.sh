@@ -270,7 +270,7 @@ declare -A edit_etag edit_lines edit_w edit_h
 
 # random_lines ID: 0 to 4 lines inside the image, as the body of PUT /lines. The end's x differs
 # from the start's, so that no line is shorter than 1 px (a 400); 4 lines stay far inside the
-# limits on their number and total length (warp/limits.h).
+# limits on their number and total length (warp/core/limits.h).
 random_lines() {
   local id=$1 n i x0 lines=() w=${edit_w[$1]} h=${edit_h[$1]}
   n=$(( RANDOM % 5 ))
@@ -324,7 +324,7 @@ editor_setup() {
 }
 
 # A third of the edits are significance edits, at most 512 per image: the server keeps the regions
-# of all edits and refuses more than 1024 in all (warp/limits.h kMaxStoredRegions).
+# of all edits and refuses more than 1024 in all (warp/core/limits.h kMaxStoredRegions).
 editor() {
   local id body status kind
   declare -A patches

@@ -13,7 +13,7 @@
 
 #include "tests/support/images.h"
 #include "tests/support/server_process.h"
-#include "warp/icaz.h"
+#include "warp/icaz/icaz.h"
 
 namespace zoomwarp {
 namespace {

@@ -14,8 +14,8 @@
 #include "tests/support/server_process.h"
 #include "tiles/ingest.h"
 #include "tiles/pyramid_reader.h"
-#include "warp/icaz.h"
-#include "warp/render.h"
+#include "warp/icaz/icaz.h"
+#include "warp/render/render.h"
 
 namespace zoomwarp {
 namespace {

@@ -10,8 +10,8 @@
 #include "tests/support/images.h"
 #include "tests/support/server_process.h"
 #include "tiles/ingest.h"
-#include "warp/icaz.h"
-#include "warp/image_analysis.h"
+#include "warp/icaz/icaz.h"
+#include "warp/analysis/image_analysis.h"
 
 namespace zoomwarp {
 namespace {

@@ -1,4 +1,4 @@
-// The limits of warp/limits.h are documented as they are enforced: api/openapi.json's schemas
+// The limits of warp/core/limits.h are documented as they are enforced: api/openapi.json's schemas
 // and the README's "Limits" table carry the same numbers as the constants.
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 
 #include "api/assets.h"
 #include "tests/support/server_process.h"
-#include "warp/limits.h"
+#include "warp/core/limits.h"
 
 namespace zoomwarp {
 namespace {

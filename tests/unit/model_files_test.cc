@@ -10,7 +10,7 @@
 
 #include "tests/support/server_process.h"
 #include "tiles/ingest.h"
-#include "warp/image_analysis.h"
+#include "warp/analysis/image_analysis.h"
 
 namespace zoomwarp {
 namespace {

@@ -4,9 +4,9 @@
 
 #include "tests/support/images.h"
 #include "tests/support/server_process.h"
-#include "warp/coarse_mesh.h"
-#include "warp/shape_warp.h"
-#include "warp/significance.h"
+#include "warp/meshing/coarse_mesh.h"
+#include "warp/icaz/shape_warp.h"
+#include "warp/saliency/significance.h"
 
 namespace zoomwarp {
 namespace {

@@ -8,9 +8,9 @@
 #include <random>
 #include <unordered_map>
 
-#include "warp/coarse_mesh.h"
-#include "warp/edge_map.h"
-#include "warp/shape_warp.h"
+#include "warp/meshing/coarse_mesh.h"
+#include "warp/icaz/edge_map.h"
+#include "warp/icaz/shape_warp.h"
 
 namespace zoomwarp {
 namespace {

@@ -1,0 +1,236 @@
+#include "warp/analysis/image_analysis.h"
+
+#include <array>
+#include <boost/crc.hpp>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <stdexcept>
+
+#include "warp/analysis/analysis_image.h"
+#include "warp/analysis/method_files.h"
+#include "warp/analysis/model_file.h"
+#include "warp/core/limits.h"
+
+namespace zoomwarp::warp {
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+// Format 1 (no trailer) is still read; format 2 is written.
+constexpr Magic kSignificanceMagic1 = {'Z', 'W', 'S', 'I', 'G', '1', 0, 0};
+constexpr Magic kSignificanceMagic2 = {'Z', 'W', 'S', 'I', 'G', '2', 0, 0};
+constexpr Magic kModelMagic1 = {'Z', 'W', 'M', 'O', 'D', 'E', 'L', '1'};
+constexpr Magic kModelMagic2 = {'Z', 'W', 'M', 'O', 'D', 'E', 'L', '2'};
+
+json point_json(const Point& p) { return json::array({p.x, p.y}); }
+Point point_from(const json& j) { return {j.at(0).get<double>(), j.at(1).get<double>()}; }
+
+std::string model_json(const ImageModel& m) {
+  json lines = json::array(), edits = json::array();
+  for (const Segment& s : m.lines) lines.push_back({{"from", point_json(s.a)}, {"to", point_json(s.b)}});
+  for (const SignificanceEdit& e : m.edits) {
+    json polygon = json::array();
+    for (const Point& p : e.polygon) polygon.push_back(point_json(p));
+    edits.push_back({{"polygon", polygon}, {"weight", e.weight}});
+  }
+  return json{{"lines", lines}, {"significance_edits", edits}}.dump(2) + "\n";
+}
+
+// The shape rules every edit and every stored warp.json keeps (the count limits apply to new
+// edits only: warp.json may hold many edits). Throws std::invalid_argument.
+void validate_shapes(const ModelEdit& edit) {
+  auto finite = [](const Point& p) { return std::isfinite(p.x) && std::isfinite(p.y); };
+  for (const Segment& s : edit.lines.value_or(std::vector<Segment>{})) {
+    if (!finite(s.a) || !finite(s.b)) throw std::invalid_argument("line end points must be finite numbers");
+    if (std::hypot(s.b.x - s.a.x, s.b.y - s.a.y) < 1) throw std::invalid_argument("a line must be at least 1 px long");
+  }
+  for (const SignificanceEdit& e : edit.significance) {
+    if (e.polygon.size() < 3) throw std::invalid_argument("a region needs at least 3 points");
+    for (const Point& p : e.polygon)
+      if (!finite(p)) throw std::invalid_argument("region points must be finite numbers");
+    if (!(e.weight >= 0 && e.weight <= 1)) throw std::invalid_argument("a region's weight must be in [0, 1]");
+  }
+}
+
+// warp.json: the curator's lines and significance edits, checked like a new edit would be.
+ModelEdit read_model_json(const tiles::ImageEntry& image) {
+  ModelEdit stored;
+  try {
+    const json j = json::parse(read_whole(image, kModelJsonFile));
+    std::vector<Segment> lines;
+    for (const auto& l : j.at("lines")) lines.push_back({point_from(l.at("from")), point_from(l.at("to"))});
+    stored.lines = std::move(lines);
+    for (const auto& e : j.at("significance_edits")) {
+      SignificanceEdit edit;
+      for (const auto& p : e.at("polygon")) edit.polygon.push_back(point_from(p));
+      edit.weight = e.at("weight").get<float>();
+      stored.significance.push_back(std::move(edit));
+    }
+    validate_shapes(stored);
+  } catch (const json::exception& e) {
+    throw ModelFileError(kModelJsonFile, e.what());
+  } catch (const std::invalid_argument& e) {
+    throw ModelFileError(kModelJsonFile, e.what());
+  }
+  return stored;
+}
+
+std::string significance_bytes(const SignificanceMap& map) {
+  std::ostringstream out;
+  out.write(kSignificanceMagic2.data(), kSignificanceMagic2.size());
+  put(out, std::int32_t(map.width));
+  put(out, std::int32_t(map.height));
+  put(out, map.scale);
+  out.write(reinterpret_cast<const char*>(map.values.data()), std::streamsize(map.values.size() * sizeof(float)));
+  return with_trailer(out.str());
+}
+
+std::string model_bytes(const ImageModel& m) {
+  std::ostringstream out;
+  out.write(kModelMagic2.data(), kModelMagic2.size());
+  put(out, m.width), put(out, m.height), put(out, m.w_min), put(out, m.coarse.max_triangle_area);
+  put_vector(out, m.coarse.mesh.vertices);
+  put_vector(out, m.coarse.mesh.triangles);
+  put(out, std::int64_t(m.coarse.line_vertices.size()));
+  for (const auto& chain : m.coarse.line_vertices) put_vector(out, chain);
+  m.forest.write(out);
+  put_vector(out, m.node_mean);
+  return with_trailer(out.str());
+}
+
+// warp_model.bin into `m`, whose lines (from warp.json) its line chains must match.
+void read_model_bin(const tiles::ImageEntry& image, ImageModel& m) {
+  auto [bytes, format] = checked_payload(kModelFile, read_whole(image, kModelFile), kModelMagic1, kModelMagic2);
+  ModelFileReader in(kModelFile, std::move(bytes));
+  in.stream().seekg(std::streamoff(kModelMagic1.size()));
+  m.width = in.get<double>(), m.height = in.get<double>(), m.w_min = in.get<double>();
+  m.coarse.max_triangle_area = in.get<double>();
+  if (m.width != image.manifest.width || m.height != image.manifest.height) in.damaged("made for another image size");
+  m.coarse.mesh.vertices = in.get_vector<Point>();
+  m.coarse.mesh.triangles = in.get_vector<Triangle>();
+  for (const Triangle& t : m.coarse.mesh.triangles)
+    for (int v : t)
+      if (v < 0 || v >= int(m.coarse.mesh.vertices.size())) in.damaged("a triangle names a missing vertex");
+  const auto chains = in.get<std::int64_t>();
+  if (chains != std::int64_t(m.lines.size())) in.damaged("its line constraints are not warp.json's");
+  for (std::int64_t k = 0; k < chains; ++k) m.coarse.line_vertices.push_back(in.get_vector<int>());
+  try {
+    m.forest = Forest::read(in.stream(), m.coarse.mesh);
+  } catch (const std::runtime_error& e) {
+    in.damaged(e.what());
+  }
+  m.node_mean = in.get_vector<float>();
+  if (m.node_mean.size() != std::size_t(m.forest.kept_nodes())) in.damaged("node means do not match the forest");
+  if (format == 2 && in.remaining() != 0) in.damaged("trailing bytes");
+}
+
+}  // namespace
+
+void write_image_analysis(const tiles::ImageEntry& image, const SignificanceOptions& significance) {
+  tiles::PyramidReader reader(32 << 20);  // its own small cache: staged files are about to move
+  const ImageModel model = make_image_model(read_reduced_image(image, reader), image.manifest.width,
+                                            image.manifest.height, {}, {}, {}, significance);
+  write_image_model(image.dir, model);
+  write_method_files(image.dir, image, reader, model, std::array{Saliency::kDefault});
+}
+
+void write_image_model(const std::string& dir, const ImageModel& model) {
+  replace_file(dir, kSignificanceFile, significance_bytes(model.significance));
+  replace_file(dir, kModelFile, model_bytes(model));
+  replace_file(dir, kModelJsonFile, model_json(model));
+}
+
+SignificanceMap read_significance(const tiles::ImageEntry& image) {
+  auto [bytes, format] =
+      checked_payload(kSignificanceFile, read_whole(image, kSignificanceFile), kSignificanceMagic1, kSignificanceMagic2);
+  ModelFileReader in(kSignificanceFile, std::move(bytes));
+  in.stream().seekg(std::streamoff(kSignificanceMagic1.size()));
+  SignificanceMap map;
+  const auto w = in.get<std::int32_t>(), h = in.get<std::int32_t>();
+  map.scale = in.get<double>();
+  if (w <= 0 || h <= 0 || w > 4 * kSignificanceMaxSide || h > 4 * kSignificanceMaxSide || !(map.scale > 0))
+    in.damaged("bad map size");
+  // The map covers the image: its sides are the image's times the scale, give or take rounding.
+  if (std::abs(w - map.scale * image.manifest.width) > 1 || std::abs(h - map.scale * image.manifest.height) > 2)
+    in.damaged("made for another image size");
+  if (in.remaining() < std::uint64_t(w) * std::uint64_t(h) * sizeof(float)) in.damaged("truncated");
+  map.width = w, map.height = h;
+  map.values.resize(std::size_t(w) * h);
+  in.stream().read(reinterpret_cast<char*>(map.values.data()), std::streamsize(map.values.size() * sizeof(float)));
+  if (format == 2 && in.remaining() != 0) in.damaged("trailing bytes");
+  return map;
+}
+
+ImageModel read_image_model(const tiles::ImageEntry& image) {
+  ModelEdit stored = read_model_json(image);
+  ImageModel m;
+  m.lines = std::move(*stored.lines);
+  m.edits = std::move(stored.significance);
+  m.significance = read_significance(image);
+  read_model_bin(image, m);
+  return m;
+}
+
+LoadedModel load_image_model(const tiles::ImageEntry& image, tiles::PyramidReader& reader,
+                             const SignificanceOptions& significance, const ModelVariant& variant) {
+  if (variant.saliency != Saliency::kDefault || variant.auto_lines)
+    throw std::runtime_error("this model variant is not available yet");
+  const auto rebuild = [&](const std::vector<Segment>& lines) {
+    return make_image_model(read_reduced_image(image, reader), image.manifest.width, image.manifest.height, lines, {},
+                            {}, significance);
+  };
+  if (!exists(image, kSignificanceFile) && !exists(image, kModelFile) && !exists(image, kModelJsonFile))
+    return {rebuild({}), ModelSource::kBuiltNoFiles, "", ""};
+  // warp.json is the only copy of the curator's work: without it, no model (ModelFileError).
+  const ModelEdit stored = read_model_json(image);
+  try {
+    return {read_image_model(image), ModelSource::kStored, "", ""};
+  } catch (const ModelFileError& damaged) {
+    // [ICAZ §4] The binary files are derived data: the significance map is recomputed from the
+    // pyramid with the curator's regions painted in, the mesh and forest rebuilt with the lines.
+    LoadedModel out{rebuild(*stored.lines), ModelSource::kRebuiltWithEdits, damaged.file(), damaged.what()};
+    add_significance_edits(out.model, stored.significance);
+    return out;
+  }
+}
+
+void validate(const ModelEdit& edit) {
+  if (edit.lines && edit.lines->size() > std::size_t(limits::kMaxLines))
+    throw LimitExceeded("too_many_lines", "at most " + std::to_string(limits::kMaxLines) + " lines");
+  if (edit.significance.size() > std::size_t(limits::kMaxRegionsPerEdit))
+    throw LimitExceeded("too_many_regions", "at most " + std::to_string(limits::kMaxRegionsPerEdit) + " regions per edit");
+  for (const SignificanceEdit& e : edit.significance)
+    if (e.polygon.size() > std::size_t(limits::kMaxPolygonPoints))
+      throw LimitExceeded("too_many_points", "a polygon has at most " + std::to_string(limits::kMaxPolygonPoints) + " points");
+  validate_shapes(edit);
+}
+
+std::shared_ptr<const tiles::ImageEntry> edit_image_model(tiles::Store& store, const tiles::ImageEntry& current,
+                                                          const ModelEdit& edit, std::optional<ImageModel> base) {
+  validate(edit);
+  ImageModel model = base ? std::move(*base) : read_image_model(current);
+  // Only edits that add regions are held to the cap: new lines stay possible on an image that
+  // an earlier version let keep more regions.
+  if (!edit.significance.empty() && model.edits.size() + edit.significance.size() > std::size_t(limits::kMaxStoredRegions))
+    throw LimitExceeded("too_many_stored_regions", "an image keeps at most " + std::to_string(limits::kMaxStoredRegions) +
+                        " significance regions over all its edits; it has " + std::to_string(model.edits.size()));
+  add_significance_edits(model, edit.significance);
+  // New lines rebuild the mesh and the forest, whose node means then read the edited map.
+  if (edit.lines) set_lines(model, *edit.lines);
+  const std::string staging = store.make_staging_copy(current);
+  try {
+    write_image_model(staging, model);
+  } catch (...) {
+    store.discard(staging);
+    throw;
+  }
+  return store.publish(staging, current.manifest, &current.manifest.version);
+}
+
+}  // namespace zoomwarp::warp

@@ -1,0 +1,109 @@
+// The warp engine's files in an image version's folder, written at ingest and by curator edits,
+// so that a view never touches full-resolution pixels and a server builds an image's operator
+// without CGAL or the face detector:
+//
+//   significance.bin   the significance map (≤ 1024 px, floats), edits painted in
+//   warp_model.bin     the coarsest mesh, the forest's kept nodes (as their split order) and
+//                      every kept node's mean significance
+//   warp.json          what the user gave: line constraints and significance edits, readable
+//
+// The binary files (format 2) end in a trailer — the byte count before it and their CRC-32 — so
+// a truncated or damaged file is detected before it is parsed; format 1 files (no trailer),
+// written by earlier versions, are still read. warp.json is the only copy of the curator's work;
+// the binary files can be rebuilt from it and the pyramid (load_image_model).
+//
+// An edit never changes a published version: it publishes a new one (hard links to the same
+// pyramid, new model files), conditional on the version it started from.
+//
+// Thread safety: free functions on immutable published folders; safe to call concurrently.
+#pragma once
+
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "tiles/pyramid_reader.h"
+#include "tiles/store.h"
+#include "warp/analysis/model_file.h"
+#include "warp/icaz/image_model.h"
+#include "warp/saliency/saliency.h"
+
+namespace zoomwarp::warp {
+
+inline constexpr const char* kSignificanceFile = "significance.bin";
+inline constexpr const char* kModelFile = "warp_model.bin";
+inline constexpr const char* kModelJsonFile = "warp.json";
+
+// The ingest hook: builds the image's model (no lines yet) and writes its files into the (still
+// staged) folder. Throws std::runtime_error if it cannot write.
+void write_image_analysis(const tiles::ImageEntry& image, const SignificanceOptions& significance = {});
+
+// Writes the model's files into `dir` (each to a temporary name, then renamed into place).
+void write_image_model(const std::string& dir, const ImageModel& model);
+
+// Reads them back; throws ModelFileError naming the first file that is missing or damaged.
+ImageModel read_image_model(const tiles::ImageEntry& image);
+SignificanceMap read_significance(const tiles::ImageEntry& image);
+
+// How load_image_model got the model.
+enum class ModelSource {
+  kStored,         // all three files read intact
+  kBuiltNoFiles,   // none of the files exist: a version published before models were stored
+  kRebuiltWithEdits,  // a binary file was missing or damaged: rebuilt from the pyramid with warp.json
+};
+
+struct LoadedModel {
+  ImageModel model;
+  ModelSource source = ModelSource::kStored;
+  std::string damaged_file;  // for kRebuiltWithEdits: which file, and why
+  std::string reason;
+};
+
+// The model of a version, never silently without the curator's work: the stored files when
+// intact; built from the pyramid when there are none; rebuilt from the pyramid with warp.json's
+// lines and significance edits re-applied when a binary file is damaged. When warp.json itself
+// is missing or damaged while other model files exist, the edits are lost and it throws
+// ModelFileError for kModelJsonFile rather than serve a model without them.
+//
+// A variant other than the default is ICAZ driven by another saliency map (its node means from
+// that map) or with the automatically detected lines added to the curator's.
+struct ModelVariant {
+  Saliency saliency = Saliency::kDefault;
+  bool auto_lines = false;
+};
+LoadedModel load_image_model(const tiles::ImageEntry& image, tiles::PyramidReader& reader,
+                             const SignificanceOptions& significance = {}, const ModelVariant& variant = {});
+
+// An edit over one of warp/core/limits.h's limits; `limit` names which, as api/ reports it
+// ("too_many_lines", "too_many_regions", "too_many_points", "too_many_stored_regions").
+class LimitExceeded : public std::invalid_argument {
+ public:
+  LimitExceeded(std::string limit, const std::string& message)
+      : std::invalid_argument(message), limit_(std::move(limit)) {}
+  const std::string& limit() const { return limit_; }
+
+ private:
+  std::string limit_;
+};
+
+struct ModelEdit {
+  std::optional<std::vector<Segment>> lines;      // replaces all line constraints
+  std::vector<SignificanceEdit> significance;     // painted in order
+};
+
+// Checks an edit: finite coordinates, lines longer than a pixel, polygons of ≥ 3 points,
+// weights in [0, 1], and the counts of warp/core/limits.h (lines, regions per edit, points per
+// polygon). Throws std::invalid_argument. The limits that depend on the image (total line
+// length, regions kept over all edits) are checked by api/edit_body.h and edit_image_model.
+void validate(const ModelEdit& edit);
+
+// Publishes a new version of `current`'s image with the edit applied to `model` (current's
+// model; read from its files when not given). Throws std::invalid_argument for a bad edit,
+// LimitExceeded when the image would keep more than limits::kMaxStoredRegions regions, and
+// tiles::VersionConflict if the image changed since `current` was read. Nothing is published
+// when it throws.
+std::shared_ptr<const tiles::ImageEntry> edit_image_model(tiles::Store& store, const tiles::ImageEntry& current,
+                                                          const ModelEdit& edit, std::optional<ImageModel> model = {});
+
+}  // namespace zoomwarp::warp

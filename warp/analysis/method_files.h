@@ -1,0 +1,59 @@
+// The retargeting methods' model files in an image version's folder (methods/retargeting_method.h):
+//
+//   <method>.<saliency>.bin   a method's precomputation for one saliency kind: the method's
+//                             magic, its bytes, the trailer of model_file.h
+//
+// written at ingest (write_image_analysis) and by edits whose inputs changed, each to a temporary
+// name and renamed into place. A version without a method's file (ingested before the method
+// existed) gets the precomputation built in memory on first use — never written into a
+// published version. A damaged file is rebuilt in memory the same way: it is derived data, a pure
+// function of the version's pixels and warp.json.
+//
+// Thread safety: free functions on immutable published folders; safe to call concurrently.
+#pragma once
+
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "tiles/pyramid_reader.h"
+#include "tiles/store.h"
+#include "warp/icaz/image_model.h"
+#include "warp/methods/retargeting_method.h"
+
+namespace zoomwarp::warp {
+
+// "<name>.<saliency>.bin", e.g. "seam.default.bin".
+std::string method_file_name(const RetargetingMethod& method, Saliency saliency);
+
+// The saliency map of kind `kind` of the version whose model is `model`, with faces and the
+// curator's edits painted in: `default` is model.significance.
+SignificanceMap saliency_map(const tiles::ImageEntry& image, tiles::PyramidReader& reader, const ImageModel& model,
+                             Saliency kind);
+
+// Precomputes every registered method that keeps a file, for each kind in `kinds`, and writes the
+// files into `dir`. Returns how long each took (for `zoomwarp ingest`'s report).
+struct MethodFileTiming {
+  std::string file;
+  double seconds = 0;
+};
+std::vector<MethodFileTiming> write_method_files(const std::string& dir, const tiles::ImageEntry& image,
+                                                 tiles::PyramidReader& reader, const ImageModel& model,
+                                                 std::span<const Saliency> kinds);
+
+// How load_retargeter got the precomputation.
+enum class MethodSource { kStored, kNoFile, kBuiltInMemory, kRebuiltDamaged };
+
+struct LoadedRetargeter {
+  std::unique_ptr<Retargeter> engine;
+  MethodSource source = MethodSource::kStored;
+  std::string reason;  // for kRebuiltDamaged: the file and what was wrong with it
+};
+
+// The method's Retargeter for a version: from its file when intact, else precomputed in memory.
+// Throws std::runtime_error when the pyramid cannot be read.
+LoadedRetargeter load_retargeter(const tiles::ImageEntry& image, tiles::PyramidReader& reader, const ImageModel& model,
+                                 const RetargetingMethod& method, Saliency saliency);
+
+}  // namespace zoomwarp::warp

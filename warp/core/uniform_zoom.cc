@@ -1,0 +1,92 @@
+#include "warp/core/uniform_zoom.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "warp/core/limits.h"
+
+namespace zoomwarp::warp {
+
+// Barycentric coordinates of p in triangle (a, b, c).
+std::array<double, 3> barycentric(const Point& p, const Point& a, const Point& b, const Point& c) {
+  const double d = signed_area2(a, b, c);
+  const double l0 = signed_area2(p, b, c) / d, l1 = signed_area2(a, p, c) / d;
+  return {l0, l1, 1 - l0 - l1};
+}
+
+Point combine(const std::array<double, 3>& l, const Point& a, const Point& b, const Point& c) {
+  return {l[0] * a.x + l[1] * b.x + l[2] * c.x, l[0] * a.y + l[1] * b.y + l[2] * c.y};
+}
+
+// Where source point p lands in a warp of `mesh`: the affine map of the triangle holding it
+// (the most nearly containing one, for points on edges or rounding).
+Point locate(const Mesh& mesh, const std::vector<Point>& warped, const Point& p) {
+  double best = -std::numeric_limits<double>::infinity();
+  Point out = p;
+  for (const auto& t : mesh.triangles) {
+    const auto l = barycentric(p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
+    const double inside = std::min({l[0], l[1], l[2]});
+    if (inside > best) {
+      best = inside;
+      out = combine(l, warped[t[0]], warped[t[1]], warped[t[2]]);
+      if (inside >= 0) break;
+    }
+  }
+  return out;
+}
+
+// Requests come from the network: refuse what no view can be made of rather than compute garbage.
+void check_view_request(const ViewRequest& r) {
+  if (!std::isfinite(r.zoom) || !std::isfinite(r.cx) || !std::isfinite(r.cy) || !std::isfinite(r.max_screen_area) ||
+      r.max_screen_area < 1)
+    throw std::invalid_argument("view request out of range");
+  if (r.screen_width < 1 || r.screen_height < 1 || r.screen_width > limits::kMaxScreenSide ||
+      r.screen_height > limits::kMaxScreenSide ||
+      (long long)r.screen_width * r.screen_height > limits::kMaxScreenPixels)
+    throw std::invalid_argument("screen size out of range");
+}
+
+std::vector<int> visible_triangles(const Mesh& mesh, const std::vector<Point>& screen, double sw, double sh) {
+  std::vector<int> out;
+  for (int f = 0; f < int(mesh.triangles.size()); ++f) {
+    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+    for (int v : mesh.triangles[f]) {
+      x0 = std::min(x0, screen[v].x), x1 = std::max(x1, screen[v].x);
+      y0 = std::min(y0, screen[v].y), y1 = std::max(y1, screen[v].y);
+    }
+    if (x1 > 0 && x0 < sw && y1 > 0 && y0 < sh) out.push_back(f);
+  }
+  return out;
+}
+
+// Traditional zooming of a (possibly warped) image of size tw × th drawn by `warped`: uniform
+// scale from fit-to-screen (z = 0) to 1:1 (z = 1); the view centre goes to the screen centre,
+// clamped so that no blank shows along an axis where the image is larger than the screen, and
+// centred (letterboxed) along an axis where it is smaller.
+View uniform_zoom(const Mesh& source, const std::vector<Point>& warped, double tw, double th, const ViewRequest& r,
+                  const Point& centre_warped) {
+  View out;
+  const double sw = r.screen_width, sh = r.screen_height, z = std::clamp(std::isfinite(r.zoom) ? r.zoom : 0.0, 0.0, 1.0);
+  const double fit = std::min(sw / tw, sh / th);
+  const double scale = r.curve == ZoomCurve::kLinear ? (1 - z) * fit + z : fit * std::pow(1 / fit, z);
+  auto axis = [&](double c, double size, double screen, bool* clamped) {
+    const double extent = size * scale;
+    if (extent <= screen) return (screen - extent) / 2;  // letterbox
+    const double offset = screen / 2 - c * scale;
+    const double clamped_offset = std::clamp(offset, screen - extent, 0.0);
+    *clamped |= clamped_offset != offset;
+    return clamped_offset;
+  };
+  const double ox = axis(centre_warped.x, tw, sw, &out.centre_clamped), oy = axis(centre_warped.y, th, sh, &out.centre_clamped);
+  out.geometry = {tw, th, sw / scale, sh / scale, scale};
+  out.view_x = -ox / scale, out.view_y = -oy / scale;
+  out.source = source;
+  out.warped = warped;
+  for (const Point& p : warped) out.screen.push_back({p.x * scale + ox, p.y * scale + oy});
+  out.visible = visible_triangles(source, out.screen, sw, sh);
+  return out;
+}
+
+}  // namespace zoomwarp::warp

@@ -1,0 +1,39 @@
+// Traditional zooming of a (possibly warped) image, the second half of every retargeting method
+// (seed 000 §6.1's Retargeting+Zooming; docs/algorithms.md "Common contract"): the image warped
+// once to a target W'×H' is shown at a uniform scale from fit-to-screen (z = 0) to 1:1 (z = 1),
+// centred on the view centre's warped position. Plain functions on plain data; thread-safe.
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include "warp/core/mesh.h"
+#include "warp/core/view.h"
+
+namespace zoomwarp::warp {
+
+// Requests come from the network: throws std::invalid_argument for non-finite numbers and for a
+// screen beyond limits.h (kMaxScreenSide, kMaxScreenPixels).
+void check_view_request(const ViewRequest& r);
+
+// Barycentric coordinates of p in triangle (a, b, c), and the point with coordinates l in
+// triangle (a, b, c).
+std::array<double, 3> barycentric(const Point& p, const Point& a, const Point& b, const Point& c);
+Point combine(const std::array<double, 3>& l, const Point& a, const Point& b, const Point& c);
+
+// Where source point p lands in a warp of `mesh`: the affine map of the triangle holding it (the
+// most nearly containing one, for points on edges or rounding). O(triangles).
+Point locate(const Mesh& mesh, const std::vector<Point>& warped, const Point& p);
+
+// The triangles of `mesh` whose screen bounding box meets the screen [0, sw] × [0, sh].
+std::vector<int> visible_triangles(const Mesh& mesh, const std::vector<Point>& screen, double sw, double sh);
+
+// The View of image `warped` (a warp of `source` onto [0, tw] × [0, th]) under traditional zoom:
+// scale from min(sw/tw, sh/th) at z = 0 to 1 at z = 1 along the request's curve; the view
+// centre (`centre_warped`, warped pixels) goes to the screen centre, clamped so that no blank
+// shows along an axis where the image is larger than the screen, centred (letterboxed) along an
+// axis where it is smaller.
+View uniform_zoom(const Mesh& source, const std::vector<Point>& warped, double tw, double th, const ViewRequest& r,
+                  const Point& centre_warped);
+
+}  // namespace zoomwarp::warp

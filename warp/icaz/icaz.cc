@@ -1,0 +1,391 @@
+#include "warp/icaz/icaz.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <unordered_map>
+
+#include "warp/core/limits.h"
+#include "warp/core/uniform_zoom.h"
+#include "warp/icaz/lod_cut.h"
+
+namespace zoomwarp::warp {
+
+namespace {
+
+// The viewing area's origin along one axis: centred on c and kept inside the warped image, or,
+// where the image is smaller than the viewing area (letterboxing, zoom_curve.h), centred with the
+// bands a whole number of screen pixels wide — so that at scale 1 screen pixels are image pixels.
+double place_on_axis(double c, double view, double target, double scale) {
+  if (view >= target) return -std::floor((view - target) * scale / 2) / scale;
+  return std::clamp(c - view / 2, 0.0, target - view);
+}
+
+// The triangles whose screen bounding box overlaps the screen.
+// Vertex chains of each line in a refined mesh (its end points are those of the coarse chain).
+std::vector<std::vector<int>> line_chains(const Mesh& mesh, const CoarseMesh& coarse) {
+  std::vector<std::vector<int>> out;
+  for (const auto& ids : coarse.line_vertices)
+    if (ids.size() >= 2)
+      out.push_back(vertices_on_segment(mesh, {coarse.mesh.vertices[ids.front()], coarse.mesh.vertices[ids.back()]}));
+  return out;
+}
+
+// The triangles whose warped bounding box meets `box` (x0, y0, x1, y1).
+std::vector<char> triangles_near(const Mesh& mesh, const std::vector<Point>& warped, const std::array<double, 4>& box) {
+  std::vector<char> out(mesh.triangles.size(), 0);
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+    for (int v : mesh.triangles[f]) {
+      x0 = std::min(x0, warped[v].x), x1 = std::max(x1, warped[v].x);
+      y0 = std::min(y0, warped[v].y), y1 = std::max(y1, warped[v].y);
+    }
+    out[f] = x1 >= box[0] && x0 <= box[2] && y1 >= box[1] && y0 <= box[3];
+  }
+  return out;
+}
+
+// The chosen triangles of a mesh as a mesh of their own, for a local solve. Vertices shared with
+// a triangle not chosen are pinned, so the solved part joins the rest of the warp without a seam.
+struct Submesh {
+  Mesh mesh;
+  std::vector<int> vertex;    // submesh vertex → mesh vertex
+  std::vector<int> triangle;  // submesh triangle → mesh triangle
+  std::vector<int> pinned;    // submesh vertices
+};
+
+Submesh submesh(const Mesh& mesh, const std::vector<char>& chosen) {
+  Submesh out;
+  std::vector<int> index(mesh.vertices.size(), -1);
+  std::vector<char> outside(mesh.vertices.size(), 0);
+  for (int f = 0; f < int(mesh.triangles.size()); ++f) {
+    if (!chosen[f]) {
+      for (int v : mesh.triangles[f]) outside[v] = 1;
+      continue;
+    }
+    Triangle t;
+    for (int k = 0; k < 3; ++k) {
+      int& i = index[mesh.triangles[f][k]];
+      if (i < 0) i = int(out.vertex.size()), out.vertex.push_back(mesh.triangles[f][k]);
+      t[k] = i;
+    }
+    out.mesh.triangles.push_back(t);
+    out.triangle.push_back(f);
+  }
+  for (int v : out.vertex) {
+    out.mesh.vertices.push_back(mesh.vertices[v]);
+    if (outside[v]) out.pinned.push_back(index[v]);
+  }
+  return out;
+}
+
+// The parts of each line inside a local solve: maximal runs (≥ 2 vertices) of consecutive chain
+// vertices the submesh has, in its numbering. Only these are solved — a line is not solved whole
+// [ICAZ §5.2: the fine level only near the viewing area]: the rest of it lies outside the solved
+// region, pinned on the coarse warp's (straight) line, and a run's pinned ends are on that line
+// too, so the visible part stays straight while the cost of a view no longer grows with the
+// total length of the lines.
+std::vector<std::vector<int>> local_line_runs(const std::vector<std::vector<int>>& chains, const Submesh& local) {
+  std::unordered_map<int, int> index;
+  for (int i = 0; i < int(local.vertex.size()); ++i) index.emplace(local.vertex[i], i);
+  std::vector<std::vector<int>> runs;
+  for (const auto& chain : chains) {
+    std::vector<int> run;
+    for (std::size_t k = 0; k <= chain.size(); ++k) {
+      const auto it = k < chain.size() ? index.find(chain[k]) : index.end();
+      if (it != index.end()) {
+        run.push_back(it->second);
+        continue;
+      }
+      if (run.size() >= 2) runs.push_back(run);
+      run.clear();
+    }
+  }
+  return runs;
+}
+
+}  // namespace
+
+Icaz::Icaz(ImageModel model, const IcazOptions& options)
+    : model_(std::move(model)),
+      options_(options),
+      coarse_(model_.coarse.mesh, triangle_weights(model_.coarse.mesh, model_.significance, model_.w_min),
+              model_.width, model_.height, model_.coarse.line_vertices),
+      forest_(model_.forest),
+      root_cut_(forest_) {
+  node_mean_.assign(model_.node_mean.begin(), model_.node_mean.end());
+  node_mean_.resize(std::size_t(forest_.kept_nodes()), std::numeric_limits<double>::quiet_NaN());
+  // Significance is mapped to weights by the range of the coarsest triangles' means.
+  sig_lo_ = std::numeric_limits<double>::infinity(), sig_hi_ = -sig_lo_;
+  for (int r = 0; r < forest_.root_count(); ++r) {
+    const double mean = node_mean(r, true);
+    sig_lo_ = std::min(sig_lo_, mean), sig_hi_ = std::max(sig_hi_, mean);
+  }
+}
+
+Icaz::~Icaz() = default;
+
+std::size_t Icaz::memory_bytes() {
+  std::size_t coarse = 0;
+  {
+    std::lock_guard lock(coarse_mu_);
+    for (const auto& [size, cached] : coarse_cache_) coarse += cached.positions.capacity() * sizeof(Point);
+  }
+  std::shared_lock lock(forest_mu_);
+  const ImageModel& m = model_;
+  return m.significance.values.capacity() * sizeof(float) + m.forest.memory_bytes() +
+         m.node_mean.capacity() * sizeof(float) + m.coarse.mesh.vertices.capacity() * sizeof(Point) +
+         m.coarse.mesh.triangles.capacity() * sizeof(Triangle) + forest_.memory_bytes() +
+         node_mean_.capacity() * sizeof(double) + coarse;
+}
+
+double Icaz::node_mean(int node, bool grow) {
+  if (!grow && (node >= int(node_mean_.size()) || std::isnan(node_mean_[node]))) throw ForestGrowthNeeded();
+  if (node >= int(node_mean_.size())) node_mean_.resize(std::size_t(forest_.node_count()), std::numeric_limits<double>::quiet_NaN());
+  double& mean = node_mean_[node];
+  if (std::isnan(mean)) {
+    const auto& t = forest_.corners(node);
+    const auto& v = forest_.vertices();
+    mean = mean_over_triangle(model_.significance, v[t[0]], v[t[1]], v[t[2]]);
+  }
+  return mean;
+}
+
+double Icaz::node_weight(int node, bool grow) {
+  const double mean = node_mean(node, grow);
+  const double range = sig_hi_ - sig_lo_;
+  const double unit = range > 0 ? std::clamp((mean - sig_lo_) / range, 0.0, 1.0) : 1.0;
+  return model_.w_min + (1 - model_.w_min) * unit;
+}
+
+// Accuracy is judged on screen: iterate until no vertex moves more than 0.05 screen pixels.
+// Oblique lines keep the normal of the start positions, so a solve is one factorization and
+// accelerated iterations whatever the lines (bounded cost, limits.h): the coarse warp starts from
+// the affine stretch, which keeps lines straight and gives their orientation, and the fine level
+// from the coarse result, whose lines are straight already [ICAZ §6.2, nested iteration].
+WarpOptions Icaz::tolerance_for(const ZoomGeometry& g, const StopToken* stop) {
+  WarpOptions o;
+  o.tolerance = 0.05 / g.screen_scale;
+  o.fixed_line_normals = true;
+  o.stop = stop;
+  return o;
+}
+
+std::vector<Point> Icaz::coarse_positions(const ZoomGeometry& g, WarpResult* stats, const StopToken* stop) {
+  const auto key = std::make_pair(std::llround(g.target_width * 1000), std::llround(g.target_height * 1000));
+  std::lock_guard lock(coarse_mu_);
+  if (auto it = coarse_cache_.find(key); it != coarse_cache_.end()) {
+    it->second.last_used = ++coarse_clock_;
+    return it->second.positions;
+  }
+  *stats = coarse_.solve(g.target_width, g.target_height, tolerance_for(g, stop));
+  if (coarse_cache_.size() >= 64)
+    coarse_cache_.erase(std::min_element(coarse_cache_.begin(), coarse_cache_.end(), [](const auto& a, const auto& b) {
+      return a.second.last_used < b.second.last_used;
+    }));
+  coarse_cache_.emplace(key, CachedWarp{stats->positions, ++coarse_clock_});
+  return stats->positions;
+}
+
+// Runs work(false) holding the forest lock shared; if it needs the forest to grow, runs
+// work(true) again holding it exclusively, after forgetting lazy nodes past the cap (a new epoch).
+template <class Work>
+auto Icaz::with_forest(Work work) {
+  {
+    std::shared_lock lock(forest_mu_);
+    try {
+      return work(false);
+    } catch (const ForestGrowthNeeded&) {
+    }
+  }
+  std::unique_lock lock(forest_mu_);
+  if (forest_.node_count() > options_.max_forest_nodes) {
+    forest_.forget_lazy_nodes();
+    node_mean_.resize(std::size_t(forest_.kept_nodes()));
+    ++forest_epoch_;
+  }
+  return work(true);
+}
+
+View Icaz::view(const ViewRequest& req) {
+  check_view_request(req);
+  check_stop(req.stop);
+  return with_forest([&](bool grow) { return view_in(req, grow); });
+}
+
+Geomorph Icaz::geomorph(const ViewRequest& from, const ViewRequest& to, View* to_view) {
+  check_view_request(from);
+  check_view_request(to);
+  return with_forest([&](bool grow) {
+    const View a = view_in(from, grow), b = view_in(to, grow);
+    Geomorph g = geomorph_in(a, b, to.stop, grow);
+    if (to_view) *to_view = b;
+    return g;
+  });
+}
+
+View Icaz::view_in(const ViewRequest& req, bool grow) {
+  check_stop(req.stop);
+  View out;
+  out.forest_epoch = forest_epoch_;
+  const ZoomGeometry g = zoom_geometry(model_.width, model_.height, req.screen_width, req.screen_height, req.zoom, req.curve);
+  out.geometry = g;
+  const Point centre{std::clamp(req.cx, 0.0, model_.width), std::clamp(req.cy, 0.0, model_.height)};
+
+  // Coarse level: warp, then place the viewing area on the view centre, inside the image.
+  const std::vector<Point> coarse = coarse_positions(g, &out.coarse_stats, req.stop);
+  check_stop(req.stop);
+  auto place = [&](const Point& c) {
+    return Point{place_on_axis(c.x, g.view_width, g.target_width, g.screen_scale),
+                 place_on_axis(c.y, g.view_height, g.target_height, g.screen_scale)};
+  };
+  Point origin = place(locate(model_.coarse.mesh, coarse, centre));
+
+  // Warped position of any forest vertex through its root triangle's affine map.
+  const Mesh& roots = model_.coarse.mesh;
+  auto warped_by_coarse = [&](int v) {
+    const auto& t = roots.triangles[forest_.root_of_vertex(v)];
+    const auto l = barycentric(forest_.vertices()[v], roots.vertices[t[0]], roots.vertices[t[1]], roots.vertices[t[2]]);
+    return combine(l, coarse[t[0]], coarse[t[1]], coarse[t[2]]);
+  };
+  // Area magnification of each root under the coarse warp.
+  auto root_stretch = [&](int r) {
+    const auto& t = roots.triangles[r];
+    return signed_area2(coarse[t[0]], coarse[t[1]], coarse[t[2]]) /
+           signed_area2(roots.vertices[t[0]], roots.vertices[t[1]], roots.vertices[t[2]]);
+  };
+
+  // Refinement: split what touches the viewing area (with a margin of one screen triangle) and
+  // is larger on screen than the threshold. A cap bounds the work whatever the input.
+  LodCut cut = root_cut_;
+  cut.set_growable(grow);
+  const double s2 = g.screen_scale * g.screen_scale;
+  const double max_area = std::max(req.max_screen_area, double(req.screen_width) * req.screen_height /
+                                                            options_.max_screen_triangles);
+  const double margin = std::sqrt(max_area) / g.screen_scale;
+  auto wants_split = [&](int node) {
+    if (forest_.area(node) * std::max(root_stretch(forest_.root_of(node)), 0.0) * s2 <= max_area) return false;
+    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+    for (int v : forest_.corners(node)) {
+      const Point p = warped_by_coarse(v);
+      x0 = std::min(x0, p.x), x1 = std::max(x1, p.x), y0 = std::min(y0, p.y), y1 = std::max(y1, p.y);
+    }
+    return x1 >= origin.x - margin && x0 <= origin.x + g.view_width + margin && y1 >= origin.y - margin &&
+           y0 <= origin.y + g.view_height + margin;
+  };
+  constexpr int kMaxSplits = 40000;
+  std::vector<int> queue = cut.nodes(), split;
+  for (std::size_t i = 0; i < queue.size() && int(split.size()) < kMaxSplits; ++i) {
+    if (i % 1024 == 0) check_stop(req.stop);
+    const int n = queue[i];
+    if (!cut.active(n) || !wants_split(n)) continue;
+    const std::size_t before = split.size();
+    cut.refine(n, &split);
+    for (std::size_t k = before; k < split.size(); ++k)
+      for (int c : forest_.existing_children(split[k])) queue.push_back(c);
+  }
+
+  // Fine level, from the coarse result (nested iteration). Only the part of the refined mesh near
+  // the viewing area is solved, with the coarse result pinned around it: far from the screen the
+  // fine warp would differ from the coarse one by what nobody sees, and solving there would cost
+  // as much as the whole coarsest mesh again on every view.
+  out.source = cut.mesh(&out.forest_vertex, &out.nodes);
+  for (int v : out.forest_vertex) out.warped.push_back(warped_by_coarse(v));
+  if (split.empty()) {  // nothing refined: the fine mesh is the coarse one, already warped
+    out.fine_stats = out.coarse_stats;
+  } else {
+    const double pad = std::max(margin, options_.solve_margin * std::max(g.view_width, g.view_height));
+    std::vector<char> chosen = triangles_near(out.source, out.warped, {origin.x - pad, origin.y - pad,
+                                                                      origin.x + g.view_width + pad, origin.y + g.view_height + pad});
+    const Submesh local = submesh(out.source, chosen);
+    std::vector<double> weights;
+    std::vector<Point> initial;
+    for (int f : local.triangle) weights.push_back(node_weight(out.nodes[f], grow));
+    check_stop(req.stop);
+    for (int v : local.vertex) initial.push_back(out.warped[v]);
+    const ShapeWarp fine(local.mesh, std::move(weights), model_.width, model_.height,
+                         local_line_runs(line_chains(out.source, model_.coarse), local), local.pinned);
+    out.fine_stats = fine.solve(g.target_width, g.target_height, tolerance_for(g, req.stop), initial);
+    for (std::size_t i = 0; i < local.vertex.size(); ++i) out.warped[local.vertex[i]] = out.fine_stats.positions[i];
+  }
+  out.fine_stats.positions.clear();  // in the submesh's numbering; `warped` has them all
+  const Point c = locate(out.source, out.warped, centre);
+  origin = place(c);
+  out.view_x = origin.x, out.view_y = origin.y;
+  out.centre_clamped = std::abs(c.x - g.view_width / 2 - origin.x) > 1e-6 || std::abs(c.y - g.view_height / 2 - origin.y) > 1e-6;
+
+  for (const Point& p : out.warped) out.screen.push_back({(p.x - origin.x) * g.screen_scale, (p.y - origin.y) * g.screen_scale});
+  out.visible = visible_triangles(out.source, out.screen, req.screen_width, req.screen_height);
+  return out;
+}
+
+View Icaz::traditional(const ViewRequest& r) {
+  check_view_request(r);
+  const Point centre{std::clamp(r.cx, 0.0, model_.width), std::clamp(r.cy, 0.0, model_.height)};
+  return uniform_zoom(model_.coarse.mesh, model_.coarse.mesh.vertices, model_.width, model_.height, r, centre);
+}
+
+View Icaz::retarget_zoom(const ViewRequest& r) {
+  check_view_request(r);
+  check_stop(r.stop);
+  // The z = 0 target of ICAZ: the screen's aspect ratio, the image's area.
+  const ZoomGeometry g = zoom_geometry(model_.width, model_.height, r.screen_width, r.screen_height, 0, r.curve);
+  WarpResult stats;
+  const std::vector<Point> warped = coarse_positions(g, &stats, r.stop);
+  const Point centre{std::clamp(r.cx, 0.0, model_.width), std::clamp(r.cy, 0.0, model_.height)};
+  View v = uniform_zoom(model_.coarse.mesh, warped, g.target_width, g.target_height, r,
+                        locate(model_.coarse.mesh, warped, centre));
+  v.coarse_stats = std::move(stats);
+  return v;
+}
+
+Geomorph Icaz::geomorph(const View& from, const View& to, const StopToken* stop) {
+  return with_forest([&](bool grow) {
+    if (from.forest_epoch != forest_epoch_ || to.forest_epoch != forest_epoch_)
+      throw std::invalid_argument("views from an earlier forest epoch");
+    return geomorph_in(from, to, stop, grow);
+  });
+}
+
+Geomorph Icaz::geomorph_in(const View& from, const View& to, const StopToken* stop, bool grow) {
+  check_stop(stop);
+  // Split, coarsest first, every node that is a strict ancestor of a node of either cut; the
+  // dependents that refine() adds keep the result conforming.
+  std::vector<int> ancestors;
+  std::vector<char> seen(std::size_t(forest_.node_count()), 0);
+  for (const View* v : {&from, &to})
+    for (int n : v->nodes)
+      for (int p = forest_.parent(n); p >= 0 && !seen[p]; p = forest_.parent(p)) seen[p] = 1, ancestors.push_back(p);
+  auto depth = [&](int n) {
+    int d = 0;
+    for (; n >= 0; n = forest_.parent(n)) ++d;
+    return d;
+  };
+  std::sort(ancestors.begin(), ancestors.end(), [&](int a, int b) { return depth(a) < depth(b); });
+  LodCut cut = root_cut_;
+  cut.set_growable(grow);
+  for (int n : ancestors) cut.refine(n);
+  check_stop(stop);
+
+  Geomorph g;
+  g.source = cut.mesh(&g.forest_vertex);
+  // A vertex a view has keeps that view's position; one it lacks (finer than its cut) is placed
+  // by the affine map of the view's triangle holding it — exactly where that view draws it.
+  auto positions = [&](const View& v) {
+    std::unordered_map<int, int> index;
+    for (int i = 0; i < int(v.forest_vertex.size()); ++i) index.emplace(v.forest_vertex[i], i);
+    std::vector<Point> out;
+    for (std::size_t i = 0; i < g.forest_vertex.size(); ++i) {
+      if (i % 256 == 0) check_stop(stop);
+      auto it = index.find(g.forest_vertex[i]);
+      out.push_back(it != index.end() ? v.screen[it->second] : locate(v.source, v.screen, g.source.vertices[i]));
+    }
+    return out;
+  };
+  g.from = positions(from);
+  g.to = positions(to);
+  return g;
+}
+
+}  // namespace zoomwarp::warp

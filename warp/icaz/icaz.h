@@ -1,0 +1,120 @@
+// The Interactive Content-Aware Zooming operator (seed 000 §5) with the two-level warp of §5.2:
+//
+//   1. zoom geometry: target size and viewing area from z (zoom_curve.h);
+//   2. coarse warp of the coarsest mesh to the target size (cached per target size, so panning at
+//      a fixed zoom skips it);
+//   3. the viewing area is centred on the view centre's place in the coarse warp, clamped inside
+//      the warped image (no black bands);
+//   4. the LOD cut is refined where, judged by the coarse warp, triangles touch the viewing area and
+//      are larger than `max_screen_area` on screen;
+//   5. fine warp of the refined mesh near the viewing area, started from the coarse result
+//      (nested iteration, §6.2) and pinned to it further out; the viewing area is placed again on
+//      the fine result.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <shared_mutex>
+#include <vector>
+
+#include "warp/icaz/image_model.h"
+#include "warp/icaz/lod_cut.h"
+#include "warp/icaz/shape_warp.h"
+#include "warp/core/stop_token.h"
+#include "warp/core/view.h"
+#include "warp/core/zoom_curve.h"
+
+namespace zoomwarp::warp {
+
+struct IcazOptions {
+  // The fine level is solved for the triangles within this fraction of the viewing area's larger
+  // side around it (and along line constraints), with the coarse result pinned beyond. 0.25 keeps
+  // visible vertices within ~1.3 screen px of solving the whole refined mesh (0.1: 2 px, 0.5:
+  // 0.6 px; world map, 480×360) at a third of the cost; infinity solves it all.
+  double solve_margin = 0.25;
+  // Nodes made lazily beyond the stored forest are forgotten once the forest grows past this
+  // (≈ 60 bytes a node), which starts a new forest epoch.
+  int max_forest_nodes = 1 << 20;
+  // The LOD cut is refined to at most about this many triangles on screen: a larger screen gets
+  // a proportionally larger effective max_screen_area (screen pixels / this). 4096 leaves
+  // screens up to 1920×1080 at the requested 500 px² and bounds a 4096×4096 view (limits.h) to
+  // the cost of a full-HD one.
+  int max_screen_triangles = 4096;
+};
+
+// Thread-safe: every public member may be called from several threads at once. The model and the coarsest mesh's factorization are
+// read-only after construction; only caches change, each under its own lock:
+//  - the forest's lazy nodes and their means, and the forest epoch: a std::shared_mutex. Views,
+//    geomorphs and memory_bytes() hold it shared, so views of one image run in parallel. A view
+//    that needs nodes not made yet (lazy levels of a very large image, seen the first time) is
+//    redone holding it exclusively — which is also when lazy nodes are forgotten past the cap;
+//  - the coarse-warp cache (least recently used, 64 target sizes): a mutex, held while a missing
+//    entry is solved (a single flight; CHOLMOD's solve on the shared factor is not reentrant).
+class Icaz {
+ public:
+  explicit Icaz(ImageModel model, const IcazOptions& options = {});
+  ~Icaz();
+
+  // Views of the same image share the forest and the coarse-warp cache. Throws
+  // std::invalid_argument for non-finite numbers or a screen beyond limits.h (kMaxScreenSide,
+  // kMaxScreenPixels), and Stopped when the request's token says so. Zoom is clamped to [0, 1]
+  // and the view centre to the image.
+  View view(const ViewRequest& request);
+
+  // Both views and the geomorph between them, within one forest epoch; the second view is also
+  // stored in `to_view` if given.
+  Geomorph geomorph(const ViewRequest& from, const ViewRequest& to, View* to_view = nullptr);
+
+  // Baselines in the same interface (§1, §6.1), on the coarsest mesh:
+  //  - traditional: uniform scaling and cropping; the magnification goes from "whole image fits
+  //    the screen" (letterboxed) at z = 0 to 1:1 at z = 1, along the request's curve;
+  //  - retarget-zoom: the whole image warped once to the screen's aspect ratio, then traditional
+  //    zooming on the warped image.
+  View traditional(const ViewRequest& request);
+  View retarget_zoom(const ViewRequest& request);
+
+  // The common refinement of the cuts of `from` and `to`, both made by this object in the
+  // current forest epoch (else std::invalid_argument).
+  Geomorph geomorph(const View& from, const View& to, const StopToken* stop = nullptr);
+
+  const ImageModel& model() const { return model_; }
+
+  // Bytes held: the model, the forest with its lazy nodes, node means, cached coarse warps.
+  std::size_t memory_bytes();
+
+ private:
+  struct CachedWarp {
+    std::vector<Point> positions;
+    std::uint64_t last_used = 0;
+  };
+
+  static WarpOptions tolerance_for(const ZoomGeometry& g, const StopToken* stop);
+  std::vector<Point> coarse_positions(const ZoomGeometry& g, WarpResult* stats, const StopToken* stop);
+  // `grow`: the caller holds forest_mu_ exclusively and the forest and node means may grow;
+  // otherwise it holds it shared and a missing node or mean throws ForestGrowthNeeded.
+  double node_mean(int node, bool grow);
+  double node_weight(int node, bool grow);
+  View view_in(const ViewRequest& request, bool grow);
+  Geomorph geomorph_in(const View& from, const View& to, const StopToken* stop, bool grow);
+  template <class Work>
+  auto with_forest(Work work);
+
+  const ImageModel model_;
+  const IcazOptions options_;
+  const ShapeWarp coarse_;
+  double sig_lo_ = 0, sig_hi_ = 1;  // range of root means: maps significance to [w_min, 1]
+
+  std::shared_mutex forest_mu_;  // guards the four members below
+  Forest forest_;
+  int forest_epoch_ = 0;
+  LodCut root_cut_;  // the coarsest mesh as a cut: every view's refinement starts from a copy
+  std::vector<double> node_mean_;  // per forest node, NaN until computed
+
+  std::mutex coarse_mu_;  // guards the coarse cache and coarse_'s solves
+  std::map<std::pair<long long, long long>, CachedWarp> coarse_cache_;  // by target size (1/1000 px)
+  std::uint64_t coarse_clock_ = 0;
+};
+
+}  // namespace zoomwarp::warp

@@ -1,0 +1,100 @@
+#include "warp/icaz/lod_cut.h"
+
+#include <stdexcept>
+#include <unordered_map>
+
+namespace zoomwarp::warp {
+
+LodCut::LodCut(Forest& forest) : forest_(forest), growable_(&forest) {
+  for (int r = 0; r < forest.root_count(); ++r) activate(r);
+}
+
+std::array<int, 2> LodCut::children(int node) {
+  if (growable_) return growable_->children(node);
+  if (!forest_.is_split(node)) throw ForestGrowthNeeded();
+  return forest_.existing_children(node);
+}
+
+void LodCut::activate(int node) {
+  if (node >= int(active_.size())) active_.resize(std::size_t(node) + 1, 0);
+  active_[node] = 1;
+  list_.push_back(node);
+  const Triangle& t = forest_.corners(node);
+  for (int k = 0; k < 3; ++k) {
+    auto [nodes, fresh] = edges_.emplace(edge_key(t[k], t[(k + 1) % 3]), {node, -1});
+    if (!fresh) (*nodes)[1] = node;
+  }
+}
+
+void LodCut::deactivate(int node) {
+  active_[node] = 0;
+  const Triangle& t = forest_.corners(node);
+  for (int k = 0; k < 3; ++k) {
+    const std::uint64_t key = edge_key(t[k], t[(k + 1) % 3]);
+    auto& pair = *edges_.find(key);
+    if (pair[0] == node) pair[0] = pair[1];
+    pair[1] = -1;
+    if (pair[0] < 0) edges_.erase(key);
+  }
+}
+
+int LodCut::across(int node, int a, int b) const {
+  const auto* pair = edges_.find(edge_key(a, b));
+  if (!pair) return -1;
+  return (*pair)[0] == node ? (*pair)[1] : (*pair)[0];
+}
+
+void LodCut::refine(int node, std::vector<int>* split) {
+  if (!active(node)) return;
+  const Triangle t = forest_.corners(node);
+  // Make the neighbour across our longest edge share it as its own longest edge.
+  for (int guard = 0;; ++guard) {
+    if (guard > 64) throw std::logic_error("longest-edge refinement did not terminate");
+    const int g = across(node, t[0], t[1]);
+    if (g < 0) break;  // image boundary
+    const Triangle& gt = forest_.corners(g);
+    if (edge_key(gt[0], gt[1]) == edge_key(t[0], t[1])) {  // compatible: split both together
+      deactivate(g);
+      for (int c : children(g)) activate(c);
+      if (split) split->push_back(g);
+      break;
+    }
+    refine(g, split);  // its longest edge is longer than ours: split it first, then look again
+  }
+  if (!active(node)) return;
+  deactivate(node);
+  for (int c : children(node)) activate(c);
+  if (split) split->push_back(node);
+}
+
+std::vector<int> LodCut::nodes() const {
+  std::vector<int> out;
+  std::vector<char> seen(active_.size(), 0);
+  for (int n : list_)
+    if (active_[n] && !seen[n]) seen[n] = 1, out.push_back(n);
+  return out;
+}
+
+Mesh LodCut::mesh(std::vector<int>* forest_vertex, std::vector<int>* node_of_triangle) const {
+  Mesh m;
+  std::unordered_map<int, int> local;
+  std::vector<int> ids;
+  for (int n : nodes()) {
+    Triangle t;
+    for (int k = 0; k < 3; ++k) {
+      const int v = forest_.corners(n)[k];
+      auto [it, fresh] = local.emplace(v, int(ids.size()));
+      if (fresh) {
+        ids.push_back(v);
+        m.vertices.push_back(forest_.vertices()[v]);
+      }
+      t[k] = it->second;
+    }
+    m.triangles.push_back(t);
+    if (node_of_triangle) node_of_triangle->push_back(n);
+  }
+  if (forest_vertex) *forest_vertex = std::move(ids);
+  return m;
+}
+
+}  // namespace zoomwarp::warp

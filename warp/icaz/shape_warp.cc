@@ -1,0 +1,566 @@
+#include "warp/icaz/shape_warp.h"
+
+#include <Eigen/CholmodSupport>
+#include <Eigen/Dense>
+#include <Eigen/OrderingMethods>
+#include <Eigen/Sparse>
+#include <cmath>
+#include <stdexcept>
+
+namespace zoomwarp::warp {
+
+namespace {
+
+using SpMat = Eigen::SparseMatrix<double>;
+using Triplets = std::vector<Eigen::Triplet<double>>;
+using Solver = Eigen::CholmodSimplicialLLT<SpMat>;  // simplicial beats supernodal at these sizes
+
+enum class LineKind { kHorizontal, kVertical, kOblique };
+
+struct Line {
+  std::vector<int> vertices;  // start first, end last
+  LineKind kind;
+};
+
+// The unit normal n of a line's orientation form ((v'_i − v'_s)·n)² [ICAZ §4.3]: fixed for
+// horizontal and vertical lines, else perpendicular to the chord of its end points in `positions`.
+Point line_normal(const Line& l, const std::vector<Point>& positions) {
+  if (l.kind == LineKind::kHorizontal) return {0, 1};
+  if (l.kind == LineKind::kVertical) return {1, 0};
+  const Point &s = positions[l.vertices.front()], &e = positions[l.vertices.back()];
+  const double dx = e.x - s.x, dy = e.y - s.y, len = std::hypot(dx, dy);
+  return len > 0 ? Point{-dy / len, dx / len} : Point{0, 1};
+}
+
+// Adds w·(Σ_k a_k u_k)² to a quadratic form over variables u (indices into `col`): w·a·aᵀ.
+template <std::size_t N>
+void add_square(Triplets& t, const std::array<int, N>& var, const std::array<double, N>& a, double w) {
+  for (std::size_t p = 0; p < N; ++p)
+    for (std::size_t q = 0; q < N; ++q)
+      if (var[p] >= 0 && var[q] >= 0) t.emplace_back(var[p], var[q], w * a[p] * a[q]);
+}
+
+}  // namespace
+
+struct ShapeWarp::Impl {
+  Mesh mesh;
+  std::vector<double> weights;
+  double width, height;
+  std::vector<Line> lines;
+  bool has_oblique = false;
+
+  // Boundary constraints: which vertices have a fixed x (left/right edge) or y (top/bottom).
+  std::vector<signed char> fixed_x, fixed_y;  // 0 free, 1 at 0, 2 at the far side, 3 pinned
+  bool has_pinned = false;
+  // Per axis, the index of each free vertex among the free unknowns, or -1.
+  std::vector<int> free_x, free_y;
+  int n_free_x = 0, n_free_y = 0;
+
+  // Fast path: one factorization per axis, and the coupling A_FC of free to fixed unknowns: the
+  // fixed values x_C (0, the target size, or a pinned position) enter the RHS as −A_FC x_C.
+  std::shared_ptr<const Solver> solver_x, solver_y;  // the same one when the systems are equal
+  SpMat coupling_x, coupling_y;
+
+  void classify(const std::vector<int>& pinned) {
+    const std::size_t n = mesh.vertices.size();
+    fixed_x.assign(n, 0), fixed_y.assign(n, 0), free_x.assign(n, -1), free_y.assign(n, -1);
+    const double eps_x = 1e-9 * std::max(1.0, width), eps_y = 1e-9 * std::max(1.0, height);
+    for (std::size_t i = 0; i < n; ++i) {
+      const Point& p = mesh.vertices[i];
+      if (std::abs(p.x) <= eps_x) fixed_x[i] = 1;
+      else if (std::abs(p.x - width) <= eps_x) fixed_x[i] = 2;
+      if (std::abs(p.y) <= eps_y) fixed_y[i] = 1;
+      else if (std::abs(p.y - height) <= eps_y) fixed_y[i] = 2;
+    }
+    for (int v : pinned) {
+      if (v < 0 || std::size_t(v) >= n) throw std::invalid_argument("pinned vertex out of range");
+      fixed_x[v] = fixed_y[v] = 3;
+      has_pinned = true;
+    }
+    std::vector<int> order(n);
+    for (std::size_t i = 0; i < n; ++i) order[i] = int(i);
+    number_unknowns(order);
+  }
+
+  // Numbers each axis's free unknowns in `order` (a permutation of the vertices).
+  void number_unknowns(const std::vector<int>& order) {
+    free_x.assign(fixed_x.size(), -1), free_y.assign(fixed_y.size(), -1);
+    n_free_x = n_free_y = 0;
+    for (int i : order) {
+      if (!fixed_x[i]) free_x[i] = n_free_x++;
+      if (!fixed_y[i]) free_y[i] = n_free_y++;
+    }
+  }
+
+  // The fast path's systems. Per axis, the matrix is the weighted graph Laplacian
+  // Σ_f w_f Σ_e (e_i − e_j)(e_i − e_j)ᵀ — the same for x and y — plus the orientation-form line
+  // terms α(u_i − u_s)² of lines whose normal is that axis, restricted to the free unknowns.
+  // One AMD ordering of the whole mesh serves both axes (each numbers its free unknowns in that
+  // order and CHOLMOD keeps it): AMD was the largest single cost of a fine view's factorization.
+  void factor_axes(double alpha) {
+    const int n = int(mesh.vertices.size());
+    Triplets t;
+    t.reserve(mesh.triangles.size() * 12);
+    for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
+      for (int k = 0; k < 3; ++k) {
+        const int i = mesh.triangles[f][k], j = mesh.triangles[f][(k + 1) % 3];
+        add_square<2>(t, {i, j}, {1.0, -1.0}, weights[f]);
+      }
+    SpMat laplacian(n, n);
+    laplacian.setFromTriplets(t.begin(), t.end());
+    Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> elimination;
+    Eigen::AMDOrdering<int>()(laplacian, elimination);
+    number_unknowns({elimination.indices().data(), elimination.indices().data() + n});
+
+    auto line_terms_of = [&](LineKind normal_kind) {
+      Triplets terms;
+      for (const Line& l : lines)
+        if (l.kind == normal_kind)
+          for (std::size_t k = 1; k < l.vertices.size(); ++k)
+            add_square<2>(terms, {l.vertices[k], l.vertices[0]}, {1.0, -1.0}, alpha);
+      return terms;
+    };
+    auto build = [&](const Triplets& line_terms, const std::vector<int>& free, int n_free,
+                     std::shared_ptr<const Solver>& solver, SpMat& coupling) {
+      SpMat with_lines;
+      if (!line_terms.empty()) {
+        with_lines.resize(n, n);
+        with_lines.setFromTriplets(line_terms.begin(), line_terms.end());
+        with_lines += laplacian;
+      }
+      const SpMat& form = line_terms.empty() ? laplacian : with_lines;
+      // CHOLMOD reads the lower triangle only (Solver's UpLo), so only that is kept of A_FF.
+      Triplets ff, fc;
+      ff.reserve(form.nonZeros() / 2 + n);
+      for (int col = 0; col < n; ++col)
+        for (SpMat::InnerIterator e(form, col); e; ++e) {
+          const int r = free[e.row()];
+          if (r < 0) continue;
+          const int c = free[col];
+          if (c < 0) fc.emplace_back(r, col, e.value());
+          else if (r >= c) ff.emplace_back(r, c, e.value());
+        }
+      coupling.resize(n_free, n);
+      coupling.setFromTriplets(fc.begin(), fc.end());
+      // Every vertex of this axis fixed (a coarsest mesh with no interior vertex: images whose
+      // short side is under ~110 px, see shape_warp.h): the axis is determined and there is
+      // nothing to factor. CHOLMOD must not be given the empty matrix: Eigen hands it a null
+      // value array, cholmod_analyze refuses it ("invalid xtype") and returns no factor, which
+      // Eigen's factorize() then dereferences.
+      if (n_free == 0) return;
+      SpMat a(n_free, n_free);
+      a.setFromTriplets(ff.begin(), ff.end());
+      auto factor = std::make_shared<Solver>();
+      factor->cholmod().nmethods = 1;
+      factor->cholmod().method[0].ordering = CHOLMOD_NATURAL;
+      factor->compute(a);
+      if (factor->info() != Eigen::Success) throw std::runtime_error("CHOLMOD could not factor the warp system");
+      solver = std::move(factor);
+    };
+    // x: vertical lines keep their x (normal (1,0)); y: horizontal lines keep their y.
+    const Triplets x_lines = line_terms_of(LineKind::kVertical), y_lines = line_terms_of(LineKind::kHorizontal);
+    build(x_lines, free_x, n_free_x, solver_x, coupling_x);
+    // When both axes fix the same vertices and carry no line terms — a local solve away from the
+    // image border, the usual case for a pan — their systems are the same matrix: factor it once.
+    if (x_lines.empty() && y_lines.empty() && free_x == free_y) {
+      solver_y = solver_x;
+      coupling_y = coupling_x;
+    } else {
+      build(y_lines, free_y, n_free_y, solver_y, coupling_y);
+    }
+  }
+
+  // Optimal isotropic scale of each triangle for the current positions (the "local" step).
+  std::vector<double> scales(const std::vector<Point>& cur) const {
+    std::vector<double> s(mesh.triangles.size());
+    for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+      double num = 0, den = 0;
+      for (int k = 0; k < 3; ++k) {
+        const int i = mesh.triangles[f][k], j = mesh.triangles[f][(k + 1) % 3];
+        const double dx = mesh.vertices[i].x - mesh.vertices[j].x, dy = mesh.vertices[i].y - mesh.vertices[j].y;
+        num += (cur[i].x - cur[j].x) * dx + (cur[i].y - cur[j].y) * dy;
+        den += dx * dx + dy * dy;
+      }
+      s[f] = den > 0 ? num / den : 1.0;
+    }
+    return s;
+  }
+
+  // Right-hand side of the shape term for one axis: b_i = Σ w_f s_f (u_i − u_j) over edges.
+  Eigen::VectorXd shape_rhs(const std::vector<double>& s, bool y_axis, const std::vector<int>& free, int n_free,
+                            const std::vector<double>& w) const {
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(n_free);
+    for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
+      for (int k = 0; k < 3; ++k) {
+        const int i = mesh.triangles[f][k], j = mesh.triangles[f][(k + 1) % 3];
+        const double d = y_axis ? mesh.vertices[i].y - mesh.vertices[j].y : mesh.vertices[i].x - mesh.vertices[j].x;
+        const double c = w[f] * s[f] * d;
+        if (free[i] >= 0) b[free[i]] += c;
+        if (free[j] >= 0) b[free[j]] -= c;
+      }
+    return b;
+  }
+
+  // The shape energy D_Shape of positions p, with each s_f at its optimum for p.
+  double energy(const std::vector<Point>& p) const {
+    const auto s = scales(p);
+    double e = 0;
+    for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
+      for (int k = 0; k < 3; ++k) {
+        const int i = mesh.triangles[f][k], j = mesh.triangles[f][(k + 1) % 3];
+        const double ex = (p[i].x - p[j].x) - s[f] * (mesh.vertices[i].x - mesh.vertices[j].x);
+        const double ey = (p[i].y - p[j].y) - s[f] * (mesh.vertices[i].y - mesh.vertices[j].y);
+        e += weights[f] * (ex * ex + ey * ey);
+      }
+    return e;
+  }
+
+  std::vector<int> inverted(const std::vector<Point>& p) const {
+    std::vector<int> out;
+    for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+      const auto& t = mesh.triangles[f];
+      if (signed_area2(p[t[0]], p[t[1]], p[t[2]]) <= 0) out.push_back(int(f));
+    }
+    return out;
+  }
+
+  std::vector<Point> fixed_positions(const std::vector<Point>& start, double tw, double th) const {
+    std::vector<Point> p = start;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      if (fixed_x[i] == 1 || fixed_x[i] == 2) p[i].x = fixed_x[i] == 1 ? 0 : tw;
+      if (fixed_y[i] == 1 || fixed_y[i] == 2) p[i].y = fixed_y[i] == 1 ? 0 : th;
+    }
+    return p;
+  }
+
+  // −A_FC x_C of both axes for fixed values taken from `p` (constant during a solve).
+  std::pair<Eigen::VectorXd, Eigen::VectorXd> fixed_rhs(const std::vector<Point>& p) const {
+    Eigen::VectorXd cx(p.size()), cy(p.size());
+    for (std::size_t i = 0; i < p.size(); ++i) cx[i] = fixed_x[i] ? p[i].x : 0, cy[i] = fixed_y[i] ? p[i].y : 0;
+    return {-(coupling_x * cx), -(coupling_y * cy)};
+  }
+
+  // One global step of the fast path; `fixed` is fixed_rhs() of the solve.
+  void solve_decoupled(std::vector<Point>& cur, const std::pair<Eigen::VectorXd, Eigen::VectorXd>& fixed) const {
+    const auto s = scales(cur);
+    Eigen::VectorXd bx = shape_rhs(s, false, free_x, n_free_x, weights) + fixed.first;
+    Eigen::VectorXd by = shape_rhs(s, true, free_y, n_free_y, weights) + fixed.second;
+    const Eigen::VectorXd x = solver_x ? Eigen::VectorXd(solver_x->solve(bx)) : bx;
+    const Eigen::VectorXd y = solver_y ? Eigen::VectorXd(solver_y->solve(by)) : by;
+    for (std::size_t i = 0; i < cur.size(); ++i) {
+      if (free_x[i] >= 0) cur[i].x = x[free_x[i]];
+      if (free_y[i] >= 0) cur[i].y = y[free_y[i]];
+    }
+  }
+
+  // One global step with oblique lines: x and y are solved jointly. Unknowns: free x first, then
+  // free y. Even iterations use the direction form D_Line_D (ratios r_i fixed), odd ones the
+  // orientation form D_Line_O (normal fixed), as §4.2 prescribes.
+  void solve_joint(std::vector<Point>& cur, double tw, double th, double alpha, int iteration,
+                   const std::vector<double>& w) const {
+    const int n = n_free_x + n_free_y;
+    if (n == 0) return;  // every coordinate fixed: nothing to solve, and nothing CHOLMOD accepts
+    auto [a, b] = joint_system(cur, tw, th, alpha, iteration % 2 == 0, w, cur);
+    b += joint_shape_rhs(cur, w);
+    Solver solver;
+    solver.compute(a);
+    if (solver.info() != Eigen::Success) throw std::runtime_error("CHOLMOD could not factor the warp system");
+    write_joint(cur, solver.solve(b));
+  }
+
+  // The shape term's right-hand side for the joint unknowns (free x, then free y).
+  Eigen::VectorXd joint_shape_rhs(const std::vector<Point>& cur, const std::vector<double>& w) const {
+    const auto s = scales(cur);
+    Eigen::VectorXd b(n_free_x + n_free_y);
+    b.head(n_free_x) = shape_rhs(s, false, free_x, n_free_x, w);
+    b.tail(n_free_y) = shape_rhs(s, true, free_y, n_free_y, w);
+    return b;
+  }
+
+  void write_joint(std::vector<Point>& cur, const Eigen::VectorXd& u) const {
+    for (std::size_t i = 0; i < cur.size(); ++i) {
+      if (free_x[i] >= 0) cur[i].x = u[free_x[i]];
+      if (free_y[i] >= 0) cur[i].y = u[n_free_x + free_y[i]];
+    }
+  }
+
+  // The joint system's matrix, and its right-hand side without the shape term (which alone
+  // depends on s_f): shape Laplacian on both axes, line terms — oblique ones in the direction
+  // form (`direction_form`, ratios from `cur`) or the orientation form (normal from `normals`) —
+  // with fixed coordinates moved to the right.
+  std::pair<SpMat, Eigen::VectorXd> joint_system(const std::vector<Point>& cur, double tw, double th, double alpha,
+                                                 bool direction_form_step, const std::vector<double>& w,
+                                                 const std::vector<Point>& normals) const {
+    const int n = n_free_x + n_free_y;
+    auto vx = [&](int i) { return free_x[i]; };
+    auto vy = [&](int i) { return free_y[i] < 0 ? -1 : n_free_x + free_y[i]; };
+    Triplets t;
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(n);
+    // Adds w·(Σ a_k u_k − c)² where some u_k may be fixed (index −1, value known).
+    auto add = [&](std::array<int, 4> var, std::array<double, 4> a, std::array<double, 4> known, double w) {
+      double k0 = 0;
+      for (int p = 0; p < 4; ++p)
+        if (var[p] < 0) k0 += a[p] * known[p];
+      for (int p = 0; p < 4; ++p) {
+        if (var[p] < 0) continue;
+        b[var[p]] -= w * a[p] * k0;
+        for (int q = 0; q < 4; ++q)
+          if (var[q] >= 0) t.emplace_back(var[p], var[q], w * a[p] * a[q]);
+      }
+    };
+    const auto fixed = fixed_positions(cur, tw, th);
+    for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
+      for (int k = 0; k < 3; ++k) {
+        const int i = mesh.triangles[f][k], j = mesh.triangles[f][(k + 1) % 3];
+        // The shape RHS is already in b; add the matrix, with fixed ends moved to the RHS.
+        add({vx(i), vx(j), -1, -1}, {1, -1, 0, 0}, {fixed[i].x, fixed[j].x, 0, 0}, w[f]);
+        add({vy(i), vy(j), -1, -1}, {1, -1, 0, 0}, {fixed[i].y, fixed[j].y, 0, 0}, w[f]);
+      }
+    for (const Line& l : lines) {
+      const int st = l.vertices.front(), en = l.vertices.back();
+      const auto [nx, ny] = line_normal(l, normals);
+      const bool direction_form = l.kind == LineKind::kOblique && direction_form_step;
+      const double ex = cur[en].x - cur[st].x, ey = cur[en].y - cur[st].y, e2 = ex * ex + ey * ey;
+      // The direction form says nothing about the end point itself (r = 1); the orientation form
+      // keeps it on the line too.
+      const std::size_t last = direction_form ? l.vertices.size() - 1 : l.vertices.size();
+      for (std::size_t k = 1; k < last; ++k) {
+        const int i = l.vertices[k];
+        if (direction_form) {  // ‖v'_i − (1 − r) v'_s − r v'_e‖², per axis
+          const double r = e2 > 0 ? ((cur[i].x - cur[st].x) * ex + (cur[i].y - cur[st].y) * ey) / e2 : 0;
+          add({vx(i), vx(st), vx(en), -1}, {1, -(1 - r), -r, 0}, {fixed[i].x, fixed[st].x, fixed[en].x, 0}, alpha);
+          add({vy(i), vy(st), vy(en), -1}, {1, -(1 - r), -r, 0}, {fixed[i].y, fixed[st].y, fixed[en].y, 0}, alpha);
+        } else {  // ((v'_i − v'_s)·n)²
+          add({vx(i), vx(st), vy(i), vy(st)}, {nx, -nx, ny, -ny}, {fixed[i].x, fixed[st].x, fixed[i].y, fixed[st].y},
+              alpha);
+        }
+      }
+    }
+    SpMat a(n, n);
+    a.setFromTriplets(t.begin(), t.end());
+    return {std::move(a), std::move(b)};
+  }
+
+  // Line energy α Σ ((v'_i − v'_s)·n)² with each line's normal taken from `normals`.
+  double line_energy(const std::vector<Point>& p, const std::vector<Point>& normals, double alpha) const {
+    double e = 0;
+    for (const Line& l : lines) {
+      const int st = l.vertices.front();
+      const auto [nx, ny] = line_normal(l, normals);
+      for (int i : l.vertices) {
+        const double d = (p[i].x - p[st].x) * nx + (p[i].y - p[st].y) * ny;
+        e += alpha * d * d;
+      }
+    }
+    return e;
+  }
+};
+
+namespace {
+
+// The joint path with every line's normal fixed (WarpOptions::fixed_line_normals): the matrix
+// is constant through the solve, so it is factored once and each iteration is one
+// back-substitution, like the fast path.
+struct ConstantJoint {
+  Solver solver;
+  Eigen::VectorXd constant;  // right-hand side without the shape term
+};
+
+}  // namespace
+
+ShapeWarp::ShapeWarp(Mesh mesh, std::vector<double> weights, double width, double height,
+                     std::vector<std::vector<int>> lines, const std::vector<int>& pinned)
+    : impl_(std::make_unique<Impl>()) {
+  if (weights.size() != mesh.triangles.size()) throw std::invalid_argument("one weight per triangle");
+  // The systems are SPD only with positive weights (and a fixed vertex per connected part, which
+  // the rectangle's corners give): checked here rather than left to CHOLMOD.
+  for (double w : weights)
+    if (!(w > 0) || !std::isfinite(w)) throw std::invalid_argument("triangle weights must be positive and finite");
+  if (!(width > 0) || !(height > 0) || !std::isfinite(width) || !std::isfinite(height))
+    throw std::invalid_argument("empty source rectangle");
+  impl_->mesh = std::move(mesh);
+  impl_->weights = std::move(weights);
+  impl_->width = width;
+  impl_->height = height;
+  for (auto& ids : lines) {
+    if (ids.size() < 2) continue;
+    const Point& a = impl_->mesh.vertices[ids.front()];
+    const Point& b = impl_->mesh.vertices[ids.back()];
+    const double len = std::hypot(b.x - a.x, b.y - a.y);
+    LineKind kind = std::abs(b.y - a.y) <= 1e-9 * len   ? LineKind::kHorizontal
+                    : std::abs(b.x - a.x) <= 1e-9 * len ? LineKind::kVertical
+                                                        : LineKind::kOblique;
+    impl_->has_oblique |= kind == LineKind::kOblique;
+    impl_->lines.push_back({std::move(ids), kind});
+  }
+  impl_->classify(pinned);
+  if (!impl_->has_oblique) impl_->factor_axes(WarpOptions{}.alpha);
+}
+
+ShapeWarp::~ShapeWarp() = default;
+ShapeWarp::ShapeWarp(ShapeWarp&&) noexcept = default;
+
+const Mesh& ShapeWarp::mesh() const { return impl_->mesh; }
+bool ShapeWarp::factored_once() const { return !impl_->has_oblique; }
+
+WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, const std::vector<Point>& initial) const {
+  const Impl& m = *impl_;
+  WarpResult r;
+  if (initial.size() == m.mesh.vertices.size()) {
+    r.positions = m.fixed_positions(initial, tw, th);
+  } else if (m.has_pinned) {
+    throw std::invalid_argument("a warp with pinned vertices needs initial positions");
+  } else {
+    r.positions.resize(m.mesh.vertices.size());
+    for (std::size_t i = 0; i < r.positions.size(); ++i)
+      r.positions[i] = {m.mesh.vertices[i].x * tw / m.width, m.mesh.vertices[i].y * th / m.height};
+  }
+  // The fast path's factorization was made with the default α; another α needs the joint path.
+  const bool fast = !m.has_oblique && options.alpha == WarpOptions{}.alpha;
+  // Anderson acceleration (window 5) of the fast path's fixed-point map u ← G(u): local–global
+  // converges linearly, and extrapolating from the last few steps cuts the iterations several
+  // times. Safeguard: an accelerated step that does not lower the shape energy is dropped (and the
+  // history cleared) in favour of the plain step.
+  constexpr int kWindow = 5;
+  const int n2 = int(2 * r.positions.size());
+  auto stack = [&](const std::vector<Point>& p) {
+    Eigen::VectorXd v(n2);
+    for (std::size_t i = 0; i < p.size(); ++i) v[2 * i] = p[i].x, v[2 * i + 1] = p[i].y;
+    return v;
+  };
+  auto unstack = [&](const Eigen::VectorXd& v) {
+    std::vector<Point> p(v.size() / 2);
+    for (std::size_t i = 0; i < p.size(); ++i) p[i] = {v[2 * i], v[2 * i + 1]};
+    return p;
+  };
+  std::vector<Eigen::VectorXd> dg, df;
+  Eigen::VectorXd g_prev, f_prev;
+  const std::vector<Point> start = r.positions;
+  const auto fixed = fast ? m.fixed_rhs(start) : std::pair<Eigen::VectorXd, Eigen::VectorXd>{};
+  // The joint system with line normals fixed from `from` and weights `w`, factored once.
+  auto constant_joint = [&](const std::vector<Point>& from, const std::vector<double>& w) {
+    auto joint = std::make_unique<ConstantJoint>();
+    auto [a, b] = m.joint_system(from, tw, th, options.alpha, false, w, from);
+    joint->solver.compute(a);
+    if (joint->solver.info() != Eigen::Success) throw std::runtime_error("CHOLMOD could not factor the warp system");
+    joint->constant = std::move(b);
+    return joint;
+  };
+  const bool has_unknowns = m.n_free_x + m.n_free_y > 0;
+  // Oblique lines with their normals fixed from the start: one factorization for the solve.
+  std::unique_ptr<ConstantJoint> joint;
+  if (!fast && options.fixed_line_normals && has_unknowns) joint = constant_joint(start, m.weights);
+  const bool accelerated_path = fast || joint;
+  // What an accelerated step must lower: the shape energy (the fast path's H/V line terms are
+  // nearly met by construction), plus the line energy when oblique lines are in the system.
+  auto objective = [&](const std::vector<Point>& p) {
+    return joint ? m.energy(p) + m.line_energy(p, start, options.alpha) : m.energy(p);
+  };
+  for (r.iterations = 0; r.iterations < options.max_iterations;) {
+    check_stop(options.stop);
+    const std::vector<Point> before = r.positions;
+    if (accelerated_path) {
+      std::vector<Point> step = r.positions;
+      if (joint) m.write_joint(step, joint->solver.solve(joint->constant + m.joint_shape_rhs(step, m.weights)));
+      else m.solve_decoupled(step, fixed);
+      const Eigen::VectorXd u = stack(r.positions), g = stack(step), f = g - u;
+      if (g_prev.size() == n2) {
+        dg.push_back(g - g_prev), df.push_back(f - f_prev);
+        if (int(dg.size()) > kWindow) dg.erase(dg.begin()), df.erase(df.begin());
+      }
+      g_prev = g, f_prev = f;
+      r.positions = step;
+      if (!dg.empty()) {
+        Eigen::MatrixXd F(n2, df.size()), G(n2, dg.size());
+        for (std::size_t k = 0; k < df.size(); ++k) F.col(k) = df[k], G.col(k) = dg[k];
+        const Eigen::VectorXd gamma = F.colPivHouseholderQr().solve(f);
+        std::vector<Point> accelerated = unstack(g - G * gamma);
+        if (objective(accelerated) < objective(step)) r.positions = std::move(accelerated);
+        else dg.clear(), df.clear();
+      }
+    } else if (m.n_free_x + m.n_free_y > 0) {
+      m.solve_joint(r.positions, tw, th, options.alpha, r.iterations, m.weights);
+    }
+    ++r.iterations;
+    double moved = 0;
+    for (std::size_t i = 0; i < before.size(); ++i)
+      moved = std::max(moved, std::hypot(r.positions[i].x - before[i].x, r.positions[i].y - before[i].y));
+    // Oblique lines alternate two forms: judge convergence after a pair of iterations.
+    if (moved < options.tolerance && (accelerated_path || r.iterations % 2 == 0)) {
+      r.converged = true;
+      break;
+    }
+  }
+  // Fold-over guard. The shape energy alone can invert triangles where weights are low next to
+  // high ones (DESIGN.md §4 saw 15 of 3348 with w_min = 0.05). Where that happens, the weights of
+  // the inverted triangles and their neighbours are raised — making them resist deformation —
+  // and the warp goes on from where it is, until no triangle is inverted.
+  auto bad = m.inverted(r.positions);
+  std::vector<double> w = m.weights;
+  for (int round = 0; !bad.empty() && round < options.max_guard_rounds; ++round) {
+    // The neighbourhood grows by one ring of triangles per round; the last round makes every
+    // weight 1 (uniform weights warp the rectangle almost affinely, with nothing to fold).
+    std::vector<char> near(m.mesh.vertices.size(), 0);
+    for (int f : bad)
+      for (int v : m.mesh.triangles[f]) near[v] = 1;
+    for (int ring = 0; ring < round; ++ring) {
+      std::vector<char> grown = near;
+      for (const auto& t : m.mesh.triangles)
+        if (near[t[0]] || near[t[1]] || near[t[2]]) grown[t[0]] = grown[t[1]] = grown[t[2]] = 1;
+      near.swap(grown);
+    }
+    const bool last = round + 1 == options.max_guard_rounds;
+    for (std::size_t f = 0; f < w.size(); ++f) {
+      const auto& t = m.mesh.triangles[f];
+      if (last) w[f] = 1;
+      else if (near[t[0]] || near[t[1]] || near[t[2]]) w[f] = std::min(1.0, w[f] * 4);
+    }
+    // With fixed line normals a round's weights make its system constant: factored once a round.
+    const auto round_joint = options.fixed_line_normals && has_unknowns ? constant_joint(r.positions, w) : nullptr;
+    for (int k = 0; k < options.max_guard_iterations; ++k) {
+      check_stop(options.stop);
+      const std::vector<Point> before = r.positions;
+      if (round_joint) {
+        m.write_joint(r.positions, round_joint->solver.solve(round_joint->constant + m.joint_shape_rhs(r.positions, w)));
+        ++r.iterations;
+      } else {
+        m.solve_joint(r.positions, tw, th, options.alpha, r.iterations++, w);
+      }
+      double moved = 0;
+      for (std::size_t i = 0; i < before.size(); ++i)
+        moved = std::max(moved, std::hypot(r.positions[i].x - before[i].x, r.positions[i].y - before[i].y));
+      if (moved < options.tolerance && (round_joint || k % 2 == 1)) break;
+    }
+    bad = m.inverted(r.positions);
+    r.guard_rounds = round + 1;
+  }
+  // Last resort, for extreme aspect changes (a 4:1 panorama on a 9:16 screen folded even with
+  // uniform weights): blend towards the affine stretch, which folds nothing and meets the same
+  // boundary constraints, as little as needed (bisection on the blend factor). With pinned
+  // vertices the affine stretch would move them; the (fold-free) start is the fallback then.
+  if (!bad.empty()) {
+    std::vector<Point> affine = start;
+    if (!m.has_pinned)
+      for (std::size_t i = 0; i < affine.size(); ++i)
+        affine[i] = {m.mesh.vertices[i].x * tw / m.width, m.mesh.vertices[i].y * th / m.height};
+    auto blend = [&](double t) {
+      std::vector<Point> p(r.positions.size());
+      for (std::size_t i = 0; i < p.size(); ++i)
+        p[i] = {(1 - t) * r.positions[i].x + t * affine[i].x, (1 - t) * r.positions[i].y + t * affine[i].y};
+      return p;
+    };
+    double lo = 0, hi = 1;
+    for (int step = 0; step < 20; ++step) {
+      check_stop(options.stop);
+      const double mid = (lo + hi) / 2;
+      (m.inverted(blend(mid)).empty() ? hi : lo) = mid;
+    }
+    r.positions = blend(hi);
+    r.affine_blend = hi;
+    bad = m.inverted(r.positions);
+  }
+  r.inverted = int(bad.size());
+  return r;
+}
+
+}  // namespace zoomwarp::warp

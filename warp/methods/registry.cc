@@ -1,0 +1,18 @@
+// The list of registered methods: each method folder declares its description in its own header,
+// and this file is the one place that names them all (no static-initialisation tricks).
+#include "warp/methods/retargeting_method.h"
+
+namespace zoomwarp::warp {
+
+std::span<const RetargetingMethod* const> retargeting_methods() {
+  static const RetargetingMethod* const kAll[] = {nullptr};
+  return std::span(kAll, 0);
+}
+
+const RetargetingMethod* find_retargeting_method(std::string_view name) {
+  for (const RetargetingMethod* m : retargeting_methods())
+    if (m->name == name) return m;
+  return nullptr;
+}
+
+}  // namespace zoomwarp::warp

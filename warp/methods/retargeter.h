@@ -1,0 +1,48 @@
+// One retargeting method made ready for one image version (and one saliency kind): what a
+// request is answered from. Every method behaves like Retargeting+Zooming [ICAZ §6.1]
+// (docs/algorithms.md "Common contract"): the whole image is mapped onto a target W'×H' with the
+// screen's aspect ratio — cached per target size inside the object — and shown with traditional
+// zoom (core/uniform_zoom.h): z = 0 shows all of it, z = 1 is 1:1 of the retargeted image, the
+// view centre is tracked through the warp.
+//
+// Thread safety: every member may be called from several threads at once (implementations lock
+// their caches); objects are shared by all requests for their version.
+#pragma once
+
+#include <cstddef>
+#include <stdexcept>
+
+#include "tiles/pyramid_reader.h"
+#include "tiles/raster.h"
+#include "warp/core/view.h"
+
+namespace zoomwarp::warp {
+
+// Thrown by view() of a method that removes pixels instead of moving them (seam carving): it
+// has no mesh to send. api/ answers 501.
+class NoMesh : public std::logic_error {
+ public:
+  using std::logic_error::logic_error;
+};
+
+class Retargeter {
+ public:
+  virtual ~Retargeter() = default;
+
+  // Whether view() gives a mesh (false: seam carving).
+  virtual bool has_mesh() const { return true; }
+
+  // The view of `request` as a mesh. Throws std::invalid_argument for a request out of range
+  // (check_view_request), Stopped when its token says so, NoMesh when has_mesh() is false.
+  virtual View view(const ViewRequest& request) = 0;
+
+  // The screen: by default view() texture-mapped by render/render.h. Throws as view() does, and
+  // std::runtime_error when the pyramid cannot be read.
+  virtual tiles::Raster render(const ViewRequest& request, const tiles::ImageEntry& image,
+                               tiles::PyramidReader& reader);
+
+  // Bytes held (precomputation and caches), for the engines' memory budget.
+  virtual std::size_t memory_bytes() = 0;
+};
+
+}  // namespace zoomwarp::warp

@@ -1,0 +1,65 @@
+// The retargeting methods a request may name (`method=`), as a registry of plain descriptions.
+// ICAZ and traditional zoom are not in it: they are the icaz/ operator's own (api/ maps them);
+// every other method is one entry here, with the precompute/solve split of libigl's
+// arap_precomputation/arap_solve:
+//
+//   precompute  per image version and saliency kind, everything that does not depend on the
+//               target size — stored as the model file "<name>.<saliency>.bin" beside the
+//               version's other model files (analysis/method_files.h), written at ingest and by
+//               edits whose inputs changed;
+//   load        the Retargeter of that version from it; each request then retargets the whole
+//               image to the screen's aspect (cached per target size) and zooms traditionally.
+//
+// Thread safety: the registry is immutable; precompute and load may run concurrently.
+#pragma once
+
+#include <array>
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "tiles/raster.h"
+#include "warp/core/mesh.h"
+#include "warp/icaz/image_model.h"
+#include "warp/methods/retargeter.h"
+#include "warp/saliency/saliency.h"
+#include "warp/saliency/significance.h"
+
+namespace zoomwarp::warp {
+
+// What a precomputation may read, all of one image version.
+struct MethodInput {
+  const ImageModel& model;            // image size, curator lines and edits, default significance
+  Saliency saliency_kind;
+  const SignificanceMap& saliency;    // the selected kind, faces and curator edits painted in
+  const tiles::Raster& analysis_image;  // the reduced copy the maps were made from (long side
+                                        // ≤ kSignificanceMaxSide, `saliency.scale` px per image px)
+  const std::vector<Segment>& detected_lines;  // automatic lines (lines/), image pixels
+};
+
+struct RetargetingMethod {
+  std::string_view name;     // the `method=` value, e.g. "seam"
+  std::string_view summary;  // one sentence for the viewer and the OpenAPI description
+  std::string_view zoom;     // what `zoom` means for it (README, OpenAPI)
+  bool has_mesh = true;      // false: /mesh answers 501 (seam carving)
+  // The model file's magic (8 bytes, its format version included); unused without precompute.
+  std::array<char, 8> magic{};
+  // The precomputation's bytes; empty: the method keeps no file and load() gets "".
+  std::function<std::string(const MethodInput&)> precompute;
+  // The Retargeter of one version from the model, the selected saliency map and the
+  // precomputation's bytes. Throws std::runtime_error for bytes it cannot parse.
+  std::function<std::unique_ptr<Retargeter>(const ImageModel&, const SignificanceMap& saliency,
+                                            std::string_view precomputed)>
+      load;
+};
+
+// Every registered method, in the order the viewer and `zoomwarp compare --methods all` list them.
+std::span<const RetargetingMethod* const> retargeting_methods();
+
+// The method called `name`, or nullptr.
+const RetargetingMethod* find_retargeting_method(std::string_view name);
+
+}  // namespace zoomwarp::warp

@@ -1,0 +1,117 @@
+#include "warp/render/render.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+namespace zoomwarp::warp {
+
+namespace {
+
+// The pyramid level for a triangle shown at `magnification` screen pixels per source pixel:
+// level k has 2^-k of the full resolution; take the coarsest one with 2^-k ≥ magnification.
+int level_for(double magnification, int levels) {
+  if (!(magnification > 0)) return levels - 1;
+  const int k = int(std::floor(std::log2(1 / magnification) + 1e-9));
+  return std::clamp(k, 0, levels - 1);
+}
+
+// Pixels of one pyramid level around a source rectangle, for bilinear sampling.
+struct LevelPatch {
+  tiles::Raster pixels;
+  double scale = 1;         // level pixels per source pixel
+  long long x0 = 0, y0 = 0;  // patch origin in level pixels
+
+  // Bilinear sample at source position (u, v); level pixel centres are at integer + 0.5.
+  void sample(double u, double v, std::uint8_t* out) const {
+    const double x = u * scale - 0.5 - double(x0), y = v * scale - 0.5 - double(y0);
+    const int xi = int(std::floor(x)), yi = int(std::floor(y));
+    const double fx = x - xi, fy = y - yi;
+    const int xa = std::clamp(xi, 0, pixels.width - 1), xb = std::clamp(xi + 1, 0, pixels.width - 1);
+    const int ya = std::clamp(yi, 0, pixels.height - 1), yb = std::clamp(yi + 1, 0, pixels.height - 1);
+    const int c = pixels.channels;
+    const std::uint8_t *r0 = pixels.row(ya), *r1 = pixels.row(yb);
+    for (int k = 0; k < c; ++k) {
+      const double top = r0[xa * c + k] + fx * (r0[xb * c + k] - r0[xa * c + k]);
+      const double bottom = r1[xa * c + k] + fx * (r1[xb * c + k] - r1[xa * c + k]);
+      out[k] = std::uint8_t(std::lround(std::clamp(top + fy * (bottom - top), 0.0, 255.0)));
+    }
+  }
+};
+
+LevelPatch read_patch(const tiles::ImageEntry& image, tiles::PyramidReader& reader, int level, double u0, double v0,
+                      double u1, double v1) {
+  const tiles::Manifest& m = image.manifest;
+  LevelPatch p;
+  p.scale = double(m.level_width(level)) / m.width;
+  const long long lw = m.level_width(level), lh = m.level_height(level);
+  p.x0 = std::clamp<long long>((long long)std::floor(u0 * p.scale) - 1, 0, lw - 1);
+  p.y0 = std::clamp<long long>((long long)std::floor(v0 * p.scale) - 1, 0, lh - 1);
+  const long long x1 = std::clamp<long long>((long long)std::ceil(u1 * p.scale) + 1, p.x0 + 1, lw);
+  const long long y1 = std::clamp<long long>((long long)std::ceil(v1 * p.scale) + 1, p.y0 + 1, lh);
+  p.pixels = reader.read_level(image, level, {p.x0, p.y0, x1 - p.x0, y1 - p.y0});
+  return p;
+}
+
+}  // namespace
+
+tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEntry& image,
+                          tiles::PyramidReader& reader, const StopToken* stop) {
+  const tiles::Manifest& m = image.manifest;
+  tiles::Raster out(sw, sh, m.channels);
+  const Mesh& src = view.source;
+  const std::vector<Point>& scr = view.screen;
+
+  // Triangles by level, with the source bounding box each level has to cover.
+  struct Group {
+    std::vector<int> triangles;
+    double u0 = 1e300, v0 = 1e300, u1 = -1e300, v1 = -1e300;
+  };
+  std::map<int, Group> groups;
+  for (int f : view.visible) {
+    const Triangle& t = src.triangles[f];
+    const double source_area = std::abs(signed_area2(src.vertices[t[0]], src.vertices[t[1]], src.vertices[t[2]]));
+    const double screen_area = std::abs(signed_area2(scr[t[0]], scr[t[1]], scr[t[2]]));
+    if (!(source_area > 0) || !(screen_area > 0)) continue;
+    Group& g = groups[level_for(std::sqrt(screen_area / source_area), m.levels)];
+    g.triangles.push_back(f);
+    for (int v : t) {
+      g.u0 = std::min(g.u0, src.vertices[v].x), g.u1 = std::max(g.u1, src.vertices[v].x);
+      g.v0 = std::min(g.v0, src.vertices[v].y), g.v1 = std::max(g.v1, src.vertices[v].y);
+    }
+  }
+
+  for (const auto& [level, g] : groups) {
+    check_stop(stop);
+    const LevelPatch patch = read_patch(image, reader, level, g.u0, g.v0, g.u1, g.v1);
+    for (int f : g.triangles) {
+      check_stop(stop);
+      const Triangle& t = src.triangles[f];
+      const Point &a = scr[t[0]], &b = scr[t[1]], &c = scr[t[2]];
+      const double area = signed_area2(a, b, c);
+      const int x0 = std::max(0, int(std::floor(std::min({a.x, b.x, c.x}))));
+      const int x1 = std::min(sw - 1, int(std::ceil(std::max({a.x, b.x, c.x}))));
+      const int y0 = std::max(0, int(std::floor(std::min({a.y, b.y, c.y}))));
+      const int y1 = std::min(sh - 1, int(std::ceil(std::max({a.y, b.y, c.y}))));
+      // Pixel centres inside the triangle (edges included, with a hair of tolerance so shared
+      // edges leave no gap); barycentric coordinates carry them back to the source.
+      const double eps = 1e-7 * std::abs(area);
+      for (int y = y0; y <= y1; ++y) {
+        std::uint8_t* row = out.row(y);
+        for (int x = x0; x <= x1; ++x) {
+          const Point p{x + 0.5, y + 0.5};
+          const double l0 = signed_area2(p, b, c) / area, l1 = signed_area2(a, p, c) / area;
+          const double l2 = 1 - l0 - l1;
+          if (l0 * std::abs(area) < -eps || l1 * std::abs(area) < -eps || l2 * std::abs(area) < -eps) continue;
+          const Point& sa = src.vertices[t[0]];
+          const Point& sb = src.vertices[t[1]];
+          const Point& sc = src.vertices[t[2]];
+          patch.sample(l0 * sa.x + l1 * sb.x + l2 * sc.x, l0 * sa.y + l1 * sb.y + l2 * sc.y, row + x * m.channels);
+        }
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace zoomwarp::warp
