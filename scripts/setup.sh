@@ -19,7 +19,7 @@ for arg in "$@"; do
   esac
 done
 
-# Build of the zoomwarp binary: compiler, CMake, and the libraries fixed by DESIGN.md §3
+# Build of the zoomwarp binary: compiler, CMake, and the libraries the design fixes (README "Built with")
 # (libssl-dev: libcrypto, SHA-256 and constant-time comparison of API keys).
 # openimageio-tools too: OpenImageIO's CMake package fails unless the tools it lists exist.
 build_pkgs=(

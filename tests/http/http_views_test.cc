@@ -149,7 +149,7 @@ TEST_F(Views, ZoomedOutViewportIsFilteredNotAliased) {
   for (int x : {0, 240, 479}) EXPECT_EQ(viewport.row(5)[x * 3], 0) << "the letterbox band is black";
 }
 
-// DESIGN.md §7, measured from the mesh JSON: the image's most significant tenth (by the
+// docs/algorithms.md "Quality rules", measured from the mesh JSON: the image's most significant tenth (by the
 // served significance map) is less distorted than uniform stretching would distort it, and is
 // shown larger than traditional zooming shows it. Boats (16:10) on a 9:16 phone screen, z = 0.
 TEST_F(Views, SalientRegionsAreLargerAndLessDistorted) {

@@ -1,5 +1,5 @@
 // Traditional zooming of a (possibly warped) image, the second half of every retargeting method
-// (seed 000 §6.1's Retargeting+Zooming; docs/algorithms.md "Common contract"): the image warped
+// ([ICAZ §6.1]'s Retargeting+Zooming; docs/algorithms.md "Common contract"): the image warped
 // once to a target W'×H' is shown at a uniform scale from fit-to-screen (z = 0) to 1:1 (z = 1),
 // centred on the view centre's warped position. Plain functions on plain data; thread-safe.
 #pragma once

@@ -18,7 +18,7 @@ struct ViewRequest {
   double cx = 0, cy = 0;  // view centre, image pixels
   int screen_width = 480, screen_height = 360;
   ZoomCurve curve = ZoomCurve::kGeometric;
-  double max_screen_area = 500;  // px², the paper's runtime threshold (§6.1)
+  double max_screen_area = 500;  // px², the paper's runtime threshold [ICAZ §6.1]
   // The request's deadline and cancel flag, checked between steps (Stopped is thrown); none: runs
   // to the end. Not owned.
   const StopToken* stop = nullptr;
@@ -38,7 +38,7 @@ struct View {
   int forest_epoch = 0;            // forest_vertex and nodes are valid while the epoch holds
 };
 
-// Geomorphing (§5.3): the common refinement of two views' LOD cuts, with both views' screen
+// Geomorphing [ICAZ §5.3]: the common refinement of two views' LOD cuts, with both views' screen
 // positions on it, so a client can interpolate from one to the other without popping.
 struct Geomorph {
   Mesh source;                     // image pixels

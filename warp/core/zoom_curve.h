@@ -1,4 +1,4 @@
-// The zoom evolution of seed 000 §5.1: the zoom level z ∈ [0, 1] sets the target aspect ratio of
+// The zoom evolution [ICAZ §5.1]: the zoom level z ∈ [0, 1] sets the target aspect ratio of
 // the warp and the size of the viewing area, the part of the warped image shown on the screen.
 //
 //   z = 0: target aspect = the screen's, viewing area = the whole warped image (global view);

@@ -1,4 +1,4 @@
-// The multi-resolution forest of seed 000 §5.3: one tree per triangle of the coarsest mesh; a
+// The multi-resolution forest [ICAZ §5.3]: one tree per triangle of the coarsest mesh; a
 // node's two children come from splitting its longest edge at the midpoint. Stored as flat
 // arrays. At ingest the forest is built level by level down to the smallest triangles a view
 // asks for at 100 % (build_levels), within a node budget, and serialised with the image. Deeper

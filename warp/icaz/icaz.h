@@ -1,4 +1,4 @@
-// The Interactive Content-Aware Zooming operator (seed 000 §5) with the two-level warp of §5.2:
+// The Interactive Content-Aware Zooming operator [ICAZ §5] with the two-level warp of [ICAZ §5.2]:
 //
 //   1. zoom geometry: target size and viewing area from z (zoom_curve.h);
 //   2. coarse warp of the coarsest mesh to the target size (cached per target size, so panning at
@@ -8,7 +8,7 @@
 //   4. the LOD cut is refined where, judged by the coarse warp, triangles touch the viewing area and
 //      are larger than `max_screen_area` on screen;
 //   5. fine warp of the refined mesh near the viewing area, started from the coarse result
-//      (nested iteration, §6.2) and pinned to it further out; the viewing area is placed again on
+//      (nested iteration, [ICAZ §6.2]) and pinned to it further out; the viewing area is placed again on
 //      the fine result.
 #pragma once
 
@@ -67,7 +67,7 @@ class Icaz {
   // stored in `to_view` if given.
   Geomorph geomorph(const ViewRequest& from, const ViewRequest& to, View* to_view = nullptr);
 
-  // Baselines in the same interface (§1, §6.1), on the coarsest mesh:
+  // Baselines in the same interface [ICAZ §1, §6.1], on the coarsest mesh:
   //  - traditional: uniform scaling and cropping; the magnification goes from "whole image fits
   //    the screen" (letterboxed) at z = 0 to 1:1 at z = 1, along the request's curve;
   //  - retarget-zoom: the whole image warped once to the screen's aspect ratio, then traditional

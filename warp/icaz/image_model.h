@@ -1,4 +1,4 @@
-// What the warp engine knows about one image version (seed 000 §4–5.3), built at ingest and kept
+// What the warp engine knows about one image version [ICAZ §4–5.3], built at ingest and kept
 // with the image (model_io.h): the significance map, the user's line constraints, the coarsest
 // mesh built with them, the multi-resolution forest down to the triangles a view asks for at
 // 100 %, and every forest node's mean significance. Curator edits — new lines, a region marked
@@ -34,7 +34,7 @@ struct ImageModel {
   CoarseMesh coarse;                   // built with `lines`
   Forest forest;                       // over coarse.mesh; its kept nodes were built here
   std::vector<float> node_mean;        // per kept forest node, its mean significance
-  double w_min = 0.2;  // weight floor (DESIGN.md §4: 0.2 avoided fold-overs where 0.05 did not)
+  double w_min = 0.2;  // weight floor (docs/algorithms.md, ICAZ: 0.2 avoided fold-overs where 0.05 did not)
 };
 
 // Builds the model from a reduced-resolution copy of the image (≤ kSignificanceMaxSide).

@@ -1,4 +1,4 @@
-// A level-of-detail cut through the forest (seed 000 §5.3): the set of nodes that currently form
+// A level-of-detail cut through the forest [ICAZ §5.3]: the set of nodes that currently form
 // the mesh. It starts at the roots (the coarsest mesh) and is refined node by node; refining a
 // node also refines the triangle across its longest edge — the dependent triangle — first
 // splitting that one as often as needed until it shares the edge as its own longest edge

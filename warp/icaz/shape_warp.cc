@@ -255,7 +255,7 @@ struct ShapeWarp::Impl {
 
   // One global step with oblique lines: x and y are solved jointly. Unknowns: free x first, then
   // free y. Even iterations use the direction form D_Line_D (ratios r_i fixed), odd ones the
-  // orientation form D_Line_O (normal fixed), as §4.2 prescribes.
+  // orientation form D_Line_O (normal fixed), as [ICAZ §4.2] prescribes.
   void solve_joint(std::vector<Point>& cur, double tw, double th, double alpha, int iteration,
                    const std::vector<double>& w) const {
     const int n = n_free_x + n_free_y;
@@ -492,7 +492,7 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
     }
   }
   // Fold-over guard. The shape energy alone can invert triangles where weights are low next to
-  // high ones (DESIGN.md §4 saw 15 of 3348 with w_min = 0.05). Where that happens, the weights of
+  // high ones (15 of 3348 with w_min = 0.05, docs/algorithms.md). Where that happens, the weights of
   // the inverted triangles and their neighbours are raised — making them resist deformation —
   // and the warp goes on from where it is, until no triangle is inverted.
   auto bad = m.inverted(r.positions);

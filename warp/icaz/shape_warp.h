@@ -1,4 +1,4 @@
-// Mesh warping by the local–global minimisation of seed 000 §4.2–4.3:
+// Mesh warping by the local–global minimisation of [ICAZ §4.2–4.3]:
 //
 //   D = Σ_f w_f Σ_{e_ij ∈ f} ‖(v'_i − v'_j) − s_f (v_i − v_j)‖²  +  α D_Line
 //
@@ -37,7 +37,7 @@
 namespace zoomwarp::warp {
 
 struct WarpOptions {
-  double alpha = 100;  // line energy weight (§4.3)
+  double alpha = 100;  // line energy weight [ICAZ §4.3]
   // Plain local–global converges linearly (2000 vertices, 8:3 squeezed to 1:1: 12 px from the
   // optimum after 10 iterations, 0.4 px after 40); the fast path's Anderson acceleration brings
   // that to 0.07 px after 10 and 0.0002 px after 20.
@@ -53,7 +53,7 @@ struct WarpOptions {
   // alternating direction form): the joint system is then constant through the solve — factored
   // once and Anderson-accelerated like the fast path instead of refactored every iteration. For
   // solves started from a warp whose lines are already straight (the fine level, from the
-  // coarse result, §6.2), where the normal is all but settled.
+  // coarse result, [ICAZ §6.2]), where the normal is all but settled.
   bool fixed_line_normals = false;
   // Checked before every local–global iteration and fold-over guard step (Stopped is thrown).
   // Not owned; none: runs to the end.
@@ -71,7 +71,7 @@ class ShapeWarp {
   ShapeWarp(ShapeWarp&&) noexcept;
 
   // Warps to a target_width × target_height rectangle, starting from `initial` (e.g. a coarser
-  // warp, nested iteration §6.2) or, when empty, from uniform scaling. With pinned vertices,
+  // warp, nested iteration [ICAZ §6.2]) or, when empty, from uniform scaling. With pinned vertices,
   // `initial` is required.
   WarpResult solve(double target_width, double target_height, const WarpOptions& options = {},
                    const std::vector<Point>& initial = {}) const;

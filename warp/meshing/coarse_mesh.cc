@@ -1,4 +1,4 @@
-// The only translation unit that includes CGAL (it is header-heavy; see DESIGN.md §3).
+// The only translation unit that includes CGAL (it is header-heavy: keeping it here keeps the build fast).
 //
 // CGAL's own checks stay on here even in release builds. Delaunay refinement of crossing line
 // constraints — whose intersection points inexact constructions round — can meet a flat face

@@ -1,4 +1,4 @@
-// The coarsest mesh of an image (seed 000 §4.1): a conforming Delaunay triangulation of the image
+// The coarsest mesh of an image [ICAZ §4.1]: a conforming Delaunay triangulation of the image
 // rectangle with the constrained lines inserted as edges, refined until every triangle is under a
 // maximum area and above a minimum angle. Unlike the paper, its size is also bounded by a vertex
 // budget, so that a gigapixel image still gets a coarsest mesh the solver handles in milliseconds
@@ -12,7 +12,7 @@
 namespace zoomwarp::warp {
 
 struct CoarseMeshOptions {
-  double max_triangle_area = 10000;  // px², the paper's setting (§6.1)
+  double max_triangle_area = 10000;  // px², the paper's setting [ICAZ §6.1]
   double min_angle_degrees = 20;     // ≤ 20.7° guarantees termination of Delaunay refinement
   int vertex_budget = 2000;
 };

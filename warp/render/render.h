@@ -1,4 +1,4 @@
-// Rendering a view (seed 000 §5: the warped image seen through the screen): every visible warped
+// Rendering a view [ICAZ §5] (the warped image seen through the screen): every visible warped
 // triangle is texture-mapped from the pyramid level that fits its own on-screen scale — the
 // coarsest level whose resolution is still at least the screen's there, so a triangle is never
 // minified by more than 2× and shows no aliasing shimmer — with bilinear filtering. At zoom 1

@@ -1,4 +1,4 @@
-// Significance (seed 000 §4, after Wang et al. 2008): how much each part of the image matters,
+// Significance [ICAZ §4, after Wang08]: how much each part of the image matters,
 // so that the warp distorts it less. Computed once per image at reduced resolution:
 //
 //   significance = gradient norm × spectral-residual saliency, raised to 1 on detected faces,
