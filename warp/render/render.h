@@ -6,7 +6,8 @@
 #pragma once
 
 #include "tiles/pyramid_reader.h"
-#include "warp/icaz/icaz.h"
+#include "warp/core/stop_token.h"
+#include "warp/core/view.h"
 
 namespace zoomwarp::warp {
 
