@@ -104,6 +104,8 @@ class Router {
   std::optional<Response> web_script(const Request&, const PathParams&, bool);
   std::optional<Response> web_style(const Request&, const PathParams&, bool);
   std::optional<Response> openapi(const Request&, const PathParams&, bool);
+  // /v1/methods: the warp methods and saliency kinds a view request may name
+  std::optional<Response> list_methods(const Request&, const PathParams&, bool);
   // /v1/images
   std::optional<Response> list_images(const Request&, const PathParams&, bool);
   std::optional<Response> describe_image(const Request&, const PathParams&, bool);
