@@ -200,6 +200,13 @@ test('the URL shares a comparison: the same panes and view in a new tab', { time
   assert.equal(await shared.isChecked('#side-by-side'), true);
   assert.deepEqual([await shared.inputValue('#method'), await shared.inputValue('#method2')], ['retarget-zoom', 'traditional']);
 
+  // A link pasted into the address bar of an open viewer (a new hash) shows what it names.
+  await shared.evaluate(() => { location.hash = '#method=traditional&saliency=default&zoom=0.5&cx=1000&cy=600'; });
+  await shared.waitForFunction(() => window.zoomwarp.panes.length === 1 && window.zoomwarp.panes[0].method === 'traditional');
+  assert.deepEqual(await shared.evaluate(() => window.zoomwarp.setView({})), { zoom: 0.5, cx: 1000, cy: 600 });
+  assert.equal(await shared.isChecked('#side-by-side'), false);
+  assert.equal(await shared.inputValue('#method'), 'traditional');
+
   // A method the server does not offer falls back to the first, and says so.
   const unknown = await openViewer(t, `/?image=${IMAGE_ID}#method=no-such-method`);
   assert.equal((await unknown.evaluate(() => window.zoomwarp.panes))[0].method, catalogue.methods[0].name);
