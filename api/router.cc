@@ -245,6 +245,7 @@ const std::vector<Router::Route>& Router::routes() {
       {"GET", "/{file}.css", &Router::web_style, Access::kPublic},
       {"GET", "/v1", &Router::index, Access::kPublic},
       {"GET", "/openapi.json", &Router::openapi, Access::kPublic},
+      {"GET", "/v1/methods", &Router::list_methods, Access::kPublic},
       {"GET", "/v1/images", &Router::list_images, Access::kPublic},
       {"POST", "/v1/images", &Router::upload_image, Access::kCurator},
       {"GET", "/v1/images/{id}", &Router::describe_image, Access::kPublic},
@@ -399,6 +400,7 @@ std::optional<Response> Router::index(const Request&, const PathParams&, bool) {
                                    {"links",
                                     {{"viewer", "/"},
                                      {"images", "/v1/images"},
+                                     {"methods", "/v1/methods"},
                                      {"openapi", "/openapi.json"},
                                      {"dzi", "/dzi/{id}.dzi"},
                                      {"iiif", "/iiif/3/{id}/info.json"},
@@ -413,6 +415,38 @@ std::optional<Response> Router::openapi(const Request&, const PathParams&, bool)
   Response r = body_response("application/json", std::string(*asset("openapi.json")));
   r.route = "openapi";
   r.set_header("Cache-Control", "no-cache");
+  return r;
+}
+
+// The body of /v1/methods: api's own methods and the registered ones (view_query.h
+// view_methods()), and the saliency kinds. It depends on the binary only, so it is made once and
+// its ETag is its digest.
+namespace {
+const std::string& methods_body() {
+  static const std::string body = [] {
+    json methods = json::array();
+    for (const MethodDescription& m : view_methods())
+      methods.push_back({{"name", std::string(m.name)},
+                         {"summary", std::string(m.summary)},
+                         {"zoom", std::string(m.zoom)},
+                         {"mesh", m.has_mesh}});
+    json saliency = json::array();
+    for (const warp::Saliency s : warp::kSaliencies) saliency.push_back(std::string(warp::saliency_name(s)));
+    return json{{"methods", methods}, {"saliency", saliency}}.dump(2) + "\n";
+  }();
+  return body;
+}
+}  // namespace
+
+std::optional<Response> Router::list_methods(const Request& req, const PathParams&, bool) {
+  const std::string& body = methods_body();
+  const std::string etag = make_etag("methods", body);
+  Response r;
+  if (!req.if_none_match.empty() && if_none_match_matches(req.if_none_match, etag)) r.status = 304;
+  else r = body_response("application/json", body);
+  r.route = "methods";
+  r.set_header("ETag", etag);
+  r.set_header("Cache-Control", "public, max-age=" + std::to_string(config_.cache_max_age));
   return r;
 }
 

@@ -1,5 +1,6 @@
 // The REST surface of the product (api/openapi.json): image management (/v1/images), the warp
-// engine's views (/v1/images/{id}/viewport and /mesh) and curator edits (/lines, /significance),
+// engine's views (/v1/images/{id}/viewport and /mesh), the methods they take (/v1/methods) and
+// curator edits (/lines, /significance),
 // Deep Zoom (/dzi) and IIIF Image API 3.0 (/iiif/3). Operations endpoints (/healthz, /readyz, /metrics) belong to the
 // server. Every answer is a pure function of the published image version and the request, which
 // is what makes the ETags strong and the encoded-response cache safe.
@@ -104,6 +105,8 @@ class Router {
   std::optional<Response> web_script(const Request&, const PathParams&, bool);
   std::optional<Response> web_style(const Request&, const PathParams&, bool);
   std::optional<Response> openapi(const Request&, const PathParams&, bool);
+  // /v1/methods: the warp methods and saliency kinds a view request may name
+  std::optional<Response> list_methods(const Request&, const PathParams&, bool);
   // /v1/images
   std::optional<Response> list_images(const Request&, const PathParams&, bool);
   std::optional<Response> describe_image(const Request&, const PathParams&, bool);

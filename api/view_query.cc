@@ -32,10 +32,39 @@ double in_range(const std::string& name, double v, double lo, double hi) {
   return v;
 }
 
+// api's own methods: ICAZ and its two baselines, all of the ICAZ operator (warp/icaz/icaz.h).
+// Every other `method=` value is a registered one.
+struct OwnMethod {
+  ViewMethod method;
+  MethodDescription description;
+};
+constexpr OwnMethod kOwnMethods[] = {
+    {ViewMethod::kIcaz,
+     {"icaz",
+      "Interactive Content-Aware Zooming: a warp per view that keeps the important regions large and "
+      "undistorted, and gives up the distortion as you zoom in.",
+      "0: the whole image warped to the screen's aspect ratio; 1: 100 % (one screen pixel per image pixel), "
+      "undistorted; in between, the warp relaxes as the viewing area shrinks.",
+      true}},
+    {ViewMethod::kTraditional,
+     {"traditional", "Uniform scaling and cropping: the image's own aspect ratio, letterboxed when zoomed out.",
+      "0: the whole image fits the screen; 1: 100 % (one screen pixel per image pixel).", true}},
+    {ViewMethod::kRetargetZoom,
+     {"retarget-zoom", "The whole image warped once to the screen's aspect ratio, then zoomed uniformly.",
+      "0: the whole warped image fills the screen; 1: 100 % of the warped image, which keeps the image's area.",
+      true}},
+};
+
+const OwnMethod* find_own_method(std::string_view name) {
+  for (const OwnMethod& own : kOwnMethods)
+    if (own.description.name == name) return &own;
+  return nullptr;
+}
+
 // "icaz, traditional, retarget-zoom, seam, …", for error messages.
 std::string method_list() {
-  std::string out = "icaz, traditional, retarget-zoom";
-  for (const auto* m : warp::retargeting_methods()) out += ", " + std::string(m->name);
+  std::string out;
+  for (const MethodDescription& m : view_methods()) out += (out.empty() ? "" : ", ") + std::string(m.name);
   return out;
 }
 
@@ -47,13 +76,18 @@ int integer(const std::string& name, const std::string& text, int lo, int hi) {
 
 }  // namespace
 
+std::vector<MethodDescription> view_methods() {
+  std::vector<MethodDescription> out;
+  for (const OwnMethod& own : kOwnMethods) out.push_back(own.description);
+  for (const warp::RetargetingMethod* m : warp::retargeting_methods())
+    if (!find_own_method(m->name)) out.push_back({m->name, m->summary, m->zoom, m->has_mesh});
+  return out;
+}
+
 std::string_view ViewQuery::method_name() const {
-  switch (method) {
-    case ViewMethod::kIcaz: return "icaz";
-    case ViewMethod::kTraditional: return "traditional";
-    case ViewMethod::kRetargetZoom: return "retarget-zoom";
-    case ViewMethod::kRetargeting: return retargeting->name;
-  }
+  if (method == ViewMethod::kRetargeting) return retargeting->name;
+  for (const OwnMethod& own : kOwnMethods)
+    if (own.method == method) return own.description.name;
   return "icaz";
 }
 
@@ -73,9 +107,7 @@ ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double W
     else if (name == "w") q.view.screen_width = integer(name, value, 16, warp::limits::kMaxScreenSide), have_w = true;
     else if (name == "h") q.view.screen_height = integer(name, value, 16, warp::limits::kMaxScreenSide), have_h = true;
     else if (name == "method") {
-      if (value == "icaz") q.method = ViewMethod::kIcaz;
-      else if (value == "traditional") q.method = ViewMethod::kTraditional;
-      else if (value == "retarget-zoom") q.method = ViewMethod::kRetargetZoom;
+      if (const OwnMethod* own = find_own_method(value)) q.method = own->method;
       else if (const auto* m = warp::find_retargeting_method(value)) q.method = ViewMethod::kRetargeting, q.retargeting = m;
       else bad("method must be one of " + method_list() + ", not '" + value + "'");
     } else if (name == "saliency") {

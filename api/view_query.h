@@ -19,6 +19,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "tiles/image_format.h"
 #include "warp/core/view.h"
@@ -45,6 +46,20 @@ struct ViewQuery {
   // The `method=` value: "icaz", "traditional", "retarget-zoom", "seam", …
   std::string_view method_name() const;
 };
+
+// A `method=` value as GET /v1/methods describes it to clients (the viewer's method menus).
+struct MethodDescription {
+  std::string_view name;
+  std::string_view summary;  // one sentence
+  std::string_view zoom;     // what `zoom` means for it
+  bool has_mesh = true;      // false: /mesh answers 501, a client shows /viewport images
+};
+
+// Every method a request may name, in the order a viewer lists them: api's own (icaz,
+// traditional, retarget-zoom), then each registered one (warp::retargeting_methods()). A
+// registered method named like one of api's own is left out, as parse_view_query resolves that
+// name to api's own. Thread-safe: built from immutable tables.
+std::vector<MethodDescription> view_methods();
 
 enum class ViewRoute { kViewport, kMesh };
 

@@ -31,6 +31,17 @@ export function parseMesh(json) {
   };
 }
 
+// A w × h picture (a /viewport image) as a mesh the renderer draws: two triangles covering the
+// pane, not moving (`morphs` false), with no source positions (`source` null: it maps no point
+// to the image). Its texture coordinates are SCREEN_QUAD_TEXCOORDS, so each screen pixel centre
+// samples its texel's centre: the picture is drawn exactly as the server sent it.
+export function screenQuad(w, h) {
+  const screen = Float64Array.of(0, 0, w, 0, w, h, 0, h);
+  return { view: null, tiles: [], source: null, screen, from: screen, morphs: false, triangles: Uint32Array.of(0, 1, 2, 0, 2, 3) };
+}
+
+export const SCREEN_QUAD_TEXCOORDS = Float32Array.of(0, 0, 1, 0, 1, 1, 0, 1);
+
 // Screen positions part way (t in 0…1) from `from` to `screen`.
 export function interpolatePositions(mesh, t) {
   const out = new Float64Array(mesh.screen.length);

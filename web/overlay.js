@@ -1,6 +1,7 @@
 // The 2D canvas over the WebGL one: the image's line constraints where the warp puts them, the
 // rectangle or segment being drawn with a curator tool, and the panes' divider and labels in the
-// compare mode.
+// side-by-side mode. A pane showing a /viewport image (a method without mesh) gets no lines: its
+// picture maps no source point to the screen.
 
 import { locate, positionAt } from './geometry.js';
 
@@ -30,7 +31,7 @@ export class Overlay {
   }
 
   drawLines(pane, lines, now) {
-    if (!pane.shown || lines.length === 0) return;
+    if (!pane.mapsSource() || lines.length === 0) return;
     const positions = pane.positions(now);
     const c = this.context;
     c.save();
@@ -73,7 +74,7 @@ export class Overlay {
     return anchors;
   }
 
-  // A divider between the panes and each one's warp method in its bottom-left corner.
+  // A divider between the panes and each one's method and saliency in its bottom-left corner.
   drawComparison(panes, height) {
     const c = this.context;
     c.fillStyle = '#fff';
@@ -84,9 +85,9 @@ export class Overlay {
       const x = pane.rect.x + 8;
       const y = pane.rect.y + pane.rect.height - 8;
       c.fillStyle = 'rgba(20, 20, 20, 0.8)';
-      c.fillRect(x - 4, y - 18, c.measureText(pane.method).width + 8, 20);
+      c.fillRect(x - 4, y - 18, c.measureText(pane.label).width + 8, 20);
       c.fillStyle = '#eee';
-      c.fillText(pane.method, x, y);
+      c.fillText(pane.label, x, y);
     }
   }
 

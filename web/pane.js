@@ -1,11 +1,16 @@
-// One warp method's picture of the current view in a rectangle of the canvas. A pane keeps at
-// most one mesh request (with its tiles) in flight: view changes arriving meanwhile only replace
-// the wanted view, and when the request is done the pane asks for the latest one, so a fast drag
-// costs as many requests as the server can answer, not one per mouse event.
+// One warp method's picture of the current view in a rectangle of the canvas. A method with a
+// mesh is drawn from its /mesh (texture-mapped tiles, geomorphed from the view drawn before); one
+// without (`mesh: false` in /v1/methods: seam carving) from its /viewport image, drawn 1:1. A
+// pane keeps at most one request (with its tiles) in flight: view changes arriving meanwhile only
+// replace the wanted view, and when the request is done the pane asks for the latest one, so a
+// fast drag costs as many requests as the server can answer, not one per mouse event.
 
 import { loadAtlas } from './atlas.js';
 import { authorizedFetch } from './curator.js';
-import { interpolatePositions, locate, magnificationAt, parseMesh, planAtlas, positionAt, textureCoordinates } from './geometry.js';
+import {
+  SCREEN_QUAD_TEXCOORDS, interpolatePositions, locate, magnificationAt, parseMesh, planAtlas, positionAt, screenQuad,
+  textureCoordinates,
+} from './geometry.js';
 
 const ANIMATION_MS = 250;
 
@@ -21,10 +26,12 @@ const MIN_SCREEN = 16;
 const MAX_SCREEN = 4096;
 
 export class Pane {
-  // image: {id, width, height}; tiles: the viewer's TileCache; counters: {meshRequests}, shared
-  // by the viewer's panes; onChange: called when a load ended, with something new to draw or not.
-  constructor({ method, image, renderer, tiles, counters, onChange }) {
-    Object.assign(this, { method, image, renderer, tiles, counters, onChange });
+  // method: its /v1/methods entry {name, mesh, …}; saliency: a `saliency=` value; image: {id,
+  // width, height}; tiles: the viewer's TileCache; counters: {meshRequests, viewportRequests},
+  // shared by the viewer's panes; onChange: called when a load ended, with something new to draw
+  // or not.
+  constructor({ method, saliency, image, renderer, tiles, counters, onChange }) {
+    Object.assign(this, { method: method.name, hasMesh: method.mesh, saliency, image, renderer, tiles, counters, onChange });
     this.rect = { x: 0, y: 0, width: MIN_SCREEN, height: MIN_SCREEN };  // CSS pixels in the canvas
     this.wanted = null;  // {zoom, cx, cy}
     this.shown = null;   // what is drawn: {request, mesh, plan, texture, drawable, start}
@@ -32,6 +39,11 @@ export class Pane {
     this.stale = false;  // the image has a new version: fetch again even for the same view
     this.failure = null; // {request, error} of the last failed load, not retried as such
     this.disposed = false;
+  }
+
+  // What the side-by-side mode writes under the pane.
+  get label() {
+    return `${this.method} · ${this.saliency}`;
   }
 
   show(view) {
@@ -80,33 +92,56 @@ export class Pane {
       });
   }
 
-  async load(request) {
+  // What install() takes: the request, a mesh (from the server, or the screen quad of a /viewport
+  // image), the atlas plan if any, the texture and the mesh's texture coordinates.
+  load(request) {
+    return this.hasMesh ? this.loadMesh(request) : this.loadViewport(request);
+  }
+
+  async loadMesh(request) {
     this.counters.meshRequests++;
     const response = await authorizedFetch(this.meshUrl(request), { cache: 'no-cache' });  // versions change under the same URL
     if (!response.ok) throw new Error(`mesh: HTTP ${response.status} ${await response.text()}`);
     const mesh = parseMesh(await response.json());
-    if (mesh.triangles.length === 0) return { request, mesh, plan: null, texture: null };
+    if (mesh.triangles.length === 0) return { request, mesh, plan: null, texture: null, texcoords: null };
     const plan = planAtlas(mesh, Math.min(MAX_ATLAS, this.renderer.maxTextureSize));
     // Panning within the same tiles reuses the texture drawn now.
     const reuse = sameAtlas(plan, this.shown?.plan);
     const texture = reuse ? this.shown.texture : await loadAtlas(this.renderer, mesh.image, plan, this.tiles);
-    return { request, mesh, plan, texture };
+    return { request, mesh, plan, texture, texcoords: textureCoordinates(mesh, plan) };
+  }
+
+  // The server's rendering of the view, exactly w × h, as a texture drawn texel for pixel.
+  async loadViewport(request) {
+    this.counters.viewportRequests++;
+    const response = await authorizedFetch(this.viewUrl('viewport', request), { cache: 'no-cache' });
+    if (!response.ok) throw new Error(`viewport: HTTP ${response.status} ${await response.text()}`);
+    // As the tiles are decoded (atlas.js): colours as encoded, premultiplied as the renderer blends.
+    const bitmap = await createImageBitmap(await response.blob(),
+                                           { colorSpaceConversion: 'none', premultiplyAlpha: 'premultiply' });
+    const texture = this.renderer.createTexture(bitmap.width, bitmap.height);
+    this.renderer.uploadTile(texture, bitmap, 0, 0);
+    bitmap.close();
+    return { request, mesh: screenQuad(request.w, request.h), plan: null, texture, texcoords: SCREEN_QUAD_TEXCOORDS };
+  }
+
+  // /viewport or /mesh of `request` with this pane's method and saliency.
+  viewUrl(route, request, extra = {}) {
+    const params = new URLSearchParams({
+      ...viewParams(request), w: request.w, h: request.h, method: this.method, saliency: this.saliency, ...extra,
+    });
+    return `/v1/images/${encodeURIComponent(this.image.id)}/${route}?${params}`;
   }
 
   // The mesh of `request`, as a geomorph from the drawn view when there is one of the same size.
   meshUrl(request) {
-    const params = new URLSearchParams({ ...viewParams(request), w: request.w, h: request.h, method: this.method });
     const from = this.shown?.request;
-    if (from && from.w === request.w && from.h === request.h) {
-      const previous = viewParams(from);
-      params.set('from_zoom', previous.zoom);
-      params.set('from_cx', previous.cx);
-      params.set('from_cy', previous.cy);
-    }
-    return `/v1/images/${encodeURIComponent(this.image.id)}/mesh?${params}`;
+    if (!from || from.w !== request.w || from.h !== request.h) return this.viewUrl('mesh', request);
+    const previous = viewParams(from);
+    return this.viewUrl('mesh', request, { from_zoom: previous.zoom, from_cx: previous.cx, from_cy: previous.cy });
   }
 
-  install({ request, mesh, plan, texture }) {
+  install({ request, mesh, plan, texture, texcoords }) {
     if (this.disposed) {
       if (texture) this.renderer.deleteTexture(texture);  // deleting a deleted texture does nothing
       return;
@@ -116,7 +151,7 @@ export class Pane {
       if (old.drawable) this.renderer.deleteMesh(old.drawable);
       if (old.texture && old.texture !== texture) this.renderer.deleteTexture(old.texture);
     }
-    const drawable = plan && this.renderer.createMesh(mesh, textureCoordinates(mesh, plan));
+    const drawable = texcoords && this.renderer.createMesh(mesh, texcoords);
     this.shown = { request, mesh, plan, texture, drawable, start: null };
   }
 
@@ -142,29 +177,47 @@ export class Pane {
     return interpolatePositions(this.shown.mesh, ease(this.progress(now)));
   }
 
-  // The source pixel drawn at canvas point p now, or null where the pane shows no picture.
+  // Whether the drawn picture maps screen points to source pixels and back: a mesh does, a
+  // /viewport image does not (the curator tools and the line overlay need it).
+  mapsSource() {
+    return Boolean(this.shown?.mesh.source);
+  }
+
+  // The source pixel drawn at canvas point p now, or null where the pane shows no picture or
+  // cannot say (a /viewport image).
   toSource(p, now) {
-    if (!this.shown) return null;
+    if (!this.mapsSource()) return null;
     const location = locate(this.shown.mesh.triangles, this.positions(now), this.local(p));
     return location && positionAt(location, this.shown.mesh.source);
   }
 
   // Screen pixels per source pixel at canvas point p; where the picture gives none (no mesh
-  // yet, letterbox), the mean over the pane.
+  // yet, letterbox, a /viewport image), the mean over the pane.
   magnificationAt(p) {
-    const local = this.shown && magnificationAt(this.shown.mesh, this.local(p));
+    const local = this.mapsSource() && magnificationAt(this.shown.mesh, this.local(p));
     if (local) return local;
     const view = this.shown?.mesh.view;
-    return view ? (view.scale * view.target.width) / this.image.width : this.rect.width / this.image.width;
+    return view ? (view.scale * view.target.width) / this.image.width : this.uniformMagnification();
   }
 
   // The zoom change that magnifies the picture by `ratio` on the server's geometric zoom curve
   // (warp/core/zoom_curve.cc): the viewing area shrinks geometrically from the whole image at zoom 0
   // to one screen of full-resolution pixels at zoom 1.
   zoomChange(ratio) {
-    const { w, h } = this.currentRequest();
-    const range = Math.log(Math.sqrt((this.image.width * this.image.height * w) / h) / w);
+    const range = this.zoomRange();
     return range > 0 ? Math.log(ratio) / range : 0;
+  }
+
+  // The magnification of that curve at the wanted zoom: the image's area on the screen at zoom 0
+  // (a retargeted image keeps its area), 1:1 at zoom 1, never more.
+  uniformMagnification() {
+    return Math.min(1, Math.exp(-this.zoomRange() * (1 - this.currentRequest().zoom)));
+  }
+
+  // log of the magnification from zoom 0 to zoom 1.
+  zoomRange() {
+    const { w, h } = this.currentRequest();
+    return Math.log(Math.sqrt((this.image.width * this.image.height * w) / h) / w);
   }
 
   local([x, y]) {

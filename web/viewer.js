@@ -1,20 +1,24 @@
-// The zoomwarp web viewer (served at /): one image full-window, warped by the server's
-// content-aware zoom (ICAZ) and drawn with WebGL from its Deep Zoom tiles. The view is
-// {zoom 0…1, cx, cy in full-resolution pixels}; every change asks the server for the mesh of the
-// new view as a geomorph from the drawn one and animates between the two. Curator tools mark
-// regions important and draw line constraints, shown only while the tab holds a curator key
-// (curator.js); compare shows ICAZ beside traditional zooming.
+// The zoomwarp web viewer (served at /): one image full-window, warped by one of the server's
+// methods (GET /v1/methods; ICAZ by default) and drawn with WebGL from its Deep Zoom tiles. The
+// view is {zoom 0…1, cx, cy in full-resolution pixels}; every change asks the server for the mesh
+// of the new view as a geomorph from the drawn one and animates between the two (a method without
+// mesh: for its /viewport image). Side by side shows two methods on the same view path: one
+// pan/zoom drives both panes. The URL's hash keeps the methods and the view (state.js), so a
+// comparison can be shared as a link. Curator tools mark regions important and draw line
+// constraints, shown only while the tab holds a curator key (curator.js).
 //
-// For tests and scripts, window.zoomwarp = {ready, setView, getView, imageId, meshRequests, frames}
-// (web/README.md).
+// For tests and scripts, window.zoomwarp = {ready, setView, getView, imageId, panes, meshRequests,
+// viewportRequests, frames} (web/README.md).
 
 import { TileCache } from './atlas.js';
 import {
   authorizedFetch, curatorKey, fetchLines, insideImage, markImportant, outlineInSource, putLines, refusalMessage,
 } from './curator.js';
+import { MethodMenu, describeMethod, fetchMethods, secondChoice, validChoices } from './methods.js';
 import { Overlay } from './overlay.js';
 import { Pane, VIEW_DIGITS } from './pane.js';
 import { Renderer } from './renderer.js';
+import { formatState, parseState, withoutView } from './state.js';
 
 // Zoom per wheel notch; a notch is 100 pixels or 3 lines of deltaY, so a touchpad's many small
 // events zoom smoothly by the same amount per distance.
@@ -23,18 +27,26 @@ const PIXELS_PER_NOTCH = 100;
 const LINES_PER_NOTCH = 3;
 // A pointer that moved less than this (CSS pixels) made a click, not a rectangle or a segment.
 const MIN_SKETCH = 3;
+// The hash is written this long after the last change: browsers throttle history updates made at
+// the rate of pointer events.
+const STATE_DELAY_MS = 300;
 
 class Viewer {
-  constructor({ canvas, overlayCanvas, status, image }) {
+  // catalogue: /v1/methods; choices: the panes' [{method, saliency}] (validChoices); view: the
+  // first view's fields, the rest from the whole image.
+  constructor({ canvas, overlayCanvas, status, image, catalogue, choices, view }) {
     this.canvas = canvas;
     this.status = status;
     this.image = image;
+    this.catalogue = catalogue;
     this.renderer = new Renderer(canvas);
     this.overlay = new Overlay(overlayCanvas);
     this.tiles = new TileCache();
-    this.counters = { meshRequests: 0, frames: 0 };
+    this.counters = { meshRequests: 0, viewportRequests: 0, frames: 0 };
     this.view = { zoom: 0, cx: image.width / 2, cy: image.height / 2 };
     this.panes = [];
+    this.choices = [];
+    this.stateTimer = null;
     this.lines = [];
     this.tool = 'pan';
     this.pointers = new Map();  // pointerId → [x, y], canvas CSS pixels
@@ -44,7 +56,8 @@ class Viewer {
     let firstFrame;
     this.ready = new Promise((resolve) => { firstFrame = resolve; });
     this.firstFrame = firstFrame;
-    this.setCompare(false);
+    this.changeView(view);
+    this.setPanes(choices);
     this.listen();
     new ResizeObserver(() => this.layout()).observe(canvas);
     this.reloadLines();
@@ -71,6 +84,17 @@ class Viewer {
     };
     this.view = { zoom: value('zoom', 1), cx: value('cx', this.image.width), cy: value('cy', this.image.height) };
     for (const pane of this.panes) pane.show(this.view);
+    this.rememberState();
+  }
+
+  // The URL's hash follows the panes and the view, so the address bar always holds a link to
+  // what is shown.
+  rememberState() {
+    clearTimeout(this.stateTimer);
+    this.stateTimer = setTimeout(() => {
+      const hash = formatState({ panes: this.choices, view: this.view });
+      if (location.hash !== hash) history.replaceState(history.state, '', hash);
+    }, STATE_DELAY_MS);
   }
 
   // Resolves with the view once it is fetched and fully drawn (tiles loaded, animation over);
@@ -90,28 +114,41 @@ class Viewer {
     }
   }
 
-  // One pane, or ICAZ and traditional zooming side by side, each with its own mesh of half the
-  // width.
-  setCompare(on) {
-    for (const pane of this.panes) pane.dispose();
-    this.panes = (on ? ['icaz', 'traditional'] : ['icaz']).map((method) => new Pane({
-      method,
-      image: this.image,
-      renderer: this.renderer,
-      tiles: this.tiles,
-      counters: this.counters,
-      onChange: () => this.paneChanged(),
-    }));
+  // One pane per choice {method, saliency} (methods.js validChoices): one, or two side by side.
+  // A pane whose choice did not change is kept as it is drawn.
+  setPanes(choices) {
+    const previous = this.panes;
+    const kept = new Set();
+    this.panes = choices.map((choice, k) => {
+      const pane = previous[k];
+      if (pane && pane.method === choice.method && pane.saliency === choice.saliency) {
+        kept.add(pane);
+        return pane;
+      }
+      return new Pane({
+        method: describeMethod(this.catalogue, choice.method),
+        saliency: choice.saliency,
+        image: this.image,
+        renderer: this.renderer,
+        tiles: this.tiles,
+        counters: this.counters,
+        onChange: () => this.paneChanged(),
+      });
+    });
+    for (const pane of previous) if (!kept.has(pane)) pane.dispose();
+    this.choices = choices.map(({ method, saliency }) => ({ method, saliency }));
     this.layout();
+    this.rememberState();
   }
 
+  // Equal shares of the width, so that every pane asks for the same screen size (an odd pixel
+  // left over stays black) and the panes show the same view path.
   layout() {
     const width = Math.round(this.canvas.clientWidth);
     const height = Math.round(this.canvas.clientHeight);
     const share = Math.floor(width / this.panes.length);
     this.panes.forEach((pane, k) => {
-      const x = k * share;
-      pane.rect = { x, y: 0, width: k === this.panes.length - 1 ? width - x : share, height };
+      pane.rect = { x: k * share, y: 0, width: share, height };
       pane.show(this.view);
     });
     this.requestFrame();
@@ -213,6 +250,10 @@ class Viewer {
     if (this.pointers.size !== 1) return null;
     const [start] = this.pointers.values();
     const pane = this.paneAt(start);
+    if (pane?.shown && !pane.mapsSource()) {
+      this.say(`${pane.method} shows pictures, not a mesh: edit in a pane with a mesh`);
+      return null;
+    }
     return pane?.shown ? { kind: 'sketch', tool: this.tool, pane, start, end: start } : null;
   }
 
@@ -298,13 +339,15 @@ async function listImages() {
   return (await response.json()).images;
 }
 
-// The picker reloads the page for another image: each image starts from a clean viewer.
+// The picker reloads the page for another image: each image starts from a clean viewer, with
+// the methods chosen but not the view, which belongs to the image.
 function fillPicker(picker, images, selected) {
   for (const image of images) picker.add(new Option(`${image.id} (${image.width}×${image.height})`, image.id));
   picker.value = selected.id;
   picker.addEventListener('change', () => {
     const url = new URL(location.href);
     url.searchParams.set('image', picker.value);
+    url.hash = withoutView(location.hash);
     location.assign(url);
   });
 }
@@ -313,7 +356,43 @@ function wireControls(viewer) {
   for (const input of document.querySelectorAll('input[name="tool"]')) {
     input.addEventListener('change', () => input.checked && viewer.setTool(input.value));
   }
-  document.getElementById('compare').addEventListener('change', (e) => viewer.setCompare(e.target.checked));
+  wireMethodMenus(viewer);
+}
+
+// The method and saliency menus of the two panes and the side-by-side switch. They show the
+// viewer's panes and set them when changed; a link pasted into the address bar (a new hash) sets
+// both.
+function wireMethodMenus(viewer) {
+  const { catalogue } = viewer;
+  const menus = [
+    new MethodMenu(catalogue, document.getElementById('method'), document.getElementById('saliency')),
+    new MethodMenu(catalogue, document.getElementById('method2'), document.getElementById('saliency2')),
+  ];
+  const sideBySide = document.getElementById('side-by-side');
+  const second = document.getElementById('second-pane');
+  const show = (choices) => {
+    menus[0].value = choices[0];
+    menus[1].value = choices[1] ?? secondChoice(catalogue, choices[0]);
+    sideBySide.checked = choices.length > 1;
+    second.hidden = choices.length < 2;
+  };
+  const chosen = () => (sideBySide.checked ? [menus[0].value, menus[1].value] : [menus[0].value]);
+  for (const menu of menus) menu.onChange(() => viewer.setPanes(chosen()));
+  sideBySide.addEventListener('change', () => {
+    second.hidden = !sideBySide.checked;
+    viewer.setPanes(chosen());
+  });
+  show(viewer.choices);
+  window.addEventListener('hashchange', () => {
+    const { panes, view } = parseState(location.hash);
+    if (panes.length > 0) {
+      const { choices, problems } = validChoices(catalogue, panes);
+      if (problems.length > 0) viewer.say(problems.join('; '));
+      viewer.setPanes(choices);
+      show(choices);
+    }
+    viewer.changeView(view);
+  });
 }
 
 // A key is printable ASCII without spaces, as a header value must be: fetch() refuses anything else.
@@ -375,17 +454,23 @@ async function start() {
   const status = document.getElementById('status');
   // First, so that a key refused by the very first request is reported.
   wireCuratorKey(status);
-  const images = await listImages();
+  const [images, catalogue] = await Promise.all([listImages(), fetchMethods()]);
   if (images.length === 0) throw new Error('no images yet: add one with POST /v1/images');
   const wanted = new URLSearchParams(location.search).get('image');
   const image = images.find((i) => i.id === wanted) ?? images[0];
-  if (wanted && image.id !== wanted) status.textContent = `no image '${wanted}'; showing ${image.id}`;
+  const state = parseState(location.hash);
+  const { choices, problems } = validChoices(catalogue, state.panes);
+  if (wanted && image.id !== wanted) problems.unshift(`no image '${wanted}'; showing ${image.id}`);
+  if (problems.length > 0) status.textContent = problems.join('; ');
   fillPicker(document.getElementById('image-picker'), images, image);
   const viewer = new Viewer({
     canvas: document.getElementById('view'),
     overlayCanvas: document.getElementById('overlay'),
     status,
     image,
+    catalogue,
+    choices,
+    view: state.view,
   });
   wireControls(viewer);
   return viewer;
@@ -400,7 +485,9 @@ window.zoomwarp = {
   setView: async (view) => (await booting).setView(view),
   getView: () => viewerNow?.getView(),
   get imageId() { return viewerNow?.image.id; },
+  get panes() { return viewerNow?.choices.map((choice) => ({ ...choice })); },
   get meshRequests() { return viewerNow?.counters.meshRequests ?? 0; },
+  get viewportRequests() { return viewerNow?.counters.viewportRequests ?? 0; },
   get frames() { return viewerNow?.counters.frames ?? 0; },
 };
 booting.then((viewer) => { viewerNow = viewer; },
