@@ -34,7 +34,7 @@ double in_range(const std::string& name, double v, double lo, double hi) {
 
 // "icaz, traditional, retarget-zoom, seam, …", for error messages.
 std::string method_list() {
-  std::string out = "icaz, traditional, retarget-zoom";
+  std::string out = "icaz, traditional";
   for (const auto* m : warp::retargeting_methods()) out += ", " + std::string(m->name);
   return out;
 }
@@ -51,7 +51,6 @@ std::string_view ViewQuery::method_name() const {
   switch (method) {
     case ViewMethod::kIcaz: return "icaz";
     case ViewMethod::kTraditional: return "traditional";
-    case ViewMethod::kRetargetZoom: return "retarget-zoom";
     case ViewMethod::kRetargeting: return retargeting->name;
   }
   return "icaz";
@@ -75,7 +74,6 @@ ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double W
     else if (name == "method") {
       if (value == "icaz") q.method = ViewMethod::kIcaz;
       else if (value == "traditional") q.method = ViewMethod::kTraditional;
-      else if (value == "retarget-zoom") q.method = ViewMethod::kRetargetZoom;
       else if (const auto* m = warp::find_retargeting_method(value)) q.method = ViewMethod::kRetargeting, q.retargeting = m;
       else bad("method must be one of " + method_list() + ", not '" + value + "'");
     } else if (name == "saliency") {
