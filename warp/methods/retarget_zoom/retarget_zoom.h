@@ -5,7 +5,7 @@
 // The mesh: a conforming Delaunay mesh of the image (meshing/coarse_mesh.h, the curator's lines
 // as edges) whose area bound is the largest leaf of the forest's finest stored level (500 px²
 // for images up to ~20 MP, the runtime threshold at 100 %), capped at kMaxVertices — the world
-// map (5400×2500) gets 29 595 vertices at 500 px². Larger images get proportionally larger
+// map (5400×2500) gets 29 618 vertices at 500 px². Larger images get proportionally larger
 // triangles: the cap keeps one solve near 0.1 s. Weights are the selected saliency map's
 // per-triangle means [ICAZ §4] (saliency=gbvs works as well as the default).
 //
