@@ -85,6 +85,9 @@ TEST(Metrics, AFlippedTriangleIsCounted) {
   EXPECT_EQ(warp::fold_count(v), 2);
   v.screen[4] = {60, 50};
   EXPECT_EQ(warp::fold_count(v), 0);
+  // Collapsed onto its right neighbour: two triangles of zero area, which count as folds.
+  v.screen[4] = {100, 50};
+  EXPECT_EQ(warp::fold_count(v), 2);
   // Only emitted triangles count.
   v.screen[4] = {120, 50};
   v.visible = {0, 1};
