@@ -277,7 +277,8 @@ int compare_command(const std::vector<std::string>& raw_args) {
 
     std::vector<Contender> contenders;
     for (const std::string& name : methods) {
-      Contender c{name};
+      Contender c;
+      c.name = name;
       const auto t0 = Clock::now();
       if (name == "icaz" || name == "traditional") {
         const bool own = name == "icaz" && saliency != warp::Saliency::kDefault;
@@ -314,7 +315,8 @@ int compare_command(const std::vector<std::string>& raw_args) {
       for (double z : zooms) {
         warp::ViewRequest r;
         r.zoom = z, r.cx = e.manifest.width / 2.0, r.cy = e.manifest.height / 2.0, r.screen_width = sw, r.screen_height = sh;
-        Cell cell{z};
+        Cell cell;
+        cell.zoom = z;
         const auto t0 = Clock::now();
         tiles::Raster shown = c.render(r);
         cell.viewport_ms = ms_since(t0);

@@ -41,7 +41,9 @@ TEST(CompareCommand, WritesTheSheetAndTheTablesForEveryMethodAndZoom) {
       EXPECT_EQ(row["folds"], 0) << method;
       EXPECT_GE(row["coverage"].get<double>(), 0.999) << method;
     }
-    if (method == "traditional") EXPECT_DOUBLE_EQ(row["scale_gain"].get<double>(), 1);
+    if (method == "traditional") {
+      EXPECT_DOUBLE_EQ(row["scale_gain"].get<double>(), 1);
+    }
   }
 
   // Cells of 120 × 160 with 8 px gaps and a 48 px label: 3 zoom columns, a row per method.

@@ -189,7 +189,9 @@ TEST(MetricsOnSamples, RetargetingMethodsNeverFoldAndCoverTheScreen) {
           const warp::ZoomGeometry& g = v.geometry;
           const double shown = std::min(1.0, g.target_width * g.screen_scale / sw) *
                                std::min(1.0, g.target_height * g.screen_scale / sh);
-          if (std::string(name) != "traditional") EXPECT_GE(m.coverage, 0.999 * shown);
+          if (std::string(name) != "traditional") {
+            EXPECT_GE(m.coverage, 0.999 * shown);
+          }
           ASSERT_TRUE(m.scale_gain && m.anisotropy_salient);
           if (std::string(name) == "traditional") {
             EXPECT_NEAR(*m.scale_gain, 1, 1e-12);
