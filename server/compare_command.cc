@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "api/warp_engines.h"
 #include "server/commands.h"
@@ -203,6 +204,123 @@ constexpr const char* kHelp =
     "scale gain over traditional zoom, anisotropy, line straightness, fold-overs, screen coverage,\n"
     "time per request, precompute time. Exit codes: 0 done, 2 bad arguments, 1 anything else.\n\n";
 
+// What the command line asks for, checked (std::invalid_argument says what is wrong).
+struct Settings {
+  std::vector<std::string> methods;
+  int screen_width = 0, screen_height = 0;
+  std::vector<double> zooms;
+  warp::Saliency saliency = warp::Saliency::kDefault;
+  std::filesystem::path out;
+  std::string file;      // an IMAGE file, or
+  std::string image_id;  // an image of --store
+};
+
+Settings parse_settings(const Options& o) {
+  Settings s;
+  s.methods = parse_methods(o.str("methods"));
+  std::tie(s.screen_width, s.screen_height) = parse_size(o.str("size"));
+  s.zooms = parse_zooms(o.str("zoom"));
+  const auto saliency = warp::parse_saliency(o.str("saliency"));
+  if (!saliency) throw std::invalid_argument("--saliency must be default or gbvs, not '" + o.str("saliency") + "'");
+  s.saliency = *saliency;
+  s.out = o.str("out");
+  if (s.out.empty()) throw std::invalid_argument("give the output folder with -o DIR");
+  s.image_id = o.str("image");
+  if (o.positionals().size() > 1 || o.positionals().empty() == s.image_id.empty())
+    throw std::invalid_argument("give either one IMAGE file or --store S --image ID (see --help)");
+  if (!o.positionals().empty()) {
+    s.file = o.positionals()[0];
+    if (!std::filesystem::is_regular_file(s.file)) throw std::invalid_argument("no such file: " + s.file);
+  }
+  return s;
+}
+
+// The engines of the methods compared, each timed on its first load. ICAZ and traditional zoom
+// share one engine for the default saliency: its load (model files read, coarsest mesh factored)
+// counts as the precomputation of both.
+std::vector<Contender> make_contenders(const Settings& s, api::WarpEngines& engines, const tiles::ImageEntry& e,
+                                       tiles::PyramidReader& reader, const std::shared_ptr<warp::Icaz>& plain,
+                                       double plain_load_ms) {
+  std::vector<Contender> out;
+  for (const std::string& name : s.methods) {
+    Contender c;
+    c.name = name;
+    const auto t0 = Clock::now();
+    if (name == "icaz" || name == "traditional") {
+      const bool own = name == "icaz" && s.saliency != warp::Saliency::kDefault;
+      const std::shared_ptr<warp::Icaz> icaz = own ? engines.get(e, s.saliency) : plain;
+      if (!own) c.precompute_ms = plain_load_ms;
+      c.view = name == "icaz" ? std::function([icaz](const warp::ViewRequest& r) { return icaz->view(r); })
+                              : std::function([icaz](const warp::ViewRequest& r) { return icaz->traditional(r); });
+      c.render = [&e, &reader, view = c.view](const warp::ViewRequest& r) {
+        return warp::render_view(view(r), r.screen_width, r.screen_height, e, reader);
+      };
+    } else {
+      const std::shared_ptr<warp::Retargeter> engine =
+          engines.retargeter(e, *warp::find_retargeting_method(name), s.saliency);
+      c.has_mesh = engine->has_mesh();
+      c.view = [engine](const warp::ViewRequest& r) { return engine->view(r); };
+      c.render = [&e, &reader, engine](const warp::ViewRequest& r) { return engine->render(r, e, reader); };
+    }
+    c.precompute_ms += ms_since(t0);
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+json row_json(const std::string& method, const Cell& c) {
+  const warp::ViewMetrics& m = c.metrics;
+  return {{"method", method},
+          {"zoom", c.zoom},
+          {"scale_gain", optional_json(m.scale_gain)},
+          {"anisotropy_salient", optional_json(m.anisotropy_salient)},
+          {"anisotropy_weighted", optional_json(m.anisotropy_weighted)},
+          {"line_px", optional_json(m.straightness)},
+          {"folds", m.folds ? json(*m.folds) : json(nullptr)},
+          {"coverage", m.coverage},
+          {"viewport_ms", c.viewport_ms}};
+}
+
+// Renders and measures every cell of image `e`; fills `report` and returns the sheet's cells.
+std::vector<std::vector<warp::SheetCell>> run(const Settings& s, const tiles::ImageEntry& e, tiles::PyramidReader& reader,
+                                              const warp::SignificanceOptions& significance, json& report) {
+  api::WarpEngines engines(reader, std::size_t(4) << 30, significance);
+  // The reference (traditional zoom), and the map that defines the salient region.
+  const auto t0 = Clock::now();
+  const std::shared_ptr<warp::Icaz> plain = engines.get(e);
+  const double plain_load_ms = ms_since(t0);
+  const warp::SignificanceMap map = warp::saliency_map(e, reader, plain->model(), s.saliency);
+  const std::vector<warp::Segment>& lines = plain->model().lines;
+  const std::vector<Contender> contenders = make_contenders(s, engines, e, reader, plain, plain_load_ms);
+
+  const bool progress = ::isatty(STDERR_FILENO);
+  std::vector<std::vector<warp::SheetCell>> sheet;
+  for (std::size_t k = 0; k < contenders.size(); ++k) {
+    const Contender& c = contenders[k];
+    report["methods"].push_back({{"name", c.name}, {"has_mesh", c.has_mesh}, {"precompute_ms", c.precompute_ms}});
+    std::vector<warp::SheetCell>& row = sheet.emplace_back();
+    for (double z : s.zooms) {
+      warp::ViewRequest r;
+      r.zoom = z, r.cx = e.manifest.width / 2.0, r.cy = e.manifest.height / 2.0;
+      r.screen_width = s.screen_width, r.screen_height = s.screen_height;
+      Cell cell;
+      cell.zoom = z;
+      const auto start = Clock::now();
+      tiles::Raster shown = c.render(r);
+      cell.viewport_ms = ms_since(start);
+      cell.metrics = c.has_mesh ? warp::mesh_view_metrics(c.view(r), plain->traditional(r), map, lines, s.screen_width,
+                                                          s.screen_height)
+                                : warp::raster_view_metrics(shown);
+      report["rows"].push_back(row_json(c.name, cell));
+      row.push_back({std::move(shown), label(c.name, cell)});
+    }
+    if (progress)
+      std::fprintf(stderr, "compare: %s done (%zu/%zu), precompute %.0f ms\n", c.name.c_str(), k + 1, contenders.size(),
+                   c.precompute_ms);
+  }
+  return sheet;
+}
+
 }  // namespace
 
 int compare_command(const std::vector<std::string>& raw_args) {
@@ -218,136 +336,47 @@ int compare_command(const std::vector<std::string>& raw_args) {
   std::vector<std::string> args = raw_args;
   for (auto& a : args)
     if (a == "-o") a = "--out";
-  std::vector<std::string> methods;
-  std::pair<int, int> screen;
-  std::vector<double> zooms;
-  warp::Saliency saliency = warp::Saliency::kDefault;
-  std::unique_ptr<Options> options;
   try {
-    options = std::make_unique<Options>(specs, args);
-    if (options->help_requested()) {
-      std::printf("%s%s", kHelp, options->usage().c_str());
+    const Options o(specs, args);
+    if (o.help_requested()) {
+      std::printf("%s%s", kHelp, o.usage().c_str());
       return 0;
     }
-    methods = parse_methods(options->str("methods"));
-    screen = parse_size(options->str("size"));
-    zooms = parse_zooms(options->str("zoom"));
-    const auto s = warp::parse_saliency(options->str("saliency"));
-    if (!s) throw std::invalid_argument("--saliency must be default or gbvs, not '" + options->str("saliency") + "'");
-    saliency = *s;
-    if (options->str("out").empty()) throw std::invalid_argument("give the output folder with -o DIR");
-    const bool file = options->positionals().size() == 1, stored = !options->str("image").empty();
-    if (options->positionals().size() > 1 || file == stored)
-      throw std::invalid_argument("give either one IMAGE file or --store S --image ID (see --help)");
-    if (file && !std::filesystem::is_regular_file(options->positionals()[0]))
-      throw std::invalid_argument("no such file: " + options->positionals()[0]);
-  } catch (const std::invalid_argument& e) {
-    std::fprintf(stderr, "zoomwarp compare: %s\n", e.what());
-    return 2;
-  }
-  const Options& o = *options;
-  try {
-    const bool progress = ::isatty(STDERR_FILENO);
-    std::optional<TemporaryStore> temporary;
-    std::string store_root = o.str("store"), id = o.str("image");
+    const Settings s = parse_settings(o);
+    const warp::SignificanceOptions significance = analysis_settings(o).significance;
     json report;
-    if (id.empty()) {
+    std::optional<TemporaryStore> temporary;  // an IMAGE file is ingested into it
+    std::string store_root = o.str("store"), id = s.image_id;
+    if (!s.file.empty()) {
       temporary.emplace();
       store_root = temporary->path(), id = "image";
       tiles::Store store(store_root);
       const auto t0 = Clock::now();
-      tiles::ingest_image(store, o.positionals()[0], id, ingest_options(o, analysis_settings(o).significance));
+      tiles::ingest_image(store, s.file, id, ingest_options(o, significance));
       report["ingest_ms"] = ms_since(t0);
     }
     tiles::Store store(store_root);
     const auto entry = store.find(id);
     if (!entry) throw std::invalid_argument("no image '" + id + "' in the store " + store_root);
-    tiles::PyramidReader reader(256 << 20);
-    api::WarpEngines engines(reader, std::size_t(4) << 30, analysis_settings(o).significance);
-    const tiles::ImageEntry& e = *entry;
-    const auto [sw, sh] = screen;
-
-    // The reference and the map that defines the salient region. Its load (the model files read,
-    // the coarsest mesh factored) is ICAZ's and traditional zoom's precomputation.
-    const auto load_start = Clock::now();
-    const std::shared_ptr<warp::Icaz> plain = engines.get(e);
-    const double plain_load_ms = ms_since(load_start);
-    const warp::SignificanceMap map = warp::saliency_map(e, reader, plain->model(), saliency);
-    const std::vector<warp::Segment>& lines = plain->model().lines;
-
-    std::vector<Contender> contenders;
-    for (const std::string& name : methods) {
-      Contender c;
-      c.name = name;
-      const auto t0 = Clock::now();
-      if (name == "icaz" || name == "traditional") {
-        const bool own = name == "icaz" && saliency != warp::Saliency::kDefault;
-        const std::shared_ptr<warp::Icaz> icaz = own ? engines.get(e, saliency) : plain;
-        if (!own) c.precompute_ms = plain_load_ms;
-        c.view = name == "icaz" ? std::function([icaz](const warp::ViewRequest& r) { return icaz->view(r); })
-                                : std::function([icaz](const warp::ViewRequest& r) { return icaz->traditional(r); });
-        c.render = [&, view = c.view](const warp::ViewRequest& r) {
-          return warp::render_view(view(r), r.screen_width, r.screen_height, e, reader);
-        };
-      } else {
-        const warp::RetargetingMethod& method = *warp::find_retargeting_method(name);
-        const std::shared_ptr<warp::Retargeter> engine = engines.retargeter(e, method, saliency);
-        c.has_mesh = engine->has_mesh();
-        c.view = [engine](const warp::ViewRequest& r) { return engine->view(r); };
-        c.render = [&, engine](const warp::ViewRequest& r) { return engine->render(r, e, reader); };
-      }
-      c.precompute_ms += ms_since(t0);
-      contenders.push_back(std::move(c));
-    }
-
-    std::vector<std::vector<warp::SheetCell>> sheet;
-    report["image"] = o.positionals().empty() ? id : std::filesystem::path(o.positionals()[0]).filename().string();
-    report["width"] = e.manifest.width, report["height"] = e.manifest.height;
-    report["screen"] = {sw, sh};
-    report["saliency"] = std::string(warp::saliency_name(saliency));
-    report["zooms"] = zooms;
+    report["image"] = s.file.empty() ? id : std::filesystem::path(s.file).filename().string();
+    report["width"] = entry->manifest.width, report["height"] = entry->manifest.height;
+    report["screen"] = {s.screen_width, s.screen_height};
+    report["saliency"] = std::string(warp::saliency_name(s.saliency));
+    report["zooms"] = s.zooms;
     report["methods"] = json::array();
     report["rows"] = json::array();
-    for (std::size_t k = 0; k < contenders.size(); ++k) {
-      const Contender& c = contenders[k];
-      report["methods"].push_back({{"name", c.name}, {"has_mesh", c.has_mesh}, {"precompute_ms", c.precompute_ms}});
-      std::vector<warp::SheetCell>& row = sheet.emplace_back();
-      for (double z : zooms) {
-        warp::ViewRequest r;
-        r.zoom = z, r.cx = e.manifest.width / 2.0, r.cy = e.manifest.height / 2.0, r.screen_width = sw, r.screen_height = sh;
-        Cell cell;
-        cell.zoom = z;
-        const auto t0 = Clock::now();
-        tiles::Raster shown = c.render(r);
-        cell.viewport_ms = ms_since(t0);
-        cell.metrics = c.has_mesh ? warp::mesh_view_metrics(c.view(r), plain->traditional(r), map, lines, sw, sh)
-                                  : warp::raster_view_metrics(shown);
-        const warp::ViewMetrics& m = cell.metrics;
-        report["rows"].push_back({{"method", c.name},
-                                  {"zoom", z},
-                                  {"scale_gain", optional_json(m.scale_gain)},
-                                  {"anisotropy_salient", optional_json(m.anisotropy_salient)},
-                                  {"anisotropy_weighted", optional_json(m.anisotropy_weighted)},
-                                  {"line_px", optional_json(m.straightness)},
-                                  {"folds", m.folds ? json(*m.folds) : json(nullptr)},
-                                  {"coverage", m.coverage},
-                                  {"viewport_ms", cell.viewport_ms}});
-        row.push_back({std::move(shown), label(c.name, cell)});
-      }
-      if (progress)
-        std::fprintf(stderr, "compare: %s done (%zu/%zu), precompute %.0f ms\n", c.name.c_str(), k + 1, contenders.size(),
-                     c.precompute_ms);
-    }
+    tiles::PyramidReader reader(256 << 20);
+    const auto sheet = run(s, *entry, reader, significance, report);
 
-    const std::filesystem::path out = o.str("out");
-    std::filesystem::create_directories(out);
-    write_file(out / "sheet.png", tiles::encode_image(warp::contact_sheet(sheet), tiles::ImageFormat::kPng, {}));
-    write_file(out / "metrics.json", report.dump(2) + "\n");
-    write_file(out / "metrics.md", markdown(report));
-    std::printf("wrote %s, %s and %s\n", (out / "sheet.png").c_str(), (out / "metrics.json").c_str(),
-                (out / "metrics.md").c_str());
+    std::filesystem::create_directories(s.out);
+    write_file(s.out / "sheet.png", tiles::encode_image(warp::contact_sheet(sheet), tiles::ImageFormat::kPng, {}));
+    write_file(s.out / "metrics.json", report.dump(2) + "\n");
+    write_file(s.out / "metrics.md", markdown(report));
+    std::printf("wrote %s, %s and %s\n", (s.out / "sheet.png").c_str(), (s.out / "metrics.json").c_str(),
+                (s.out / "metrics.md").c_str());
     return 0;
   } catch (const std::invalid_argument& e) {
+    // Bad arguments, an unknown image, or a view the limits refuse.
     std::fprintf(stderr, "zoomwarp compare: %s\n", e.what());
     return 2;
   } catch (const std::exception& e) {
