@@ -74,7 +74,6 @@ std::optional<Response> Router::view_route(const Request& req, const PathParams&
       const auto view_of = [&](const warp::ViewRequest& r) {
         switch (q.method) {
           case ViewMethod::kTraditional: return icaz->traditional(r);
-          case ViewMethod::kRetargetZoom: return icaz->retarget_zoom(r);
           case ViewMethod::kRetargeting: return retargeter->view(r);
           case ViewMethod::kIcaz: break;
         }

@@ -32,7 +32,7 @@ double in_range(const std::string& name, double v, double lo, double hi) {
   return v;
 }
 
-// api's own methods: ICAZ and its two baselines, all of the ICAZ operator (warp/icaz/icaz.h).
+// api's own methods: ICAZ and the traditional baseline, both of the ICAZ operator (warp/icaz/icaz.h).
 // Every other `method=` value is a registered one.
 struct OwnMethod {
   ViewMethod method;
@@ -49,10 +49,6 @@ constexpr OwnMethod kOwnMethods[] = {
     {ViewMethod::kTraditional,
      {"traditional", "Uniform scaling and cropping: the image's own aspect ratio, letterboxed when zoomed out.",
       "0: the whole image fits the screen; 1: 100 % (one screen pixel per image pixel).", true}},
-    {ViewMethod::kRetargetZoom,
-     {"retarget-zoom", "The whole image warped once to the screen's aspect ratio, then zoomed uniformly.",
-      "0: the whole warped image fills the screen; 1: 100 % of the warped image, which keeps the image's area.",
-      true}},
 };
 
 const OwnMethod* find_own_method(std::string_view name) {

@@ -2,8 +2,8 @@
 //
 //   zoom     0…1, default 0            cx, cy  view centre in full-resolution image pixels,
 //   w, h     screen pixels, 16…4096             0…width / 0…height, default the image centre
-//   method   icaz (default) | traditional | retarget-zoom | a registered retargeting method
-//            (warp/methods/retargeting_method.h: seam, …)
+//   method   icaz (default) | traditional | a registered retargeting method
+//            (warp/methods/retargeting_method.h: retarget-zoom, seam, …)
 //   saliency default (default) | gbvs    which saliency map drives a content-aware method
 //   lines    curator (default) | auto    auto: ICAZ with the automatically detected lines too
 //   curve    geometric (default) | linear
@@ -28,7 +28,7 @@
 namespace zoomwarp::api {
 
 // ICAZ and traditional zoom are the icaz/ operator's; every other method is a registered one.
-enum class ViewMethod { kIcaz, kTraditional, kRetargetZoom, kRetargeting };
+enum class ViewMethod { kIcaz, kTraditional, kRetargeting };
 
 struct ViewQuery {
   warp::ViewRequest view;

@@ -13,5 +13,6 @@ int replay_command(const std::vector<std::string>& args);
 int health_command(const std::vector<std::string>& args);
 int sign_command(const std::vector<std::string>& args);
 int keys_command(const std::vector<std::string>& args);
+int compare_command(const std::vector<std::string>& args);
 
 }  // namespace zoomwarp::server

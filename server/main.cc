@@ -16,6 +16,7 @@ constexpr const char* kUsage =
     "  health    exit 0 if a running server answers /healthz with 200 (container health checks)\n"
     "  sign      print a URL of a private image signed to work without a key until it expires\n"
     "  keys      'keys new': make an API key and its line for the key file (serve --keys)\n"
+    "  compare   render an image with several retargeting methods side by side, with metrics\n"
     "\n"
     "'zoomwarp COMMAND --help' lists a command's options; each option --some-name can also be\n"
     "set with the environment variable ZOOMWARP_SOME_NAME.\n";
@@ -39,6 +40,7 @@ int main(int argc, char** argv) {
   if (command == "health") return zoomwarp::server::health_command(args);
   if (command == "sign") return zoomwarp::server::sign_command(args);
   if (command == "keys") return zoomwarp::server::keys_command(args);
+  if (command == "compare") return zoomwarp::server::compare_command(args);
   std::fprintf(stderr, "zoomwarp: unknown command '%s'\n\n%s", command.c_str(), kUsage);
   return 2;
 }

@@ -1,6 +1,8 @@
 // Time per zoom and per pan action of the ICAZ operator at 480×360 with 500 px² triangles, along
 // the zoom range, on a ≥ 10 MP wide photo and on a ≥ 300 MP synthetic mosaic; plus the paper's
-// Fig. 9 comparison with a uniform mesh of the finest resolution, and the model-building cost.
+// Fig. 9 comparison with a uniform mesh of the finest resolution, the Retargeting+Zooming
+// baseline on that mesh (method=retarget-zoom: its load, a view at a new screen aspect, a view at
+// a cached one), and the model-building cost.
 // Then the bounds of warp/core/limits.h: the same views with 0 and with kMaxLines line constraints of
 // kMaxTotalLineLength in all (axis-aligned and oblique mixed), and the largest screen (4096×4096)
 // on a 4:1 panorama at z = 0.
@@ -18,8 +20,9 @@
 
 #include "tests/support/images.h"
 #include "tests/support/server_process.h"
-#include "warp/icaz/icaz.h"
 #include "warp/core/limits.h"
+#include "warp/icaz/icaz.h"
+#include "warp/methods/retarget_zoom/retarget_zoom.h"
 
 namespace {
 
@@ -102,6 +105,34 @@ void BM_UniformMeshZoom(benchmark::State& state, int which) {
   }
   state.counters["vertices"] = double(cm.mesh.vertices.size());
   state.SetLabel(s.name);
+}
+
+// method=retarget-zoom [ICAZ §6.1]. Arg 0: load (uniform mesh built and factored); 1: the first
+// view at a screen aspect (the whole mesh warped; the screen width changes by a pixel each time so
+// that no warp is cached); 2: a view at a cached aspect (pans at z = 0.5: traditional zoom only).
+void BM_RetargetZoom(benchmark::State& state, int which) {
+  Subject& s = subjects()[which];
+  const warp::ImageModel& model = s.icaz->model();
+  static std::unique_ptr<warp::RetargetZoom> engine;
+  if (!engine) engine = std::make_unique<warp::RetargetZoom>(model, model.significance);
+  int i = 0;
+  double iterations = 0;
+  for (auto _ : state) {
+    warp::ViewRequest r;
+    r.cx = s.width * (0.1 + 0.8 * ((i * 37) % 100) / 100.0), r.cy = s.height / 2;
+    switch (state.range(0)) {
+      case 0: benchmark::DoNotOptimize(warp::RetargetZoom(model, model.significance)); break;
+      case 1:
+        r.screen_width = 360 + i;
+        iterations += engine->view(r).coarse_stats.iterations;
+        break;
+      default: r.zoom = 0.5, benchmark::DoNotOptimize(engine->view(r));
+    }
+    ++i;
+  }
+  state.counters["vertices"] = double(engine->mesh().vertices.size());
+  state.counters["iterations"] = benchmark::Counter(iterations, benchmark::Counter::kAvgIterations);
+  state.SetLabel(s.name + (state.range(0) == 0 ? ", load" : state.range(0) == 1 ? ", new aspect" : ", cached aspect"));
 }
 
 // kMaxLines lines summing to kMaxTotalLineLength × the larger side, on an 8 × 8 grid of centres
@@ -191,6 +222,7 @@ int main(int argc, char** argv) {
     benchmark::RegisterBenchmark(("Pan/" + tag).c_str(), BM_Pan, which)->DenseRange(0, 100, 20)->Unit(benchmark::kMillisecond);
   }
   benchmark::RegisterBenchmark("UniformMeshZoom/photo", BM_UniformMeshZoom, 0)->Arg(50)->Unit(benchmark::kMillisecond)->Iterations(3);
+  benchmark::RegisterBenchmark("RetargetZoom/photo", BM_RetargetZoom, 0)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(5);
   benchmark::RegisterBenchmark("Lines/photo", BM_Lines)->Arg(0)->Arg(warp::limits::kMaxLines)->Unit(benchmark::kMillisecond);
   benchmark::RegisterBenchmark("BigScreen/pano", BM_BigScreen)->Arg(0)->Arg(50)->Unit(benchmark::kMillisecond)->Iterations(3);
   benchmark::RunSpecifiedBenchmarks();

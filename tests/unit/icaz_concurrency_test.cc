@@ -14,6 +14,7 @@
 #include "tests/support/images.h"
 #include "tests/support/server_process.h"
 #include "warp/icaz/icaz.h"
+#include "warp/methods/retarget_zoom/retarget_zoom.h"
 
 namespace zoomwarp {
 namespace {
@@ -129,7 +130,7 @@ TEST(IcazStop, AnExpiredTokenStopsTheView) {
   } catch (const warp::Stopped& e) {
     EXPECT_EQ(e.reason(), warp::Stopped::Reason::kDeadline);
   }
-  EXPECT_THROW(icaz.retarget_zoom(r), warp::Stopped);
+  EXPECT_THROW(warp::RetargetZoom(icaz.model(), icaz.model().significance).view(r), warp::Stopped);
   r.stop = nullptr;
   EXPECT_NO_THROW(icaz.view(r)) << "a stopped view leaves the engine usable";
 }

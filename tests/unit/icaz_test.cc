@@ -349,25 +349,6 @@ TEST(IcazBaselines, TraditionalLetterboxesThenCrops) {
   EXPECT_TRUE(v1.centre_clamped);
 }
 
-TEST(IcazBaselines, RetargetZoomFillsTheScreenAndKeepsItsDistortion) {
-  auto icaz = engine("pano_grossmugl_field_4to1.png", false);
-  warp::ViewRequest r;
-  r.cx = 1024, r.cy = 256;
-  for (double z : {0.0, 0.5, 1.0}) {
-    r.zoom = z;
-    const auto v = icaz->retarget_zoom(r);
-    // The warped image has the screen's aspect ratio at every zoom: no black bands, ever.
-    EXPECT_NEAR(v.geometry.target_width / v.geometry.target_height, 480.0 / 360, 1e-9);
-    double x0 = 1e9, x1 = -1e9, y0 = 1e9, y1 = -1e9;
-    for (const auto& p : v.screen) x0 = std::min(x0, p.x), x1 = std::max(x1, p.x), y0 = std::min(y0, p.y), y1 = std::max(y1, p.y);
-    EXPECT_LE(x0, 1e-6);
-    EXPECT_GE(x1, 480 - 1e-6);
-    EXPECT_LE(y0, 1e-6);
-    EXPECT_GE(y1, 360 - 1e-6);
-    for (const auto& t : v.source.triangles) EXPECT_GT(warp::signed_area2(v.screen[t[0]], v.screen[t[1]], v.screen[t[2]]), 0);
-  }
-}
-
 }  // namespace
 }  // namespace zoomwarp
 
@@ -387,7 +368,6 @@ TEST(IcazBadInput, NonFiniteOrOutOfRangeRequestsAreRefused) {
     bad(r);
     EXPECT_THROW(icaz->view(r), std::invalid_argument);
     EXPECT_THROW(icaz->traditional(r), std::invalid_argument);
-    EXPECT_THROW(icaz->retarget_zoom(r), std::invalid_argument);
   }
   // Out-of-range zoom and centres are clamped, not refused.
   warp::ViewRequest far = ok;

@@ -326,20 +326,6 @@ View Icaz::traditional(const ViewRequest& r) {
   return uniform_zoom(model_.coarse.mesh, model_.coarse.mesh.vertices, model_.width, model_.height, r, centre);
 }
 
-View Icaz::retarget_zoom(const ViewRequest& r) {
-  check_view_request(r);
-  check_stop(r.stop);
-  // The z = 0 target of ICAZ: the screen's aspect ratio, the image's area.
-  const ZoomGeometry g = zoom_geometry(model_.width, model_.height, r.screen_width, r.screen_height, 0, r.curve);
-  WarpResult stats;
-  const std::vector<Point> warped = coarse_positions(g, &stats, r.stop);
-  const Point centre{std::clamp(r.cx, 0.0, model_.width), std::clamp(r.cy, 0.0, model_.height)};
-  View v = uniform_zoom(model_.coarse.mesh, warped, g.target_width, g.target_height, r,
-                        locate(model_.coarse.mesh, warped, centre));
-  v.coarse_stats = std::move(stats);
-  return v;
-}
-
 Geomorph Icaz::geomorph(const View& from, const View& to, const StopToken* stop) {
   return with_forest([&](bool grow) {
     if (from.forest_epoch != forest_epoch_ || to.forest_epoch != forest_epoch_)

@@ -67,13 +67,11 @@ class Icaz {
   // stored in `to_view` if given.
   Geomorph geomorph(const ViewRequest& from, const ViewRequest& to, View* to_view = nullptr);
 
-  // Baselines in the same interface [ICAZ §1, §6.1], on the coarsest mesh:
-  //  - traditional: uniform scaling and cropping; the magnification goes from "whole image fits
-  //    the screen" (letterboxed) at z = 0 to 1:1 at z = 1, along the request's curve;
-  //  - retarget-zoom: the whole image warped once to the screen's aspect ratio, then traditional
-  //    zooming on the warped image.
+  // The traditional baseline in the same interface [ICAZ §1, §6.1], on the coarsest mesh: uniform
+  // scaling and cropping; the magnification goes from "whole image fits the screen"
+  // (letterboxed) at z = 0 to 1:1 at z = 1, along the request's curve. (Retargeting+Zooming is a
+  // registered method: methods/retarget_zoom/.)
   View traditional(const ViewRequest& request);
-  View retarget_zoom(const ViewRequest& request);
 
   // The common refinement of the cuts of `from` and `to`, both made by this object in the
   // current forest epoch (else std::invalid_argument).

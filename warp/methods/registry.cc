@@ -2,11 +2,13 @@
 // and this file is the one place that names them all (no static-initialisation tricks).
 #include "warp/methods/retargeting_method.h"
 
+#include "warp/methods/retarget_zoom/retarget_zoom.h"
+
 namespace zoomwarp::warp {
 
 std::span<const RetargetingMethod* const> retargeting_methods() {
-  static const RetargetingMethod* const kAll[] = {nullptr};
-  return std::span(kAll, 0);
+  static const RetargetingMethod* const kAll[] = {&retarget_zoom_method()};
+  return kAll;
 }
 
 const RetargetingMethod* find_retargeting_method(std::string_view name) {

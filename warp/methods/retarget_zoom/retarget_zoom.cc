@@ -1,0 +1,105 @@
+#include "warp/methods/retarget_zoom/retarget_zoom.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "warp/core/uniform_zoom.h"
+#include "warp/core/zoom_curve.h"
+#include "warp/meshing/coarse_mesh.h"
+
+namespace zoomwarp::warp {
+
+namespace {
+
+// [ICAZ §6.1]: the baseline's mesh is uniform and as fine as the adaptive mesh's finest level.
+CoarseMesh uniform_mesh(const ImageModel& model) {
+  CoarseMeshOptions options;
+  options.max_triangle_area = finest_stored_leaf_area(model);
+  options.vertex_budget = RetargetZoom::kMaxVertices;
+  return build_coarse_mesh(model.width, model.height, model.lines, options);
+}
+
+ShapeWarp make_warp(const ImageModel& model, const SignificanceMap& saliency) {
+  CoarseMesh m = uniform_mesh(model);
+  std::vector<double> weights = triangle_weights(m.mesh, saliency, model.w_min);
+  return ShapeWarp(std::move(m.mesh), std::move(weights), model.width, model.height, std::move(m.line_vertices));
+}
+
+}  // namespace
+
+double finest_stored_leaf_area(const ImageModel& model) {
+  const Forest& forest = model.forest;
+  double largest = 0;
+  for (int n = 0; n < forest.kept_nodes(); ++n)
+    if (!forest.is_split(n)) largest = std::max(largest, forest.area(n));
+  return largest;
+}
+
+RetargetZoom::RetargetZoom(const ImageModel& model, const SignificanceMap& saliency)
+    : width_(model.width), height_(model.height), warp_(make_warp(model, saliency)) {}
+
+std::vector<Point> RetargetZoom::warped(double tw, double th, WarpResult* stats, const StopToken* stop) {
+  const auto key = std::make_pair(std::llround(tw * 1000), std::llround(th * 1000));
+  std::lock_guard lock(mu_);
+  if (auto it = cache_.find(key); it != cache_.end()) {
+    it->second.last_used = ++clock_;
+    return it->second.positions;
+  }
+  // 0.05 px of the retargeted image: zoom 1 shows it 1:1, so no view sees the residual larger.
+  WarpOptions options;
+  options.tolerance = 0.05;
+  options.fixed_line_normals = true;
+  options.stop = stop;
+  *stats = warp_.solve(tw, th, options);
+  if (cache_.size() >= kCachedSizes)
+    cache_.erase(std::min_element(cache_.begin(), cache_.end(),
+                                  [](const auto& a, const auto& b) { return a.second.last_used < b.second.last_used; }));
+  cache_.emplace(key, CachedWarp{stats->positions, ++clock_});
+  return stats->positions;
+}
+
+View RetargetZoom::view(const ViewRequest& r) {
+  check_view_request(r);
+  check_stop(r.stop);
+  // The z = 0 target of ICAZ: the screen's aspect ratio, the image's area [ICAZ §5.1].
+  const ZoomGeometry g = zoom_geometry(width_, height_, r.screen_width, r.screen_height, 0, r.curve);
+  WarpResult stats;
+  const std::vector<Point> positions = warped(g.target_width, g.target_height, &stats, r.stop);
+  const Point centre{std::clamp(r.cx, 0.0, width_), std::clamp(r.cy, 0.0, height_)};
+  View v = uniform_zoom(mesh(), positions, g.target_width, g.target_height, r, locate(mesh(), positions, centre));
+  stats.positions.clear();  // `warped` has them
+  v.coarse_stats = std::move(stats);
+  return v;
+}
+
+std::size_t RetargetZoom::memory_bytes() {
+  const Mesh& m = mesh();
+  // The factor is not exposed; a Cholesky factor of this planar Laplacian under AMD holds about
+  // 30 nonzeros per vertex and axis (index + value).
+  const std::size_t factor = m.vertices.size() * 2 * 30 * (sizeof(double) + sizeof(int));
+  std::size_t cached = 0;
+  {
+    std::lock_guard lock(mu_);
+    for (const auto& [size, c] : cache_) cached += c.positions.capacity() * sizeof(Point);
+  }
+  return m.vertices.capacity() * sizeof(Point) + m.triangles.capacity() * sizeof(Triangle) + factor + cached;
+}
+
+const RetargetingMethod& retarget_zoom_method() {
+  static const RetargetingMethod kMethod{
+      .name = "retarget-zoom",
+      .summary = "the whole image warped once to the screen's aspect ratio on a uniform fine mesh (ICAZ's shape "
+                 "energy), then zoomed uniformly",
+      .zoom = "0 shows the whole retargeted image, 1 shows it 1:1 (the plain crop when the screen has the image's "
+              "aspect ratio); the view centre is tracked through the warp",
+      .has_mesh = true,
+      .magic = {},
+      .precompute = {},
+      .load = [](const ImageModel& model, const SignificanceMap& saliency, std::string_view) -> std::unique_ptr<Retargeter> {
+        return std::make_unique<RetargetZoom>(model, saliency);
+      },
+  };
+  return kMethod;
+}
+
+}  // namespace zoomwarp::warp

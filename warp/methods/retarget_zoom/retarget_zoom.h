@@ -1,0 +1,75 @@
+// Retargeting+Zooming as ICAZ §6.1 evaluates it: the whole image warped once to the screen's
+// aspect ratio with the same shape energy as ICAZ [ICAZ §4.2–4.3], on a uniform mesh as fine as
+// the adaptive mesh's finest triangles, then traditional zoom into the result (core/uniform_zoom.h).
+//
+// The mesh: a conforming Delaunay mesh of the image (meshing/coarse_mesh.h, the curator's lines
+// as edges) whose area bound is the largest leaf of the forest's finest stored level (500 px²
+// for images up to ~20 MP, the runtime threshold at 100 %), capped at kMaxVertices — the world
+// map (5400×2500) gets 29 618 vertices at 500 px². Larger images get proportionally larger
+// triangles: the cap keeps one solve near 0.1 s. Weights are the selected saliency map's
+// per-triangle means [ICAZ §4] (saliency=gbvs works as well as the default).
+//
+// Per target size (one per screen aspect: the warp does not depend on the zoom) the warp starts
+// from the affine stretch, which keeps every line straight and gives oblique lines their normals
+// (WarpOptions::fixed_line_normals), and converges to 0.05 target px; results are kept for the
+// kCachedSizes most recently used sizes. At equal aspect the target is the image itself and the
+// warp is the identity, so zoom 1 is the plain crop.
+//
+// A view lists every triangle of the mesh that touches the screen: at zoom 0, all of them.
+//
+// Thread safety: view(), render() and memory_bytes() may be called concurrently; the mesh and
+// factorization are read-only, the cache is under a mutex held while a missing size is solved
+// (single flight; CHOLMOD's solve on the shared factor is not reentrant).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <mutex>
+#include <utility>
+#include <vector>
+
+#include "warp/icaz/image_model.h"
+#include "warp/icaz/shape_warp.h"
+#include "warp/methods/retargeter.h"
+#include "warp/methods/retargeting_method.h"
+
+namespace zoomwarp::warp {
+
+class RetargetZoom : public Retargeter {
+ public:
+  static constexpr int kMaxVertices = 30000;
+  static constexpr int kCachedSizes = 16;
+
+  // Builds the uniform mesh and factors its system. Throws std::invalid_argument when the
+  // curator's lines cannot be meshed (as the coarsest mesh would).
+  RetargetZoom(const ImageModel& model, const SignificanceMap& saliency);
+
+  View view(const ViewRequest& request) override;
+  std::size_t memory_bytes() override;
+
+  // The uniform mesh (image pixels).
+  const Mesh& mesh() const { return warp_.mesh(); }
+
+ private:
+  // The warp onto target_width × target_height, from the cache or solved now.
+  std::vector<Point> warped(double target_width, double target_height, WarpResult* stats, const StopToken* stop);
+
+  struct CachedWarp {
+    std::vector<Point> positions;
+    std::uint64_t last_used = 0;
+  };
+
+  const double width_, height_;
+  const ShapeWarp warp_;
+  std::mutex mu_;  // guards the cache and warp_'s solves
+  std::map<std::pair<long long, long long>, CachedWarp> cache_;  // by target size (1/1000 px)
+  std::uint64_t clock_ = 0;
+};
+
+// The area bound of the uniform mesh for `model`: the largest leaf among the forest's kept nodes.
+double finest_stored_leaf_area(const ImageModel& model);
+
+// The registry entry "retarget-zoom": no precomputation file (load builds the mesh and factors it).
+const RetargetingMethod& retarget_zoom_method();
+
+}  // namespace zoomwarp::warp
