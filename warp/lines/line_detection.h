@@ -3,18 +3,21 @@
 // ≤ 1024 px), offered to the curator as suggested line constraints and used by `lines=auto`
 // (ICAZ) and by methods that take detected lines (MethodInput::detected_lines).
 //
-//   1. Canny on the grey image, blurred (5×5 Gaussian) so that texture and noise do not vote;
-//   2. cv::HoughLinesP, segments of at least L = max(0.1·min(Wa, Ha), 10 px) [Guo09 §3.3.3: "0.1
-//      fold of the minimum of w_s and h_s"; the 10 px floor is ours, for small images];
-//   3. segments kept only where the image has an edge across them (ours: in texture and noise,
+//   1. Canny on the grey image, blurred (5×5 Gaussian) so that texture and noise vote less;
+//   2. cv::HoughLinesP pieces down to L/4, L = max(0.1·min(Wa, Ha), 10 px) [Guo09 §3.3.3: "0.1
+//      fold of the minimum of w_s and h_s"; the 10 px floor is ours, for small images]; each
+//      piece refitted (total least squares) to the Canny pixels within 2 px of it (ours: Hough's
+//      walk splits a tilted edge into pieces whose end points are off by a pixel or two);
+//   3. pieces kept only where the image has an edge across them (ours: in texture and noise,
 //      Canny's pixels are dense enough for Hough to find straight runs in every direction): at
-//      least 75 % of the pixel steps along the segment have, within 1 px, a gradient of at least
-//      Canny's low threshold within 22.5° of the segment's normal;
-//   4. near-duplicates merged, keeping the longer [Guo09: "only one segment is reserved if several
-//      segments are close enough"; what "close" means is ours]: directions within 2°, both end
-//      points of the shorter within d/2 of the longer's line, and their projections onto it
-//      overlapping, with d = sqrt(Wa·Ha/300), the point spacing of [Guo09 §3.2] for N = 300;
-//   5. segments along the image border dropped (ours: the border is straight under every warp);
+//      least 75 % of the pixel steps along the piece have, within 1 px, a gradient of at least
+//      Canny's low threshold within 22.5° of the piece's normal;
+//   4. near-duplicates merged [Guo09: "only one segment is reserved if several segments are close
+//      enough"; what "close" means is ours, see lies_along] into their span along the longer,
+//      with d = sqrt(Wa·Ha/300), the point spacing of [Guo09 §3.2] for N = 300;
+//   5. what is at least L long, not along the image border (ours: the border is straight under
+//      every warp) and still an edge across its whole length (step 3 again: pieces of texture
+//      that line up by chance leave gaps) is kept;
 //   6. longest first, at most limits::kMaxLines segments of summed length at most
 //      limits::kMaxTotalLineLength × the image's larger side: the curator's limits, so that any
 //      suggestion set is also a valid line set (api PUT /lines) with the same bounded cost.
