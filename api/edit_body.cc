@@ -32,18 +32,26 @@ double coordinate(const json& j, double lo, double hi, const char* what) {
   return v;
 }
 
-warp::ModelEdit lines_edit(const json& body, double W, double H) {
-  if (!body.is_object() || !body.contains("lines") || !body["lines"].is_array() || body.size() != 1)
-    bad_body(R"(expected {"lines": [[x0, y0, x1, y1], …]})");
-  at_most(body["lines"].size(), warp::limits::kMaxLines, "too_many_lines", "lines");
-  std::vector<warp::Segment> lines;
-  double total = 0;
-  for (const json& l : body["lines"]) {
-    if (!l.is_array() || l.size() != 4) bad_body("each line is [x0, y0, x1, y1]");
-    lines.push_back({{coordinate(l[0], 0, W, "line ends"), coordinate(l[1], 0, H, "line ends")},
-                     {coordinate(l[2], 0, W, "line ends"), coordinate(l[3], 0, H, "line ends")}});
-    total += std::hypot(lines.back().b.x - lines.back().a.x, lines.back().b.y - lines.back().a.y);
+// [[x0, y0, x1, y1], …] inside the image, at most limits::kMaxLines of them.
+std::vector<warp::Segment> segments(const json& array, double W, double H, const char* what) {
+  at_most(array.size(), warp::limits::kMaxLines, "too_many_lines", what);
+  std::vector<warp::Segment> out;
+  for (const json& l : array) {
+    if (!l.is_array() || l.size() != 4) bad_body(std::string("each of the ") + what + " is [x0, y0, x1, y1]");
+    out.push_back({{coordinate(l[0], 0, W, "line ends"), coordinate(l[1], 0, H, "line ends")},
+                   {coordinate(l[2], 0, W, "line ends"), coordinate(l[3], 0, H, "line ends")}});
   }
+  return out;
+}
+
+warp::ModelEdit lines_edit(const json& body, double W, double H) {
+  const bool has_dismissed = body.is_object() && body.contains("dismissed");
+  if (!body.is_object() || !body.contains("lines") || !body["lines"].is_array() ||
+      body.size() != (has_dismissed ? 2u : 1u) || (has_dismissed && !body["dismissed"].is_array()))
+    bad_body(R"(expected {"lines": [[x0, y0, x1, y1], …]} and optionally "dismissed": [[x0, y0, x1, y1], …])");
+  std::vector<warp::Segment> lines = segments(body["lines"], W, H, "lines");
+  double total = 0;
+  for (const warp::Segment& l : lines) total += std::hypot(l.b.x - l.a.x, l.b.y - l.a.y);
   // [ICAZ §4.3] Every line adds its chain of mesh vertices to the coarsest mesh and its energy
   // terms to every solve: the summed length bounds that cost.
   const double max_total = warp::limits::kMaxTotalLineLength * std::max(W, H);
@@ -55,6 +63,8 @@ warp::ModelEdit lines_edit(const json& body, double W, double H) {
   }
   warp::ModelEdit edit;
   edit.lines = std::move(lines);
+  // Suggested lines the curator dropped (warp/analysis/detected_lines.h); absent: unchanged.
+  if (has_dismissed) edit.dismissed_lines = segments(body["dismissed"], W, H, "dismissed lines");
   return edit;
 }
 

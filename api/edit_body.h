@@ -13,7 +13,9 @@
 
 namespace zoomwarp::api {
 
-// {"lines": [[x0, y0, x1, y1], …]}
+// {"lines": [[x0, y0, x1, y1], …], "dismissed": [[x0, y0, x1, y1], …]}: "lines" replaces the
+// curator's lines; "dismissed" (optional; absent leaves them as they are) replaces the suggested
+// lines the curator dropped, at most limits::kMaxLines of them (413 too_many_lines).
 warp::ModelEdit parse_lines_body(std::string_view body, double W, double H);
 
 // {"regions": [{"rect": [x, y, w, h], "weight": s} | {"polygon": [[x, y], …], "weight": s}, …]}

@@ -12,6 +12,7 @@
 #include "api/responses.h"
 #include "api/url.h"
 #include "api/router.h"
+#include "warp/analysis/detected_lines.h"
 #include "warp/analysis/image_analysis.h"
 #include "warp/render/render.h"
 
@@ -57,7 +58,12 @@ std::optional<Response> Router::view_route(const Request& req, const PathParams&
   if (what == "lines") {
     reject_query(req, what);
     return image_response(req, *entry, "lines_get", "", may_compute, [&](const tiles::ImageEntry& e) {
-      return body_response("application/json", json{{"lines", lines_json(engines_.get(e)->model().lines)}}.dump() + "\n");
+      const warp::ImageModel& model = engines_.get(e)->model();
+      return body_response("application/json", json{{"lines", lines_json(model.lines)},
+                                                    {"suggested", lines_json(warp::suggested_lines(e, reader_, model))},
+                                                    {"dismissed", lines_json(model.dismissed_lines)}}
+                                                       .dump() +
+                                                   "\n");
     });
   }
   const ViewRoute route = what == "mesh" ? ViewRoute::kMesh : ViewRoute::kViewport;

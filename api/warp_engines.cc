@@ -31,6 +31,9 @@ std::shared_ptr<warp::Icaz> WarpEngines::load_icaz(const tiles::ImageEntry& imag
   if (loaded.source == warp::ModelSource::kRebuiltWithEdits && log_)
     log_("warn", "warp model file damaged, rebuilt with the curator's lines and edits",
          {{"image", id}, {"version", image.manifest.version}, {"file", loaded.damaged_file}, {"error", loaded.reason}});
+  if (loaded.unmeshable_suggestions > 0 && log_)
+    log_("info", "lines=auto: suggested lines left out, the coarsest mesh cannot be built with them",
+         {{"image", id}, {"version", image.manifest.version}, {"left_out", loaded.unmeshable_suggestions}});
   warp::ImageModel& model = loaded.model;
   warp::IcazOptions options;
   constexpr std::size_t kBytesPerLazyNode = 64;

@@ -1,5 +1,6 @@
-// The curator's edits as the server takes them: significance regions and line constraints, in
-// source pixels. Each publishes a new image version and answers with the image JSON.
+// The curator's edits as the server takes them: significance regions, line constraints and the
+// automatically suggested lines accepted or dropped, in source pixels. Each publishes a new image
+// version and answers with the image JSON.
 //
 // And the curator's key, which the server asks of every edit (and of reads of private images):
 // kept in sessionStorage, so it lives as long as the tab and no longer, and sent by
@@ -48,15 +49,34 @@ export async function markImportant(imageId, polygon) {
               { regions: [{ polygon, weight: 1 }] });
 }
 
-export async function fetchLines(imageId) {
+// The image's lines: {lines: the curator's, suggested: the automatically detected ones not yet
+// accepted or dropped, dismissed: the dropped ones}, each [x0, y0, x1, y1] in source pixels.
+export async function fetchLineSet(imageId) {
   // no-cache: the lines change under the same URL with every version.
   const response = await authorizedFetch(`/v1/images/${encodeURIComponent(imageId)}/lines`, { cache: 'no-cache' });
   if (!response.ok) throw new Error(`lines: HTTP ${response.status}`);
-  return (await response.json()).lines;
+  return response.json();
+}
+
+export async function fetchLines(imageId) {
+  return (await fetchLineSet(imageId)).lines;
 }
 
 export async function putLines(imageId, lines) {
   return send('PUT', `/v1/images/${encodeURIComponent(imageId)}/lines`, { lines });
+}
+
+// Accepting suggestions makes them curator lines; the server then no longer suggests them.
+export async function acceptSuggestions(imageId, accepted) {
+  const { lines } = await fetchLineSet(imageId);
+  return putLines(imageId, [...lines, ...accepted]);
+}
+
+// Dropping a suggestion: the server keeps it among the image's dismissed lines (the curator's
+// lines stay as they are) and suggests it no more.
+export async function dismissSuggestion(imageId, suggestion) {
+  const { lines, dismissed } = await fetchLineSet(imageId);
+  return send('PUT', `/v1/images/${encodeURIComponent(imageId)}/lines`, { lines, dismissed: [...dismissed, suggestion] });
 }
 
 async function send(method, url, body) {

@@ -12,9 +12,11 @@
 
 import { TileCache } from './atlas.js';
 import {
-  authorizedFetch, curatorKey, fetchLines, insideImage, markImportant, outlineInSource, putLines, refusalMessage,
+  authorizedFetch, curatorKey, fetchLines, fetchLineSet, insideImage, markImportant, outlineInSource, putLines,
+  refusalMessage,
 } from './curator.js';
 import { MethodMenu, describeMethod, fetchMethods, secondChoice, validChoices } from './methods.js';
+import { SuggestionPanel } from './suggestions.js';
 import { Overlay } from './overlay.js';
 import { Pane, VIEW_DIGITS } from './pane.js';
 import { Renderer } from './renderer.js';
@@ -48,6 +50,15 @@ class Viewer {
     this.choices = [];
     this.stateTimer = null;
     this.lines = [];
+    this.suggested = [];         // automatically detected lines, shown in the line editor
+    this.highlight = null;       // the suggestion under the pointer in the panel
+    this.suggestions = new SuggestionPanel({
+      element: document.getElementById('suggestions'),
+      imageId: image.id,
+      onEdited: (edited) => this.edited(edited),
+      onHighlight: (index) => { this.highlight = index; this.requestFrame(); },
+      say: (message) => this.say(message),
+    });
     this.tool = 'pan';
     this.pointers = new Map();  // pointerId → [x, y], canvas CSS pixels
     this.gesture = null;        // the pan/pinch or the sketch under way
@@ -175,7 +186,11 @@ class Viewer {
     const pixelRatio = window.devicePixelRatio || 1;
     this.renderer.beginFrame(width, height, pixelRatio);
     for (const pane of this.panes) pane.draw(now);
-    this.overlay.draw({ width, height, pixelRatio, panes: this.panes, lines: this.lines, sketch: this.sketch(), now });
+    const suggested = this.tool === 'line' ? this.suggested : [];
+    this.overlay.draw({
+      width, height, pixelRatio, panes: this.panes, lines: this.lines, suggested, highlight: this.highlight,
+      sketch: this.sketch(), now,
+    });
     this.counters.frames++;
     if (this.panes.some((pane) => pane.shown)) this.firstFrame();
     if (this.panes.some((pane) => pane.progress(now) < 1)) this.requestFrame();
@@ -299,7 +314,8 @@ class Viewer {
 
   async reloadLines() {
     try {
-      this.lines = await fetchLines(this.image.id);
+      ({ lines: this.lines, suggested: this.suggested } = await fetchLineSet(this.image.id));
+      this.suggestions.update(this.suggested);
       this.requestFrame();
     } catch (error) {
       this.say(error.message);
@@ -313,6 +329,8 @@ class Viewer {
   setTool(tool) {
     this.tool = tool;
     this.canvas.dataset.tool = tool;
+    this.suggestions.show(tool === 'line');
+    this.requestFrame();
   }
 
   say(message) {

@@ -25,6 +25,7 @@ const IMAGE_ID = 'boats_lake_sunset';
 // as ingested whatever order they run in.
 const EDITED_ID = 'boats-edited';
 const LINES_ID = 'boats-lines';
+const SUGGEST_ID = 'boats-suggest';
 const VIEWPORT = { width: 480, height: 360 };
 
 // The viewer draws the server's mesh with the GPU's bilinear filtering from JPEG tiles of one
@@ -57,6 +58,7 @@ before(async () => {
   await ingest(store, SAMPLE, IMAGE_ID);
   await ingest(store, SAMPLE, EDITED_ID);
   await ingest(store, SAMPLE, LINES_ID);
+  await ingest(store, SAMPLE, SUGGEST_ID);
   base = `http://127.0.0.1:${await startZoomwarp(store, cleanups, ['--keys', keys])}`;
   browser = await launchChromium(cleanups);
   await fs.mkdir(OUT_DIR, { recursive: true });
@@ -202,6 +204,44 @@ test('a curator key shows the tools, goes with every request, and can be forgott
   await page.evaluate(() => window.zoomwarp.setView({ zoom: 0.2 }));
   assert.ok(requests.some((r) => r.url().includes('/mesh?')), 'a mesh fetched after forgetting');
   for (const request of requests) assert.equal((await request.allHeaders()).authorization, undefined, request.url());
+});
+
+test('the line editor lists the suggested lines; drop, accept and accept all edit them', { timeout: 60_000 }, async (t) => {
+  const page = await openViewer(t, `/?image=${SUGGEST_ID}`);
+  const { suggested } = await getJson(`/v1/images/${SUGGEST_ID}/lines`);
+  assert.ok(suggested.length >= 3, `the sample has straight edges (${suggested.length} suggested)`);
+  await enterKey(page, CURATOR_KEY);
+  assert.equal(await page.isVisible('#suggestions'), false, 'not listed while panning');
+  await page.check('#tool-line');
+  await page.waitForSelector('#suggestions', { state: 'visible' });
+  assert.equal(await page.locator('#suggestions li').count(), suggested.length);
+
+  // Each button publishes a new version; the list is read again from the server.
+  const click = async (selector) => {
+    const put = page.waitForResponse((r) => r.request().method() === 'PUT' && r.url().endsWith(`/${SUGGEST_ID}/lines`));
+    await page.click(selector);
+    const response = await put;
+    assert.equal(response.status(), 200, await response.text());
+    await page.waitForFunction(() => document.getElementById('status').textContent.startsWith('saved: version'));
+    return response.request().postDataJSON();
+  };
+  const dropped = await click('#suggestions li:nth-child(1) button.drop');
+  assert.deepEqual(dropped, { lines: [], dismissed: [suggested[0]] });
+  await page.waitForFunction((n) => document.querySelectorAll('#suggestions li').length === n, suggested.length - 1);
+
+  const accepted = await click('#suggestions li:nth-child(1) button.accept');
+  assert.deepEqual(accepted, { lines: [suggested[1]] });
+  await page.waitForFunction((n) => document.querySelectorAll('#suggestions li').length === n, suggested.length - 2);
+  let server = await getJson(`/v1/images/${SUGGEST_ID}/lines`);
+  assert.deepEqual(server.lines, [suggested[1]]);
+  assert.deepEqual(server.dismissed, [suggested[0]]);
+  assert.deepEqual(server.suggested, suggested.slice(2));
+
+  await click('#suggestions button.accept-all');
+  server = await getJson(`/v1/images/${SUGGEST_ID}/lines`);
+  assert.deepEqual(server.lines, suggested.slice(1), 'every suggestion not dropped is a curator line');
+  assert.deepEqual(server.suggested, []);
+  await page.waitForSelector('#suggestions', { state: 'hidden' });
 });
 
 // Enters a key with the viewer's key control, as a person would, and waits for it to be taken.

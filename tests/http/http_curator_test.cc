@@ -128,7 +128,7 @@ TEST_F(DamagedStore, ADamagedBinaryModelFileIsRebuiltWithTheLinesAndEditsAndLogg
     const std::string base = "/v1/images/" + c.id;
     auto lines = http.get(base + "/lines");
     ASSERT_EQ(lines.status, 200) << lines.body;
-    EXPECT_EQ(json::parse(lines.body), kLines);
+    EXPECT_EQ(json::parse(lines.body)["lines"], kLines["lines"]);
     auto png = http.get(base + "/significance.png");
     ASSERT_EQ(png.status, 200) << png.body;
     const tiles::Raster map = testing::decode_image(png.body);
@@ -150,7 +150,7 @@ TEST_F(DamagedStore, AnEditOnARebuiltModelKeepsEveryEarlierEdit) {
   EXPECT_EQ(map.pixels[std::size_t(100 * map.width + 480) * map.channels], 255);
   EXPECT_EQ(map.pixels[std::size_t(100 * map.width + 120) * map.channels], 0);
   EXPECT_EQ(map.pixels[std::size_t(300 * map.width + 90) * map.channels], 255) << "the new region";
-  EXPECT_EQ(json::parse(http.get(base + "/lines").body), kLines);
+  EXPECT_EQ(json::parse(http.get(base + "/lines").body)["lines"], kLines["lines"]);
 }
 
 TEST_F(DamagedStore, ADamagedWarpJsonAnswers500OnWarpRoutesAndTilesStillWork) {
@@ -186,7 +186,7 @@ TEST_F(DamagedStore, ARestoredWarpJsonIsPickedUpWithoutARestart) {
   std::ofstream(version_dir(store(), "restore-json") + "/warp.json", std::ios::trunc) << *repaired_json_;
   auto r = http.get(base + "/lines");
   ASSERT_EQ(r.status, 200) << r.body;
-  EXPECT_EQ(json::parse(r.body), kLines);
+  EXPECT_EQ(json::parse(r.body)["lines"], kLines["lines"]);
 }
 
 TEST_F(DamagedStore, AnImageWithADamagedManifestAnswers500AndCanBeDeleted) {

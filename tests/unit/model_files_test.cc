@@ -6,11 +6,14 @@
 
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "tests/support/server_process.h"
 #include "tiles/ingest.h"
+#include "warp/analysis/detected_lines.h"
 #include "warp/analysis/image_analysis.h"
+#include "warp/lines/line_detection.h"
 
 namespace zoomwarp {
 namespace {
@@ -178,6 +181,58 @@ TEST_F(ModelFiles, AChecksumCatchesAFlipThatParsesAndAFileOfAnotherImageIsRefuse
   } catch (const warp::ModelFileError& e) {
     EXPECT_NE(std::string(e.what()).find("another image size"), std::string::npos) << e.what();
   }
+}
+
+// lines.detected.json is derived data: written at ingest, carried into the edited version, and
+// when damaged, missing or from another detector the lines are detected again in memory — the
+// same lines — without writing into the version.
+TEST_F(ModelFiles, ADamagedDetectedLinesFileIsDetectedAgainInMemory) {
+  ASSERT_TRUE(fs::exists(edited_->dir + "/" + warp::kDetectedLinesFile)) << "carried into the edited version";
+  const std::vector<warp::Segment> stored = warp::read_detected_lines(*edited_, reader_);
+  ASSERT_FALSE(stored.empty());
+  const auto other_detector = [](const std::string& path) {
+    std::string text = read_bytes(path);
+    text.replace(text.find("canny+houghp/1"), 14, "canny+houghp/0");
+    write_bytes(path, text);
+  };
+  for (int k = 0; k < 5; ++k) {
+    SCOPED_TRACE(k < 4 ? name(Damage(k)) : "from another detector");
+    const tiles::ImageEntry c = copy();
+    const std::string path = c.dir + "/" + warp::kDetectedLinesFile;
+    if (k < 4) damage(path, Damage(k));
+    else other_detector(path);
+    const std::string before = fs::exists(path) ? read_bytes(path) : "";
+    const auto again = warp::read_detected_lines(c, reader_);
+    ASSERT_EQ(again.size(), stored.size());
+    for (std::size_t i = 0; i < again.size(); ++i) EXPECT_TRUE(warp::same_segment(again[i], stored[i], 0.01)) << i;
+    EXPECT_EQ(fs::exists(path) ? read_bytes(path) : "", before) << "the version is not written";
+  }
+}
+
+// The dismissed suggestions are the curator's: warp.json keeps them, a rebuilt model too, and a
+// warp.json from before line detection (no "dismissed_lines") reads as none dismissed.
+TEST_F(ModelFiles, DismissedLinesLiveInWarpJson) {
+  const tiles::ImageEntry c = copy();
+  warp::ImageModel model = warp::read_image_model(c);
+  EXPECT_TRUE(model.dismissed_lines.empty());
+  const std::vector<warp::Segment> suggested = warp::suggested_lines(c, reader_, model);
+  ASSERT_FALSE(suggested.empty());
+  model.dismissed_lines = {suggested[0]};
+  warp::write_image_model(c.dir, model);
+  EXPECT_TRUE(warp::same_segment(warp::read_image_model(c).dismissed_lines.at(0), suggested[0], 0));
+  const auto left = warp::suggested_lines(c, reader_, warp::read_image_model(c));
+  EXPECT_EQ(left.size(), suggested.size() - 1);
+  damage(c.dir + "/" + warp::kModelFile, Damage::kFlipMiddle);
+  const warp::LoadedModel rebuilt = warp::load_image_model(c, reader_);
+  ASSERT_EQ(rebuilt.source, warp::ModelSource::kRebuiltWithEdits);
+  EXPECT_EQ(rebuilt.model.dismissed_lines.size(), 1u);
+
+  const tiles::ImageEntry old = copy();
+  nlohmann::json stored = nlohmann::json::parse(read_bytes(old.dir + "/" + warp::kModelJsonFile));
+  ASSERT_EQ(stored.erase("dismissed_lines"), 1u);
+  write_bytes(old.dir + "/" + warp::kModelJsonFile, stored.dump(2));
+  EXPECT_TRUE(warp::read_image_model(old).dismissed_lines.empty());
+  EXPECT_EQ(warp::suggested_lines(old, reader_, warp::read_image_model(old)).size(), suggested.size());
 }
 
 }  // namespace

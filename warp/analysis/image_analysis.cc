@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "warp/analysis/analysis_image.h"
+#include "warp/analysis/detected_lines.h"
 #include "warp/analysis/method_files.h"
 #include "warp/analysis/model_file.h"
 #include "warp/core/limits.h"
@@ -31,25 +32,39 @@ constexpr Magic kModelMagic2 = {'Z', 'W', 'M', 'O', 'D', 'E', 'L', '2'};
 json point_json(const Point& p) { return json::array({p.x, p.y}); }
 Point point_from(const json& j) { return {j.at(0).get<double>(), j.at(1).get<double>()}; }
 
+json segments_json(const std::vector<Segment>& segments) {
+  json out = json::array();
+  for (const Segment& s : segments) out.push_back({{"from", point_json(s.a)}, {"to", point_json(s.b)}});
+  return out;
+}
+std::vector<Segment> segments_from(const json& j) {
+  std::vector<Segment> out;
+  for (const auto& l : j) out.push_back({point_from(l.at("from")), point_from(l.at("to"))});
+  return out;
+}
+
 std::string model_json(const ImageModel& m) {
-  json lines = json::array(), edits = json::array();
-  for (const Segment& s : m.lines) lines.push_back({{"from", point_json(s.a)}, {"to", point_json(s.b)}});
+  json edits = json::array();
   for (const SignificanceEdit& e : m.edits) {
     json polygon = json::array();
     for (const Point& p : e.polygon) polygon.push_back(point_json(p));
     edits.push_back({{"polygon", polygon}, {"weight", e.weight}});
   }
-  return json{{"lines", lines}, {"significance_edits", edits}}.dump(2) + "\n";
+  return json{{"lines", segments_json(m.lines)},
+              {"significance_edits", edits},
+              {"dismissed_lines", segments_json(m.dismissed_lines)}}
+             .dump(2) + "\n";
 }
 
 // The shape rules every edit and every stored warp.json keeps (the count limits apply to new
 // edits only: warp.json may hold many edits). Throws std::invalid_argument.
 void validate_shapes(const ModelEdit& edit) {
   auto finite = [](const Point& p) { return std::isfinite(p.x) && std::isfinite(p.y); };
-  for (const Segment& s : edit.lines.value_or(std::vector<Segment>{})) {
-    if (!finite(s.a) || !finite(s.b)) throw std::invalid_argument("line end points must be finite numbers");
-    if (std::hypot(s.b.x - s.a.x, s.b.y - s.a.y) < 1) throw std::invalid_argument("a line must be at least 1 px long");
-  }
+  for (const auto* lines : {&edit.lines, &edit.dismissed_lines})
+    for (const Segment& s : lines->value_or(std::vector<Segment>{})) {
+      if (!finite(s.a) || !finite(s.b)) throw std::invalid_argument("line end points must be finite numbers");
+      if (std::hypot(s.b.x - s.a.x, s.b.y - s.a.y) < 1) throw std::invalid_argument("a line must be at least 1 px long");
+    }
   for (const SignificanceEdit& e : edit.significance) {
     if (e.polygon.size() < 3) throw std::invalid_argument("a region needs at least 3 points");
     for (const Point& p : e.polygon)
@@ -58,14 +73,14 @@ void validate_shapes(const ModelEdit& edit) {
   }
 }
 
-// warp.json: the curator's lines and significance edits, checked like a new edit would be.
+// warp.json: the curator's lines, significance edits and dismissed suggestions, checked like a
+// new edit would be. A warp.json from before line detection has no "dismissed_lines": none.
 ModelEdit read_model_json(const tiles::ImageEntry& image) {
   ModelEdit stored;
   try {
     const json j = json::parse(read_whole(image, kModelJsonFile));
-    std::vector<Segment> lines;
-    for (const auto& l : j.at("lines")) lines.push_back({point_from(l.at("from")), point_from(l.at("to"))});
-    stored.lines = std::move(lines);
+    stored.lines = segments_from(j.at("lines"));
+    stored.dismissed_lines = segments_from(j.value("dismissed_lines", json::array()));
     for (const auto& e : j.at("significance_edits")) {
       SignificanceEdit edit;
       for (const auto& p : e.at("polygon")) edit.polygon.push_back(point_from(p));
@@ -137,6 +152,7 @@ void write_image_analysis(const tiles::ImageEntry& image, const SignificanceOpti
   const ImageModel model = make_image_model(read_reduced_image(image, reader), image.manifest.width,
                                             image.manifest.height, {}, {}, {}, significance);
   write_image_model(image.dir, model);
+  write_detected_lines(image, reader);
   write_method_files(image.dir, image, reader, model, std::array{Saliency::kDefault});
 }
 
@@ -172,15 +188,17 @@ ImageModel read_image_model(const tiles::ImageEntry& image) {
   ImageModel m;
   m.lines = std::move(*stored.lines);
   m.edits = std::move(stored.significance);
+  m.dismissed_lines = std::move(*stored.dismissed_lines);
   m.significance = read_significance(image);
   read_model_bin(image, m);
   return m;
 }
 
-LoadedModel load_image_model(const tiles::ImageEntry& image, tiles::PyramidReader& reader,
-                             const SignificanceOptions& significance, const ModelVariant& variant) {
-  if (variant.saliency != Saliency::kDefault || variant.auto_lines)
-    throw std::runtime_error("this model variant is not available yet");
+namespace {
+
+// The default variant: the version's files, or built or rebuilt from the pyramid.
+LoadedModel load_default_model(const tiles::ImageEntry& image, tiles::PyramidReader& reader,
+                               const SignificanceOptions& significance) {
   const auto rebuild = [&](const std::vector<Segment>& lines) {
     return make_image_model(read_reduced_image(image, reader), image.manifest.width, image.manifest.height, lines, {},
                             {}, significance);
@@ -196,13 +214,33 @@ LoadedModel load_image_model(const tiles::ImageEntry& image, tiles::PyramidReade
     // pyramid with the curator's regions painted in, the mesh and forest rebuilt with the lines.
     LoadedModel out{rebuild(*stored.lines), ModelSource::kRebuiltWithEdits, damaged.file(), damaged.what()};
     add_significance_edits(out.model, stored.significance);
+    out.model.dismissed_lines = *stored.dismissed_lines;
     return out;
   }
+}
+
+}  // namespace
+
+LoadedModel load_image_model(const tiles::ImageEntry& image, tiles::PyramidReader& reader,
+                             const SignificanceOptions& significance, const ModelVariant& variant) {
+  if (variant.saliency != Saliency::kDefault) throw std::runtime_error("this model variant is not available yet");
+  LoadedModel loaded = load_default_model(image, reader, significance);
+  if (variant.auto_lines) {
+    // [ICAZ §4.3] The detected lines [Guo09 §3.3.3] constrain the warp like the curator's: the
+    // coarsest mesh, the forest and its node means are rebuilt with them, in memory.
+    const auto lines = auto_line_set(loaded.model, suggested_lines(image, reader, loaded.model),
+                                     &loaded.unmeshable_suggestions);
+    set_lines(loaded.model, lines);
+  }
+  return loaded;
 }
 
 void validate(const ModelEdit& edit) {
   if (edit.lines && edit.lines->size() > std::size_t(limits::kMaxLines))
     throw LimitExceeded("too_many_lines", "at most " + std::to_string(limits::kMaxLines) + " lines");
+  // No more can be detected (line_detection.h), so no more can be dismissed.
+  if (edit.dismissed_lines && edit.dismissed_lines->size() > std::size_t(limits::kMaxLines))
+    throw LimitExceeded("too_many_lines", "at most " + std::to_string(limits::kMaxLines) + " dismissed lines");
   if (edit.significance.size() > std::size_t(limits::kMaxRegionsPerEdit))
     throw LimitExceeded("too_many_regions", "at most " + std::to_string(limits::kMaxRegionsPerEdit) + " regions per edit");
   for (const SignificanceEdit& e : edit.significance)
@@ -223,6 +261,7 @@ std::shared_ptr<const tiles::ImageEntry> edit_image_model(tiles::Store& store, c
   add_significance_edits(model, edit.significance);
   // New lines rebuild the mesh and the forest, whose node means then read the edited map.
   if (edit.lines) set_lines(model, *edit.lines);
+  if (edit.dismissed_lines) model.dismissed_lines = *edit.dismissed_lines;
   const std::string staging = store.make_staging_copy(current);
   try {
     write_image_model(staging, model);

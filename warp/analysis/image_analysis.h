@@ -5,7 +5,8 @@
 //   significance.bin   the significance map (≤ 1024 px, floats), edits painted in
 //   warp_model.bin     the coarsest mesh, the forest's kept nodes (as their split order) and
 //                      every kept node's mean significance
-//   warp.json          what the user gave: line constraints and significance edits, readable
+//   warp.json          what the user gave: line constraints, significance edits and the
+//                      detected lines they dismissed (analysis/detected_lines.h), readable
 //
 // The binary files (format 2) end in a trailer — the byte count before it and their CRC-32 — so
 // a truncated or damaged file is detected before it is parsed; format 1 files (no trailer),
@@ -58,6 +59,7 @@ struct LoadedModel {
   ModelSource source = ModelSource::kStored;
   std::string damaged_file;  // for kRebuiltWithEdits: which file, and why
   std::string reason;
+  int unmeshable_suggestions = 0;  // lines=auto: suggestions left out because CGAL could not mesh them
 };
 
 // The model of a version, never silently without the curator's work: the stored files when
@@ -67,7 +69,9 @@ struct LoadedModel {
 // ModelFileError for kModelJsonFile rather than serve a model without them.
 //
 // A variant other than the default is ICAZ driven by another saliency map (its node means from
-// that map) or with the automatically detected lines added to the curator's.
+// that map) or with the automatically detected lines added to the curator's: the suggestions not
+// dismissed (detected_lines.h suggested_lines), within the curator's limits, minus any CGAL
+// cannot mesh (auto_line_set); the mesh and forest are rebuilt in memory (set_lines).
 struct ModelVariant {
   Saliency saliency = Saliency::kDefault;
   bool auto_lines = false;
@@ -89,12 +93,13 @@ class LimitExceeded : public std::invalid_argument {
 
 struct ModelEdit {
   std::optional<std::vector<Segment>> lines;      // replaces all line constraints
+  std::optional<std::vector<Segment>> dismissed_lines;  // replaces the dismissed suggestions
   std::vector<SignificanceEdit> significance;     // painted in order
 };
 
-// Checks an edit: finite coordinates, lines longer than a pixel, polygons of ≥ 3 points,
-// weights in [0, 1], and the counts of warp/core/limits.h (lines, regions per edit, points per
-// polygon). Throws std::invalid_argument. The limits that depend on the image (total line
+// Checks an edit: finite coordinates, lines (and dismissed lines) longer than a pixel, polygons of
+// ≥ 3 points, weights in [0, 1], and the counts of warp/core/limits.h (lines, dismissed lines —
+// at most as many as can be detected —, regions per edit, points per polygon). Throws std::invalid_argument. The limits that depend on the image (total line
 // length, regions kept over all edits) are checked by api/edit_body.h and edit_image_model.
 void validate(const ModelEdit& edit);
 

@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "warp/analysis/analysis_image.h"
+#include "warp/analysis/detected_lines.h"
 #include "warp/analysis/model_file.h"
 
 namespace zoomwarp::warp {
@@ -15,7 +16,7 @@ std::string precompute(const tiles::ImageEntry& image, tiles::PyramidReader& rea
                        const RetargetingMethod& method, Saliency kind) {
   const tiles::Raster analysis = read_reduced_image(image, reader);
   const SignificanceMap saliency = saliency_map(image, reader, model, kind);
-  const std::vector<Segment> detected;
+  const std::vector<Segment> detected = suggested_lines(image, reader, model);
   return method.precompute(MethodInput{model, kind, saliency, analysis, detected});
 }
 

@@ -31,6 +31,9 @@ struct ImageModel {
   std::vector<Segment> lines;          // line constraints, image pixels
   SignificanceMap significance;        // with `edits` painted in
   std::vector<SignificanceEdit> edits;  // in the order they were made
+  // Automatically detected lines (lines/) the curator dropped: kept in warp.json so that they are
+  // not suggested again; the warp does not use them.
+  std::vector<Segment> dismissed_lines;
   CoarseMesh coarse;                   // built with `lines`
   Forest forest;                       // over coarse.mesh; its kept nodes were built here
   std::vector<float> node_mean;        // per kept forest node, its mean significance

@@ -37,7 +37,9 @@ struct MethodInput {
   const SignificanceMap& saliency;    // the selected kind, faces and curator edits painted in
   const tiles::Raster& analysis_image;  // the reduced copy the maps were made from (long side
                                         // ≤ kSignificanceMaxSide, `saliency.scale` px per image px)
-  const std::vector<Segment>& detected_lines;  // automatic lines (lines/), image pixels
+  // Automatic lines (lines/), image pixels, longest first: the version's suggestions the curator
+  // neither dismissed nor drew (analysis/detected_lines.h suggested_lines).
+  const std::vector<Segment>& detected_lines;
 };
 
 struct RetargetingMethod {
