@@ -14,6 +14,7 @@
 #include "warp/analysis/method_files.h"
 #include "warp/analysis/model_file.h"
 #include "warp/core/limits.h"
+#include "warp/saliency/gbvs.h"
 
 namespace zoomwarp::warp {
 
@@ -27,6 +28,7 @@ constexpr Magic kSignificanceMagic1 = {'Z', 'W', 'S', 'I', 'G', '1', 0, 0};
 constexpr Magic kSignificanceMagic2 = {'Z', 'W', 'S', 'I', 'G', '2', 0, 0};
 constexpr Magic kModelMagic1 = {'Z', 'W', 'M', 'O', 'D', 'E', 'L', '1'};
 constexpr Magic kModelMagic2 = {'Z', 'W', 'M', 'O', 'D', 'E', 'L', '2'};
+constexpr Magic kGbvsMagic = {'Z', 'W', 'G', 'B', 'V', 'S', '1', 0};
 
 json point_json(const Point& p) { return json::array({p.x, p.y}); }
 Point point_from(const json& j) { return {j.at(0).get<double>(), j.at(1).get<double>()}; }
@@ -81,9 +83,10 @@ ModelEdit read_model_json(const tiles::ImageEntry& image) {
   return stored;
 }
 
-std::string significance_bytes(const SignificanceMap& map) {
+// A map file (significance.bin, gbvs.bin): magic, width, height, scale, the values.
+std::string map_bytes(const SignificanceMap& map, const Magic& magic) {
   std::ostringstream out;
-  out.write(kSignificanceMagic2.data(), kSignificanceMagic2.size());
+  out.write(magic.data(), magic.size());
   put(out, std::int32_t(map.width));
   put(out, std::int32_t(map.height));
   put(out, map.scale);
@@ -134,23 +137,26 @@ void read_model_bin(const tiles::ImageEntry& image, ImageModel& m) {
 
 void write_image_analysis(const tiles::ImageEntry& image, const SignificanceOptions& significance) {
   tiles::PyramidReader reader(32 << 20);  // its own small cache: staged files are about to move
-  const ImageModel model = make_image_model(read_reduced_image(image, reader), image.manifest.width,
-                                            image.manifest.height, {}, {}, {}, significance);
+  const tiles::Raster analysis = read_reduced_image(image, reader);
+  const ImageModel model =
+      make_image_model(analysis, image.manifest.width, image.manifest.height, {}, {}, {}, significance);
   write_image_model(image.dir, model);
-  write_method_files(image.dir, image, reader, model, std::array{Saliency::kDefault});
+  write_gbvs_map(image.dir, gbvs_significance(analysis, image.manifest.width, significance));
+  write_method_files(image.dir, image, reader, model, kSaliencies);
 }
 
 void write_image_model(const std::string& dir, const ImageModel& model) {
-  replace_file(dir, kSignificanceFile, significance_bytes(model.significance));
+  replace_file(dir, kSignificanceFile, map_bytes(model.significance, kSignificanceMagic2));
   replace_file(dir, kModelFile, model_bytes(model));
   replace_file(dir, kModelJsonFile, model_json(model));
 }
 
-SignificanceMap read_significance(const tiles::ImageEntry& image) {
-  auto [bytes, format] =
-      checked_payload(kSignificanceFile, read_whole(image, kSignificanceFile), kSignificanceMagic1, kSignificanceMagic2);
-  ModelFileReader in(kSignificanceFile, std::move(bytes));
-  in.stream().seekg(std::streamoff(kSignificanceMagic1.size()));
+namespace {
+
+SignificanceMap read_map(const tiles::ImageEntry& image, const char* file, const Magic& magic1, const Magic& magic2) {
+  auto [bytes, format] = checked_payload(file, read_whole(image, file), magic1, magic2);
+  ModelFileReader in(file, std::move(bytes));
+  in.stream().seekg(std::streamoff(magic1.size()));
   SignificanceMap map;
   const auto w = in.get<std::int32_t>(), h = in.get<std::int32_t>();
   map.scale = in.get<double>();
@@ -167,6 +173,18 @@ SignificanceMap read_significance(const tiles::ImageEntry& image) {
   return map;
 }
 
+}  // namespace
+
+SignificanceMap read_significance(const tiles::ImageEntry& image) {
+  return read_map(image, kSignificanceFile, kSignificanceMagic1, kSignificanceMagic2);
+}
+
+void write_gbvs_map(const std::string& dir, const SignificanceMap& map) {
+  replace_file(dir, kGbvsFile, map_bytes(map, kGbvsMagic));
+}
+
+SignificanceMap read_gbvs_map(const tiles::ImageEntry& image) { return read_map(image, kGbvsFile, kGbvsMagic, kGbvsMagic); }
+
 ImageModel read_image_model(const tiles::ImageEntry& image) {
   ModelEdit stored = read_model_json(image);
   ImageModel m;
@@ -179,8 +197,15 @@ ImageModel read_image_model(const tiles::ImageEntry& image) {
 
 LoadedModel load_image_model(const tiles::ImageEntry& image, tiles::PyramidReader& reader,
                              const SignificanceOptions& significance, const ModelVariant& variant) {
-  if (variant.saliency != Saliency::kDefault || variant.auto_lines)
-    throw std::runtime_error("this model variant is not available yet");
+  if (variant.auto_lines) throw std::runtime_error("this model variant is not available yet");
+  if (variant.saliency != Saliency::kDefault) {
+    LoadedModel out = load_image_model(image, reader, significance);
+    LoadedSaliency map = load_saliency_map(image, reader, out.model, variant.saliency, significance);
+    set_significance(out.model, std::move(map.map));
+    if (!map.damaged.empty() && out.source == ModelSource::kStored)
+      out = {std::move(out.model), ModelSource::kRebuiltWithEdits, kGbvsFile, map.damaged};
+    return out;
+  }
   const auto rebuild = [&](const std::vector<Segment>& lines) {
     return make_image_model(read_reduced_image(image, reader), image.manifest.width, image.manifest.height, lines, {},
                             {}, significance);

@@ -6,6 +6,9 @@
 //   warp_model.bin     the coarsest mesh, the forest's kept nodes (as their split order) and
 //                      every kept node's mean significance
 //   warp.json          what the user gave: line constraints and significance edits, readable
+//   gbvs.bin           the GBVS map (saliency=gbvs, ≤ 1024 px, floats), faces painted in but not
+//                      the edits: they are painted when it is loaded (method_files.h
+//                      saliency_map), so an edit's new version keeps it as a hard link
 //
 // The binary files (format 2) end in a trailer — the byte count before it and their CRC-32 — so
 // a truncated or damaged file is detected before it is parsed; format 1 files (no trailer),
@@ -34,6 +37,7 @@ namespace zoomwarp::warp {
 inline constexpr const char* kSignificanceFile = "significance.bin";
 inline constexpr const char* kModelFile = "warp_model.bin";
 inline constexpr const char* kModelJsonFile = "warp.json";
+inline constexpr const char* kGbvsFile = "gbvs.bin";
 
 // The ingest hook: builds the image's model (no lines yet) and writes its files into the (still
 // staged) folder. Throws std::runtime_error if it cannot write.
@@ -45,6 +49,10 @@ void write_image_model(const std::string& dir, const ImageModel& model);
 // Reads them back; throws ModelFileError naming the first file that is missing or damaged.
 ImageModel read_image_model(const tiles::ImageEntry& image);
 SignificanceMap read_significance(const tiles::ImageEntry& image);
+
+// gbvs.bin (same layout as significance.bin, its own magic). read_gbvs_map throws ModelFileError.
+void write_gbvs_map(const std::string& dir, const SignificanceMap& map);
+SignificanceMap read_gbvs_map(const tiles::ImageEntry& image);
 
 // How load_image_model got the model.
 enum class ModelSource {
@@ -66,8 +74,10 @@ struct LoadedModel {
 // is missing or damaged while other model files exist, the edits are lost and it throws
 // ModelFileError for kModelJsonFile rather than serve a model without them.
 //
-// A variant other than the default is ICAZ driven by another saliency map (its node means from
-// that map) or with the automatically detected lines added to the curator's.
+// A variant other than the default is ICAZ driven by another saliency map (the same mesh and
+// forest; the map and the node means are the kind's, from method_files.h saliency_map: a
+// damaged gbvs.bin is computed again in memory and reported as kRebuiltWithEdits) or with the
+// automatically detected lines added to the curator's.
 struct ModelVariant {
   Saliency saliency = Saliency::kDefault;
   bool auto_lines = false;

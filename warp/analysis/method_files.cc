@@ -4,7 +4,9 @@
 #include <stdexcept>
 
 #include "warp/analysis/analysis_image.h"
+#include "warp/analysis/image_analysis.h"
 #include "warp/analysis/model_file.h"
+#include "warp/saliency/gbvs.h"
 
 namespace zoomwarp::warp {
 
@@ -29,10 +31,24 @@ std::string method_file_name(const RetargetingMethod& method, Saliency saliency)
   return std::string(method.name) + "." + std::string(saliency_name(saliency)) + ".bin";
 }
 
+LoadedSaliency load_saliency_map(const tiles::ImageEntry& image, tiles::PyramidReader& reader, const ImageModel& model,
+                                 Saliency kind, const SignificanceOptions& significance) {
+  if (kind == Saliency::kDefault) return {model.significance, ""};
+  LoadedSaliency out;
+  try {
+    out.map = read_gbvs_map(image);
+  } catch (const ModelFileError& e) {
+    if (exists(image, kGbvsFile)) out.damaged = e.what();
+    out.map = gbvs_significance(read_reduced_image(image, reader), image.manifest.width, significance);
+  }
+  // The curator's regions apply to every kind of map, painted in the order they were made.
+  for (const SignificanceEdit& edit : model.edits) paint_polygon(out.map, edit.polygon, edit.weight);
+  return out;
+}
+
 SignificanceMap saliency_map(const tiles::ImageEntry& image, tiles::PyramidReader& reader, const ImageModel& model,
-                             Saliency kind) {
-  if (kind == Saliency::kDefault) return model.significance;
-  throw std::runtime_error("saliency=gbvs is not available yet");
+                             Saliency kind, const SignificanceOptions& significance) {
+  return load_saliency_map(image, reader, model, kind, significance).map;
 }
 
 std::vector<MethodFileTiming> write_method_files(const std::string& dir, const tiles::ImageEntry& image,

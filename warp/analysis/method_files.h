@@ -28,9 +28,20 @@ namespace zoomwarp::warp {
 std::string method_file_name(const RetargetingMethod& method, Saliency saliency);
 
 // The saliency map of kind `kind` of the version whose model is `model`, with faces and the
-// curator's edits painted in: `default` is model.significance.
+// curator's edits (model.edits) painted in: `default` is model.significance; `gbvs` is gbvs.bin
+// (image_analysis.h) when intact, else GBVS of the analysis image computed in memory, faces found
+// with `significance`'s cascade — never written into the published version. `damaged` says what
+// was wrong with a gbvs.bin that exists but could not be used (empty otherwise: a version ingested
+// before GBVS has none, which is not damage). Throws std::runtime_error when the pyramid cannot
+// be read.
+struct LoadedSaliency {
+  SignificanceMap map;
+  std::string damaged;
+};
+LoadedSaliency load_saliency_map(const tiles::ImageEntry& image, tiles::PyramidReader& reader, const ImageModel& model,
+                                 Saliency kind, const SignificanceOptions& significance = {});
 SignificanceMap saliency_map(const tiles::ImageEntry& image, tiles::PyramidReader& reader, const ImageModel& model,
-                             Saliency kind);
+                             Saliency kind, const SignificanceOptions& significance = {});
 
 // Precomputes every registered method that keeps a file, for each kind in `kinds`, and writes the
 // files into `dir`. Returns how long each took (for `zoomwarp ingest`'s report).
