@@ -80,7 +80,7 @@ TEST(Gbvs, AColourSingletonPopsOutAmongDistractorsOfTheSameShape) {
 }
 
 TEST(Gbvs, NormalisationGathersASingletonsMassOntoItNotItsNeighbours) {
-  // [Harel06] §2.3: activation is high wherever a location differs from what is around it, the
+  // [Harel06]: activation is high wherever a location differs from what is around it, the
   // surround of a peak included; the normalisation chain moves the mass onto the peaks. Eight
   // equal discs on a ring: one light grey (an intensity singleton), seven red of the background's
   // intensity (seen by the colour maps only). Without normalisation the singleton's activation

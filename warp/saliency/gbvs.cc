@@ -69,7 +69,7 @@ cv::Mat gabor_energy(const cv::Mat& intensity, double degrees) {
   return cv::abs(e) + cv::abs(o);
 }
 
-// The 21 feature maps of [Harel06] §2.1 on the grid, grouped by channel: intensity, colour, orientation.
+// The 21 feature maps of [Harel06] on the grid, grouped by channel: intensity, colour, orientation.
 std::array<std::vector<cv::Mat>, 3> feature_maps(const cv::Mat& rgb, cv::Size grid) {
   std::array<std::vector<cv::Mat>, 3> channels;
   for (const cv::Mat& level : pyramid_levels(rgb)) {
@@ -104,7 +104,7 @@ std::vector<double> distance_kernel(cv::Size grid, double sigma) {
   return k;
 }
 
-// [Harel06] §2.2: activation = equilibrium of the chain weighted by dissimilarity × proximity.
+// [Harel06], activation = equilibrium of the chain weighted by dissimilarity × proximity.
 std::vector<double> activation(const cv::Mat& map, const std::vector<double>& kernel, const GbvsOptions& o) {
   const int n = int(map.total());
   const float* m = map.ptr<float>();
@@ -114,7 +114,7 @@ std::vector<double> activation(const cv::Mat& map, const std::vector<double>& ke
   return stationary_distribution(std::move(w), n, o.tolerance, o.max_iterations);
 }
 
-// [Harel06] §2.3: normalisation = equilibrium of the chain that flows towards high activation
+// [Harel06], normalisation = equilibrium of the chain that flows towards high activation
 // nearby, so that mass concentrates on a few peaks instead of spreading over many.
 std::vector<double> normalisation(const std::vector<double>& a, const std::vector<double>& kernel, const GbvsOptions& o) {
   const int n = int(a.size());
@@ -196,7 +196,7 @@ SignificanceMap compute_gbvs(const tiles::Raster& image, int image_width, int ou
   double lo = 0, hi = 0;
   cv::Mat out;
   cv::resize(master, out, cv::Size(out_width, out_height), 0, 0, cv::INTER_LINEAR);
-  // [0, 1] once more: the samples of the upsampled map need not fall on the grid's extremes.
+  // Rescaled after upsampling, so that the maximum is exactly 1 (samples need not hit the grid's extremes).
   cv::minMaxLoc(out, &lo, &hi);
   out = hi > lo ? cv::Mat(cv::min(cv::max((out - lo) / (hi - lo), 0.0), 1.0)) : cv::Mat::zeros(out.size(), CV_32F);
   SignificanceMap map;
