@@ -169,5 +169,26 @@ TEST_F(Gbvs, ADamagedGbvsFileIsComputedAgainInMemoryAndLogged) {
   EXPECT_EQ(testing::read_file(file), bytes) << "never written into a published version";
 }
 
+TEST_F(Gbvs, DegenerateShapesGetAGbvsMapAndViews) {
+  for (auto [w, h] : {std::pair{1, 1}, {2, 10000}, {3000, 109}}) {
+    const std::string id = "shape" + std::to_string(w) + "x" + std::to_string(h);
+    SCOPED_TRACE(id);
+    const std::string file = dir_->path() + "/" + id + ".png";
+    testing::write_image(file, testing::test_pattern(w, h, 3));
+    ASSERT_EQ(http.request("POST", "/v1/images?id=" + id, testing::read_file(file)).status, 201);
+    const tiles::Raster by_default = png("/v1/images/" + id + "/significance.png");
+    const tiles::Raster gbvs = png("/v1/images/" + id + "/significance.png?saliency=gbvs");
+    EXPECT_EQ(gbvs.width, by_default.width);
+    EXPECT_EQ(gbvs.height, by_default.height);
+    for (const char* zoom : {"0", "0.5", "1"}) {
+      auto r = http.get("/v1/images/" + id + "/viewport?zoom=" + zoom + "&w=360&h=640&format=png&saliency=gbvs");
+      ASSERT_EQ(r.status, 200) << zoom << ": " << r.body;
+      const tiles::Raster screen = testing::decode_image(r.body);
+      EXPECT_EQ(screen.width, 360);
+      EXPECT_EQ(screen.height, 640);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace zoomwarp
