@@ -3,6 +3,7 @@
 // parameters), so they share the router's ETags, response cache and single flight; edits publish
 // a new image version, which changes every ETag of the image at once.
 #include <cmath>
+#include <optional>
 #include <nlohmann/json.hpp>
 
 #include "api/edit_body.h"
@@ -31,8 +32,7 @@ json lines_json(const std::vector<warp::Segment>& lines) {
 // The route's last path segment says which: viewport, mesh, significance.png or lines.
 std::string_view last_segment(const std::string& path) { return std::string_view(path).substr(path.rfind('/') + 1); }
 
-// significance.png and GET lines take no parameters but a signed URL's; like /mesh, they refuse
-// what they do not know.
+// GET lines takes no parameters but a signed URL's; like /mesh, it refuses what it does not know.
 void reject_query(const Request& req, std::string_view route) {
   const auto pairs = parse_query(req.query);
   if (!pairs) throw ApiError(400, "bad_request", "malformed query string");
@@ -41,15 +41,37 @@ void reject_query(const Request& req, std::string_view route) {
       throw ApiError(400, "bad_request", std::string(route) + " takes no query parameters but expires and sig, not '" + name + "'");
 }
 
+// significance.png takes saliency=default|gbvs (which map) and a signed URL's parameters (the
+// router has refused a parameter given twice).
+warp::Saliency significance_query(const Request& req) {
+  const auto pairs = parse_query(req.query);
+  if (!pairs) throw ApiError(400, "bad_request", "malformed query string");
+  warp::Saliency kind = warp::Saliency::kDefault;
+  for (const auto& [name, value] : *pairs) {
+    if (is_signature_parameter(name)) continue;
+    if (name != "saliency")
+      throw ApiError(400, "bad_request",
+                     "significance.png takes no query parameters but saliency, expires and sig, not '" + name + "'");
+    const auto parsed = warp::parse_saliency(value);
+    if (!parsed) throw ApiError(400, "bad_request", "saliency must be default or gbvs, not '" + value + "'");
+    kind = *parsed;
+  }
+  return kind;
+}
+
 }  // namespace
 
 std::optional<Response> Router::view_route(const Request& req, const PathParams& p, bool may_compute) {
   auto entry = readable_image(req, param(p, "id"));
   const std::string what(last_segment(req.path));
   if (what == "significance.png") {
-    reject_query(req, what);
-    return image_response(req, *entry, "significance_png", "", may_compute, [&](const tiles::ImageEntry& e) {
-      const warp::SignificanceMap map = engines_.get(e)->model().significance;
+    const warp::Saliency kind = significance_query(req);
+    // The default map keeps the ETag it had before there was a choice.
+    const std::string variant = kind == warp::Saliency::kDefault ? "" : std::string(warp::saliency_name(kind));
+    return image_response(req, *entry, "significance_png", variant, may_compute, [&](const tiles::ImageEntry& e) {
+      // The map the ICAZ engine of that kind warps with: faces and the curator's edits painted in.
+      const std::shared_ptr<warp::Icaz> engine = engines_.get(e, kind);
+      const warp::SignificanceMap& map = engine->model().significance;
       tiles::Raster grey(map.width, map.height, 1);
       for (std::size_t i = 0; i < map.values.size(); ++i) grey.pixels[i] = std::uint8_t(std::lround(map.values[i] * 255));
       return body_response("image/png", tiles::encode_image(grey, tiles::ImageFormat::kPng, config_.encode));

@@ -15,6 +15,7 @@
 #include "warp/analysis/method_files.h"
 #include "warp/analysis/model_file.h"
 #include "warp/core/limits.h"
+#include "warp/saliency/gbvs.h"
 
 namespace zoomwarp::warp {
 
@@ -96,16 +97,6 @@ ModelEdit read_model_json(const tiles::ImageEntry& image) {
   return stored;
 }
 
-std::string significance_bytes(const SignificanceMap& map) {
-  std::ostringstream out;
-  out.write(kSignificanceMagic2.data(), kSignificanceMagic2.size());
-  put(out, std::int32_t(map.width));
-  put(out, std::int32_t(map.height));
-  put(out, map.scale);
-  out.write(reinterpret_cast<const char*>(map.values.data()), std::streamsize(map.values.size() * sizeof(float)));
-  return with_trailer(out.str());
-}
-
 std::string model_bytes(const ImageModel& m) {
   std::ostringstream out;
   out.write(kModelMagic2.data(), kModelMagic2.size());
@@ -149,38 +140,23 @@ void read_model_bin(const tiles::ImageEntry& image, ImageModel& m) {
 
 void write_image_analysis(const tiles::ImageEntry& image, const SignificanceOptions& significance) {
   tiles::PyramidReader reader(32 << 20);  // its own small cache: staged files are about to move
-  const ImageModel model = make_image_model(read_reduced_image(image, reader), image.manifest.width,
-                                            image.manifest.height, {}, {}, {}, significance);
+  const tiles::Raster analysis = read_reduced_image(image, reader);
+  const ImageModel model =
+      make_image_model(analysis, image.manifest.width, image.manifest.height, {}, {}, {}, significance);
   write_image_model(image.dir, model);
   write_detected_lines(image, reader);
-  write_method_files(image.dir, image, reader, model, std::array{Saliency::kDefault});
+  write_gbvs_map(image.dir, gbvs_significance(analysis, image.manifest.width, significance));
+  write_method_files(image.dir, image, reader, model, kSaliencies);
 }
 
 void write_image_model(const std::string& dir, const ImageModel& model) {
-  replace_file(dir, kSignificanceFile, significance_bytes(model.significance));
+  replace_file(dir, kSignificanceFile, saliency_map_bytes(model.significance, kSignificanceMagic2));
   replace_file(dir, kModelFile, model_bytes(model));
   replace_file(dir, kModelJsonFile, model_json(model));
 }
 
 SignificanceMap read_significance(const tiles::ImageEntry& image) {
-  auto [bytes, format] =
-      checked_payload(kSignificanceFile, read_whole(image, kSignificanceFile), kSignificanceMagic1, kSignificanceMagic2);
-  ModelFileReader in(kSignificanceFile, std::move(bytes));
-  in.stream().seekg(std::streamoff(kSignificanceMagic1.size()));
-  SignificanceMap map;
-  const auto w = in.get<std::int32_t>(), h = in.get<std::int32_t>();
-  map.scale = in.get<double>();
-  if (w <= 0 || h <= 0 || w > 4 * kSignificanceMaxSide || h > 4 * kSignificanceMaxSide || !(map.scale > 0))
-    in.damaged("bad map size");
-  // The map covers the image: its sides are the image's times the scale, give or take rounding.
-  if (std::abs(w - map.scale * image.manifest.width) > 1 || std::abs(h - map.scale * image.manifest.height) > 2)
-    in.damaged("made for another image size");
-  if (in.remaining() < std::uint64_t(w) * std::uint64_t(h) * sizeof(float)) in.damaged("truncated");
-  map.width = w, map.height = h;
-  map.values.resize(std::size_t(w) * h);
-  in.stream().read(reinterpret_cast<char*>(map.values.data()), std::streamsize(map.values.size() * sizeof(float)));
-  if (format == 2 && in.remaining() != 0) in.damaged("trailing bytes");
-  return map;
+  return read_saliency_map_file(image, kSignificanceFile, kSignificanceMagic1, kSignificanceMagic2);
 }
 
 ImageModel read_image_model(const tiles::ImageEntry& image) {
@@ -223,8 +199,14 @@ LoadedModel load_default_model(const tiles::ImageEntry& image, tiles::PyramidRea
 
 LoadedModel load_image_model(const tiles::ImageEntry& image, tiles::PyramidReader& reader,
                              const SignificanceOptions& significance, const ModelVariant& variant) {
-  if (variant.saliency != Saliency::kDefault) throw std::runtime_error("this model variant is not available yet");
   LoadedModel loaded = load_default_model(image, reader, significance);
+  if (variant.saliency != Saliency::kDefault) {
+    // The same mesh and forest; the map and the node means are the kind's.
+    LoadedSaliency map = load_saliency_map(image, reader, loaded.model, variant.saliency, significance);
+    set_significance(loaded.model, std::move(map.map));
+    if (!map.damaged.empty() && loaded.source == ModelSource::kStored)
+      loaded = {std::move(loaded.model), ModelSource::kRebuiltWithEdits, kGbvsFile, map.damaged};
+  }
   if (variant.auto_lines) {
     // [ICAZ §4.3] The detected lines [Guo09 §3.3.3] constrain the warp like the curator's: the
     // coarsest mesh, the forest and its node means are rebuilt with them, in memory.

@@ -7,6 +7,9 @@
 //                      every kept node's mean significance
 //   warp.json          what the user gave: line constraints, significance edits and the
 //                      detected lines they dismissed (analysis/detected_lines.h), readable
+//   gbvs.bin           the GBVS map (saliency=gbvs, ≤ 1024 px, floats), faces painted in but not
+//                      the edits: they are painted when it is loaded (method_files.h
+//                      saliency_map), so an edit's new version keeps it as a hard link
 //
 // The binary files (format 2) end in a trailer — the byte count before it and their CRC-32 — so
 // a truncated or damaged file is detected before it is parsed; format 1 files (no trailer),
@@ -27,6 +30,7 @@
 #include "tiles/pyramid_reader.h"
 #include "tiles/store.h"
 #include "warp/analysis/model_file.h"
+#include "warp/analysis/saliency_files.h"
 #include "warp/icaz/image_model.h"
 #include "warp/saliency/saliency.h"
 
@@ -68,10 +72,12 @@ struct LoadedModel {
 // is missing or damaged while other model files exist, the edits are lost and it throws
 // ModelFileError for kModelJsonFile rather than serve a model without them.
 //
-// A variant other than the default is ICAZ driven by another saliency map (its node means from
-// that map) or with the automatically detected lines added to the curator's: the suggestions not
-// dismissed (detected_lines.h suggested_lines), within the curator's limits, minus any CGAL
-// cannot mesh (auto_line_set); the mesh and forest are rebuilt in memory (set_lines).
+// A variant other than the default is ICAZ driven by another saliency map (the same mesh and
+// forest; the map and the node means are the kind's, from method_files.h saliency_map: a
+// damaged gbvs.bin is computed again in memory and reported as kRebuiltWithEdits) or with the
+// automatically detected lines added to the curator's: the suggestions not dismissed
+// (detected_lines.h suggested_lines), within the curator's limits, minus any CGAL cannot mesh
+// (auto_line_set); the mesh and forest are rebuilt in memory (set_lines).
 struct ModelVariant {
   Saliency saliency = Saliency::kDefault;
   bool auto_lines = false;

@@ -30,12 +30,6 @@ std::string method_file_name(const RetargetingMethod& method, Saliency saliency)
   return std::string(method.name) + "." + std::string(saliency_name(saliency)) + ".bin";
 }
 
-SignificanceMap saliency_map(const tiles::ImageEntry& image, tiles::PyramidReader& reader, const ImageModel& model,
-                             Saliency kind) {
-  if (kind == Saliency::kDefault) return model.significance;
-  throw std::runtime_error("saliency=gbvs is not available yet");
-}
-
 std::vector<MethodFileTiming> write_method_files(const std::string& dir, const tiles::ImageEntry& image,
                                                  tiles::PyramidReader& reader, const ImageModel& model,
                                                  std::span<const Saliency> kinds) {

@@ -19,6 +19,7 @@
 
 #include "tiles/pyramid_reader.h"
 #include "tiles/store.h"
+#include "warp/analysis/saliency_files.h"
 #include "warp/icaz/image_model.h"
 #include "warp/methods/retargeting_method.h"
 
@@ -26,11 +27,6 @@ namespace zoomwarp::warp {
 
 // "<name>.<saliency>.bin", e.g. "seam.default.bin".
 std::string method_file_name(const RetargetingMethod& method, Saliency saliency);
-
-// The saliency map of kind `kind` of the version whose model is `model`, with faces and the
-// curator's edits painted in: `default` is model.significance.
-SignificanceMap saliency_map(const tiles::ImageEntry& image, tiles::PyramidReader& reader, const ImageModel& model,
-                             Saliency kind);
 
 // Precomputes every registered method that keeps a file, for each kind in `kinds`, and writes the
 // files into `dir`. Returns how long each took (for `zoomwarp ingest`'s report).

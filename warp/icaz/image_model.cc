@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace zoomwarp::warp {
 
@@ -50,6 +51,11 @@ void set_lines(ImageModel& m, const std::vector<Segment>& lines, const CoarseMes
   m.forest = Forest(m.coarse.mesh);
   m.forest.build_levels(forest.min_area, forest.max_nodes);
   m.node_mean.clear();
+  update_node_means(m);
+}
+
+void set_significance(ImageModel& m, SignificanceMap map) {
+  m.significance = std::move(map);
   update_node_means(m);
 }
 

@@ -49,6 +49,11 @@ ImageModel make_image_model(const tiles::Raster& reduced, double width, double h
 void set_lines(ImageModel& model, const std::vector<Segment>& lines, const CoarseMeshOptions& mesh = {},
                const ForestOptions& forest = {});
 
+// Replaces the significance map by another of the same image (another saliency kind, the
+// curator's edits already painted in) and recomputes every kept node's mean from it; the mesh
+// and the forest stay.
+void set_significance(ImageModel& model, SignificanceMap map);
+
 // Paints regions into the significance map, in order, and updates the means of the nodes they
 // touch (each such node once).
 void add_significance_edits(ImageModel& model, const std::vector<SignificanceEdit>& edits);

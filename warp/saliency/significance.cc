@@ -124,17 +124,22 @@ SignificanceMap compute_significance(const tiles::Raster& image, int image_width
   const cv::Mat grey = grey_of(image);
   cv::Mat s = gradient_norm(grey).mul(spectral_residual(grey, grey.size()));
   normalise(s);
-  // Faces matter whatever their texture: the whole (slightly enlarged) box is fully significant.
-  for (const auto& f : detect_faces(image, options.face_cascade)) {
-    cv::Rect box(int(f.x - f.w / 5), int(f.y - f.h / 5), int(f.w * 7 / 5), int(f.h * 7 / 5));
-    s(box & cv::Rect(0, 0, s.cols, s.rows)).setTo(1.0f);
-  }
   SignificanceMap map;
   map.width = s.cols;
   map.height = s.rows;
   map.scale = double(s.cols) / image_width;
   map.values.assign(s.begin<float>(), s.end<float>());
+  paint_faces(map, detect_faces(image, options.face_cascade));
   return map;
+}
+
+void paint_faces(SignificanceMap& map, const std::vector<tiles::Rect>& faces) {
+  cv::Mat m(map.height, map.width, CV_32F, map.values.data());
+  // Faces matter whatever their texture: the whole (slightly enlarged) box is fully significant.
+  for (const auto& f : faces) {
+    cv::Rect box(int(f.x - f.w / 5), int(f.y - f.h / 5), int(f.w * 7 / 5), int(f.h * 7 / 5));
+    m(box & cv::Rect(0, 0, m.cols, m.rows)).setTo(1.0f);
+  }
 }
 
 void paint_polygon(SignificanceMap& map, const std::vector<Point>& polygon, float weight) {

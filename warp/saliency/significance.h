@@ -56,6 +56,10 @@ SignificanceMap compute_significance(const tiles::Raster& image, int image_width
 // Faces found (in map pixels) by the Haar cascade: exposed for tests and for the viewer.
 std::vector<tiles::Rect> detect_faces(const tiles::Raster& image, const std::string& cascade);
 
+// Sets each face box (map pixels, as detect_faces finds them in the image the map was made
+// from), enlarged by a fifth on each side, fully significant: every saliency kind gets it.
+void paint_faces(SignificanceMap& map, const std::vector<tiles::Rect>& faces);
+
 // A curator's edit: the significance inside `polygon` (image pixels) becomes `weight` ∈ [0, 1].
 struct SignificanceEdit {
   std::vector<Point> polygon;
