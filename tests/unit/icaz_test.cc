@@ -9,10 +9,13 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <set>
 
 #include "tests/support/images.h"
 #include "tests/support/server_process.h"
 #include "warp/icaz/icaz.h"
+#include "warp/icaz/shape_warp.h"
+#include "warp/core/uniform_zoom.h"
 
 namespace zoomwarp {
 namespace {
@@ -47,31 +50,50 @@ bool inside(const Point& p, const Point& a, const Point& b, const Point& c) {
   return d0 >= -1e-6 && d1 >= -1e-6 && d2 >= -1e-6;
 }
 
-// Screen position of a source point in a view (through the triangle holding it), if any.
-std::optional<Point> to_screen(const warp::View& v, const Point& s) {
-  for (const auto& t : v.source.triangles) {
-    const Point &a = v.source.vertices[t[0]], &b = v.source.vertices[t[1]], &c = v.source.vertices[t[2]];
+// Where a source point lands under the piecewise-affine map `mesh` → `positions` (through the
+// first triangle holding it), if any. Written here, not taken from warp::locate.
+std::optional<Point> map_through(const warp::Mesh& mesh, const std::vector<Point>& positions, const Point& s) {
+  for (const auto& t : mesh.triangles) {
+    const Point &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]], &c = mesh.vertices[t[2]];
     if (!inside(s, a, b, c)) continue;
     const double d = warp::signed_area2(a, b, c);
     const double l0 = warp::signed_area2(s, b, c) / d, l1 = warp::signed_area2(a, s, c) / d, l2 = 1 - l0 - l1;
-    return Point{l0 * v.screen[t[0]].x + l1 * v.screen[t[1]].x + l2 * v.screen[t[2]].x,
-                 l0 * v.screen[t[0]].y + l1 * v.screen[t[1]].y + l2 * v.screen[t[2]].y};
+    return Point{l0 * positions[t[0]].x + l1 * positions[t[1]].x + l2 * positions[t[2]].x,
+                 l0 * positions[t[0]].y + l1 * positions[t[1]].y + l2 * positions[t[2]].y};
   }
   return std::nullopt;
+}
+
+// Screen position of a source point in a view, if any.
+std::optional<Point> to_screen(const warp::View& v, const Point& s) { return map_through(v.source, v.screen, s); }
+
+// The maximum triangle area on screen a view is refined to [ICAZ §5.3, §6.1]: the requested one,
+// raised on large screens so that about IcazOptions::max_screen_triangles triangles cover them
+// (icaz.h: max(max_screen_area, screen pixels / 4096)).
+double effective_max_screen_area(const warp::ViewRequest& r) {
+  return std::max(r.max_screen_area,
+                  double(r.screen_width) * r.screen_height / warp::IcazOptions{}.max_screen_triangles);
+}
+
+// The largest area on screen (px²) of a triangle the view draws.
+double largest_visible_area(const warp::View& v) {
+  double largest = 0;
+  for (int f : v.visible) {
+    const auto& t = v.source.triangles[f];
+    largest = std::max(largest, 0.5 * warp::signed_area2(v.screen[t[0]], v.screen[t[1]], v.screen[t[2]]));
+  }
+  return largest;
 }
 
 void check_view(const warp::Icaz& icaz, const warp::ViewRequest& r, const warp::View& v) {
   const double W = icaz.model().width, H = icaz.model().height;
   const auto& m = v.source;
-  // No fold-overs, and the source mesh is a conforming tiling of the image.
-  double area = 0;
+  // No fold-overs, and the LOD cut is conforming: no T-junction, no hole.
   std::map<std::pair<int, int>, int> edges;
   for (const auto& t : m.triangles) {
     ASSERT_GT(warp::signed_area2(v.warped[t[0]], v.warped[t[1]], v.warped[t[2]]), 0) << "fold-over";
-    area += 0.5 * warp::signed_area2(m.vertices[t[0]], m.vertices[t[1]], m.vertices[t[2]]);
     for (int k = 0; k < 3; ++k) ++edges[{std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])}];
   }
-  EXPECT_NEAR(area, W * H, 1e-6 * W * H);
   for (const auto& [e, n] : edges) {
     const Point &a = m.vertices[e.first], &b = m.vertices[e.second];
     const bool boundary = (a.x == 0 && b.x == 0) || (a.x == W && b.x == W) || (a.y == 0 && b.y == 0) || (a.y == H && b.y == H);
@@ -128,13 +150,14 @@ void check_view(const warp::Icaz& icaz, const warp::ViewRequest& r, const warp::
     EXPECT_NEAR(c->x, r.screen_width / 2.0, 0.5);
     EXPECT_NEAR(c->y, r.screen_height / 2.0, 0.5);
   }
-  // z = 1: the identity crop.
+  // z = 1: the identity crop, exactly — the target is the image's size, where the warp's start
+  // (the affine stretch) is already the optimum.
   if (r.zoom == 1 && W >= r.screen_width && H >= r.screen_height) {
     const double ox = std::clamp(r.cx - r.screen_width / 2.0, 0.0, W - r.screen_width);
     const double oy = std::clamp(r.cy - r.screen_height / 2.0, 0.0, H - r.screen_height);
     for (std::size_t i = 0; i < m.vertices.size(); ++i) {
-      ASSERT_NEAR(v.screen[i].x, m.vertices[i].x - ox, 0.5);
-      ASSERT_NEAR(v.screen[i].y, m.vertices[i].y - oy, 0.5);
+      ASSERT_NEAR(v.screen[i].x, m.vertices[i].x - ox, 1e-9);
+      ASSERT_NEAR(v.screen[i].y, m.vertices[i].y - oy, 1e-9);
     }
   }
   // Lines stay straight on screen (within 1 px of their chord), for visible line vertices.
@@ -189,9 +212,9 @@ INSTANTIATE_TEST_SUITE_P(
       return n;
     });
 
-// Continuity: a zoom step of 0.01 moves every visible point by little. The bound, 3% of the
-// screen diagonal, covers the magnification step of the geometric curve (≤ 2.5% at the screen
-// edge for these images) plus the change of the warp itself.
+// Continuity: a zoom step of 0.01 moves every visible point by little. Measured: 8.79 px (photo)
+// and 8.61 px (4:1 panorama), most of it the geometric curve's magnification step at the screen's
+// edge; the bound, 10 px, leaves ~1 px for the change of the warp itself to grow before it fails.
 TEST(IcazContinuity, SmallZoomStepsMovePointsLittle) {
   for (const char* file : {"boats_lake_sunset.jpg", "pano_grossmugl_field_4to1.png"}) {
     auto icaz = engine(file, true);
@@ -212,7 +235,7 @@ TEST(IcazContinuity, SmallZoomStepsMovePointsLittle) {
         }
     }
     std::printf("[ figures ] %s: largest move of a visible point for a 0.01 zoom step: %.2f px\n", file, worst);
-    EXPECT_LT(worst, 0.03 * std::hypot(480, 360)) << file;
+    EXPECT_LT(worst, 10.0) << file;
   }
 }
 
@@ -240,6 +263,133 @@ TEST(IcazLocalSolve, VisibleVerticesMatchTheWholeSolve) {
   EXPECT_LT(worst, 2.0);
 }
 
+// The coarse warp a view's refinement is judged on, solved here as icaz.cc solves it (same mesh,
+// weights, lines and tolerance; deterministic, so the same positions).
+std::vector<Point> coarse_warp(const warp::ImageModel& m, const warp::ZoomGeometry& g) {
+  warp::WarpOptions options;
+  options.tolerance = 0.05 / g.screen_scale;
+  options.fixed_line_normals = true;
+  const warp::ShapeWarp coarse(m.coarse.mesh, warp::triangle_weights(m.coarse.mesh, m.significance, m.w_min), m.width,
+                               m.height, m.coarse.line_vertices);
+  return coarse.solve(g.target_width, g.target_height, options).positions;
+}
+
+// A view's triangle f as the coarse warp places it (warped pixels): its corners through the
+// affine map of the coarse triangle holding it.
+std::array<Point, 3> coarse_placed(const warp::ImageModel& m, const std::vector<Point>& coarse, const warp::View& v,
+                                   int f) {
+  const auto& t = v.source.triangles[f];
+  const Point &a = v.source.vertices[t[0]], &b = v.source.vertices[t[1]], &c = v.source.vertices[t[2]];
+  const Point centroid{(a.x + b.x + c.x) / 3, (a.y + b.y + c.y) / 3};
+  for (const auto& r : m.coarse.mesh.triangles) {
+    const auto& corners = m.coarse.mesh.vertices;
+    const Point &ra = corners[r[0]], &rb = corners[r[1]], &rc = corners[r[2]];
+    if (!inside(centroid, ra, rb, rc)) continue;
+    auto through = [&](const Point& p) {
+      return warp::combine(warp::barycentric(p, ra, rb, rc), coarse[r[0]], coarse[r[1]], coarse[r[2]]);
+    };
+    return {through(a), through(b), through(c)};
+  }
+  ADD_FAILURE() << "a triangle outside the coarsest mesh";
+  return {};
+}
+
+// The LOD cut's criterion [ICAZ §5.2–5.3]: the triangles in the viewing area are refined until
+// none is larger on screen than the maximum triangle area — 500 px², or on large screens the
+// effective threshold of icaz.h (screen pixels / 4096) — judged, as the paper does to break the
+// chicken-and-egg of §5.2, on the coarse warp: where the coarse warp puts the viewing area and
+// how large it makes each triangle. Checked for every drawn triangle the coarse warp puts in the
+// viewing area, at every zoom of a sweep. What the viewer then sees is the fine warp, which
+// enlarges significant parts beyond the coarse estimate and may move the viewing area: drawn
+// triangles measured up to 1.03–1.31× the threshold on the photo and 1.7–2.7× on the 4:1
+// panorama (360×640 at z = 0.2, where the fold-over guard reweighted the fine level); bounded
+// at 3×, which still catches a cut that stops refining (a coarsest triangle is ~10 000 px²).
+TEST(IcazScreenTriangles, NoneOnScreenAboveTheMaximumAreaAtAnyZoom) {
+  constexpr double kFineWarpGrowth = 3;
+  for (const char* file : {"boats_lake_sunset.jpg", "pano_grossmugl_field_4to1.png"}) {
+    auto icaz = engine(file, true);
+    const warp::ImageModel& m = icaz->model();
+    for (auto [sw, sh] : {std::pair{480, 360}, std::pair{360, 640}, std::pair{3840, 2160}}) {
+      double worst_coarse = 0, worst_drawn = 0;
+      for (int step = 0; step <= 10; ++step) {
+        warp::ViewRequest r;
+        r.zoom = step / 10.0, r.cx = 0.4 * m.width, r.cy = 0.55 * m.height, r.screen_width = sw, r.screen_height = sh;
+        const warp::View v = icaz->view(r);
+        const warp::ZoomGeometry& g = v.geometry;
+        const std::vector<Point> coarse = coarse_warp(m, g);
+        // The viewing area on the coarse warp: centred on the view centre, inside the warped image
+        // (centred where the image is smaller: letterboxing).
+        const Point c = *map_through(m.coarse.mesh, coarse, {r.cx, r.cy});
+        auto origin = [](double centre, double view, double target) {
+          return view >= target ? (target - view) / 2 : std::clamp(centre - view / 2, 0.0, target - view);
+        };
+        const double x0 = origin(c.x, g.view_width, g.target_width), y0 = origin(c.y, g.view_height, g.target_height);
+        const double threshold = effective_max_screen_area(r);
+        double judged = 0;  // the largest, px²
+        for (int f : v.visible) {
+          const auto p = coarse_placed(m, coarse, v, f);
+          const bool in_view =
+              std::max({p[0].x, p[1].x, p[2].x}) > x0 && std::min({p[0].x, p[1].x, p[2].x}) < x0 + g.view_width &&
+              std::max({p[0].y, p[1].y, p[2].y}) > y0 && std::min({p[0].y, p[1].y, p[2].y}) < y0 + g.view_height;
+          if (in_view) judged = std::max(judged, 0.5 * warp::signed_area2(p[0], p[1], p[2]) * g.screen_scale * g.screen_scale);
+        }
+        EXPECT_LE(judged, threshold * (1 + 1e-6)) << file << " " << sw << "x" << sh << " z=" << r.zoom;
+        worst_coarse = std::max(worst_coarse, judged / threshold);
+        worst_drawn = std::max(worst_drawn, largest_visible_area(v) / threshold);
+      }
+      std::printf("[ figures ] %s %dx%d, z = 0..1: largest triangle on screen / threshold: %.3f under the coarse "
+                  "warp, %.3f drawn\n", file, sw, sh, worst_coarse, worst_drawn);
+      EXPECT_LE(worst_drawn, kFineWarpGrowth) << file << " " << sw << "x" << sh;
+    }
+  }
+}
+
+// Nested iteration [ICAZ §6.2]: the fine level starts from the coarse result, which is nearly its
+// answer, so it needs fewer local–global iterations than the same solve from the affine stretch.
+// The fine system is rebuilt here from the view — its mesh, and its forest nodes' mean
+// significance mapped to [w_min, 1] by the range of the roots' means as icaz.cc does — and solved
+// from the affine stretch; the whole refined mesh is solved (solve_margin ∞), so nothing is
+// pinned. The paper reports a factor of two; Anderson acceleration makes even the affine start
+// quick, so the saving here is 1–2 iterations: measured 4–7 against 5–8 per view, 43 against 57
+// over this sweep.
+TEST(IcazNestedIteration, TheFineLevelFromTheCoarseResultNeedsFewerIterations) {
+  const auto shared = engine("boats_lake_sunset.jpg", false);
+  warp::IcazOptions whole_mesh;
+  whole_mesh.solve_margin = std::numeric_limits<double>::infinity();
+  warp::Icaz icaz(shared->model(), whole_mesh);
+  const warp::ImageModel& m = icaz.model();
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (int root = 0; root < m.forest.root_count(); ++root)
+    lo = std::min<double>(lo, m.node_mean[root]), hi = std::max<double>(hi, m.node_mean[root]);
+  int nested_total = 0, affine_total = 0;
+  for (auto [sw, sh] : {std::pair{480, 360}, std::pair{360, 640}})
+    for (double z : {0.2, 0.4, 0.6, 0.8}) {
+      warp::ViewRequest r;
+      r.zoom = z, r.cx = 0.45 * m.width, r.cy = 0.5 * m.height, r.screen_width = sw, r.screen_height = sh;
+      const warp::View v = icaz.view(r);
+      ASSERT_GT(v.source.triangles.size(), m.coarse.mesh.triangles.size()) << "nothing refined at z=" << z;
+      std::vector<double> weights;
+      for (std::size_t f = 0; f < v.nodes.size(); ++f) {  // nodes past the stored forest: made lazily
+        const auto& t = v.source.triangles[f];
+        const double mean = std::size_t(v.nodes[f]) < m.node_mean.size()
+                                ? m.node_mean[v.nodes[f]]
+                                : warp::mean_over_triangle(m.significance, v.source.vertices[t[0]],
+                                                           v.source.vertices[t[1]], v.source.vertices[t[2]]);
+        weights.push_back(m.w_min + (1 - m.w_min) * std::clamp((mean - lo) / (hi - lo), 0.0, 1.0));
+      }
+      warp::WarpOptions options;  // as icaz.cc asks: 0.05 screen px
+      options.tolerance = 0.05 / v.geometry.screen_scale;
+      options.fixed_line_normals = true;
+      const auto affine = warp::ShapeWarp(v.source, weights, m.width, m.height)
+                              .solve(v.geometry.target_width, v.geometry.target_height, options);
+      EXPECT_TRUE(v.fine_stats.converged && affine.converged);
+      EXPECT_LT(v.fine_stats.iterations, affine.iterations) << sw << "x" << sh << " z=" << z;
+      nested_total += v.fine_stats.iterations, affine_total += affine.iterations;
+    }
+  std::printf("[ figures ] fine level over 8 views: %d iterations from the coarse result, %d from the affine "
+              "stretch\n", nested_total, affine_total);
+}
+
 // Memory cap: nodes made lazily beyond the stored forest are forgotten once there are too many;
 // views keep working, and a geomorph across the trim is refused rather than wrong.
 TEST(IcazForestCap, LazyNodesAreForgottenAndOldViewsRefused) {
@@ -261,30 +411,38 @@ TEST(IcazForestCap, LazyNodesAreForgottenAndOldViewsRefused) {
   EXPECT_EQ(g.from.size(), g.source.vertices.size());
 }
 
-TEST(IcazZoomCurve, EndpointsAndMonotonicMagnification) {
-  const auto g0 = warp::zoom_geometry(5400, 2500, 480, 360, 0);
-  EXPECT_NEAR(g0.target_width / g0.target_height, 480.0 / 360, 1e-9);
-  EXPECT_NEAR(g0.view_width, g0.target_width, 1e-6);
-  EXPECT_NEAR(g0.target_width * g0.target_height, 5400.0 * 2500, 1e-3);
-  const auto g1 = warp::zoom_geometry(5400, 2500, 480, 360, 1);
-  EXPECT_NEAR(g1.target_width, 5400, 1e-6);
-  EXPECT_NEAR(g1.view_width, 480, 1e-6);
-  EXPECT_NEAR(g1.screen_scale, 1, 1e-12);
-  double last = 0;
-  for (double z = 0; z <= 1.0001; z += 0.05)
-    for (auto curve : {warp::ZoomCurve::kLinear, warp::ZoomCurve::kGeometric}) {
-      const auto g = warp::zoom_geometry(5400, 2500, 480, 360, z, curve);
-      EXPECT_LE(g.view_width, g.target_width + 1e-9);
-      EXPECT_LE(g.view_height, g.target_height + 1e-9);
-      if (curve == warp::ZoomCurve::kGeometric) {
-        EXPECT_GT(g.screen_scale, last);
-        last = g.screen_scale;
-      }
+// The zoom evolution [ICAZ §5.1]: the target aspect ratio and the size of the viewing area are
+// interpolated between their extremes — aspect from the screen's (z = 0) to the image's (z = 1),
+// viewing-area width from the whole z = 0 warped image to the screen — and the warped image keeps
+// the source's area. The paper's curve is linear in both; the geometric one (our default) makes
+// the viewing-area width w0·(sw/w0)^z. Interior points are checked against these formulas,
+// written out here, where an interpolation gone wrong shows and the ends would not; the image is
+// large enough that the viewing area fits the warped image there (no clamp applies).
+TEST(IcazZoomCurve, InteriorPointsFollowThePapersInterpolation) {
+  const double W = 5400, H = 2500, sw = 480, sh = 360;
+  const double w0 = std::sqrt(W * H * sw / sh);  // the z = 0 warped image's width
+  for (double z : {0.25, 0.5, 0.75}) {
+    SCOPED_TRACE("z=" + std::to_string(z));
+    const double aspect = (1 - z) * sw / sh + z * W / H;
+    const double linear_w = (1 - z) * w0 + z * sw, geometric_w = w0 * std::pow(sw / w0, z);
+    for (auto [curve, view_w] :
+         {std::pair{warp::ZoomCurve::kLinear, linear_w}, std::pair{warp::ZoomCurve::kGeometric, geometric_w}}) {
+      const auto g = warp::zoom_geometry(W, H, sw, sh, z, curve);
+      EXPECT_NEAR(g.target_width, std::sqrt(W * H * aspect), 1e-6);
+      EXPECT_NEAR(g.target_height, std::sqrt(W * H / aspect), 1e-6);
+      EXPECT_NEAR(g.view_width, view_w, 1e-6);
+      EXPECT_NEAR(g.view_height, view_w * sh / sw, 1e-6);
+      EXPECT_NEAR(g.screen_scale, sw / view_w, 1e-12);
     }
-  // Geometric: equal steps multiply the magnification by the same factor.
-  const double r1 = warp::zoom_geometry(5400, 2500, 480, 360, 0.3).screen_scale / warp::zoom_geometry(5400, 2500, 480, 360, 0.2).screen_scale;
-  const double r2 = warp::zoom_geometry(5400, 2500, 480, 360, 0.7).screen_scale / warp::zoom_geometry(5400, 2500, 480, 360, 0.6).screen_scale;
-  EXPECT_NEAR(r1, r2, 1e-9);
+  }
+  // The ends: the screen's aspect and the whole warped image at z = 0, the image 1:1 at z = 1.
+  const auto g0 = warp::zoom_geometry(W, H, sw, sh, 0, warp::ZoomCurve::kLinear);
+  EXPECT_NEAR(g0.target_width, w0, 1e-6);
+  EXPECT_NEAR(g0.view_width, w0, 1e-6);
+  const auto g1 = warp::zoom_geometry(W, H, sw, sh, 1, warp::ZoomCurve::kLinear);
+  EXPECT_NEAR(g1.target_width, W, 1e-6);
+  EXPECT_NEAR(g1.target_height, H, 1e-6);
+  EXPECT_NEAR(g1.screen_scale, 1, 1e-12);
 }
 
 }  // namespace
@@ -293,9 +451,12 @@ TEST(IcazZoomCurve, EndpointsAndMonotonicMagnification) {
 namespace zoomwarp {
 namespace {
 
-// Geomorphing: the common refinement holds every vertex of both views, reproduces each view's
-// positions exactly, and draws each view unfolded.
-TEST(IcazGeomorph, CommonRefinementCarriesBothViews) {
+// Geomorphing [ICAZ §5.3]: the common refinement of two views' cuts holds every vertex of both,
+// and its two position sets draw each view exactly — a grid of source points lands through the
+// geomorph's mesh where it lands in that view, both located here through each mesh's own
+// triangles — with neither end folded. So a client interpolating from one to the other starts
+// and ends on the views themselves, without a pop.
+TEST(IcazGeomorph, EachEndDrawsItsViewExactly) {
   auto icaz = engine("boats_lake_sunset.jpg", true);
   const double W = icaz->model().width, H = icaz->model().height;
   warp::ViewRequest a, b;
@@ -303,24 +464,25 @@ TEST(IcazGeomorph, CommonRefinementCarriesBothViews) {
   b.zoom = 0.7, b.cx = 0.7 * W, b.cy = 0.4 * H;
   const warp::View va = icaz->view(a), vb = icaz->view(b);
   const warp::Geomorph g = icaz->geomorph(va, vb);
-  std::map<int, int> index;
-  for (int i = 0; i < int(g.forest_vertex.size()); ++i) index[g.forest_vertex[i]] = i;
-  EXPECT_GE(g.source.vertices.size(), std::max(va.source.vertices.size(), vb.source.vertices.size()));
+  std::set<int> common(g.forest_vertex.begin(), g.forest_vertex.end());
   for (const auto* v : {&va, &vb})
-    for (int i = 0; i < int(v->forest_vertex.size()); ++i) {
-      auto it = index.find(v->forest_vertex[i]);
-      ASSERT_NE(it, index.end()) << "a vertex of a view is missing from the common refinement";
-      const Point& p = (v == &va ? g.from : g.to)[it->second];
-      EXPECT_EQ(p.x, v->screen[i].x);
-      EXPECT_EQ(p.y, v->screen[i].y);
+    for (int f : v->forest_vertex) ASSERT_TRUE(common.count(f)) << "a view's vertex is missing from the common refinement";
+  EXPECT_GT(g.source.vertices.size(), std::max(va.source.vertices.size(), vb.source.vertices.size()));
+  double worst = 0;
+  for (int gy = 0; gy <= 16; ++gy)
+    for (int gx = 0; gx <= 24; ++gx) {
+      const Point s{W * (gx + 0.37) / 25, H * (gy + 0.61) / 17};  // off the forest's bisection lines
+      for (const auto& [view, ends] : {std::pair{&va, &g.from}, std::pair{&vb, &g.to}}) {
+        const auto expected = to_screen(*view, s), drawn = map_through(g.source, *ends, s);
+        ASSERT_TRUE(expected && drawn);
+        worst = std::max(worst, std::hypot(drawn->x - expected->x, drawn->y - expected->y));
+      }
     }
-  double area = 0;
+  EXPECT_LT(worst, 1e-6) << "a geomorph end does not draw its view";
   for (const auto& t : g.source.triangles) {
-    area += 0.5 * warp::signed_area2(g.source.vertices[t[0]], g.source.vertices[t[1]], g.source.vertices[t[2]]);
     EXPECT_GT(warp::signed_area2(g.from[t[0]], g.from[t[1]], g.from[t[2]]), 0);
     EXPECT_GT(warp::signed_area2(g.to[t[0]], g.to[t[1]], g.to[t[2]]), 0);
   }
-  EXPECT_NEAR(area, W * H, 1e-6 * W * H);
 }
 
 }  // namespace

@@ -106,6 +106,35 @@ TEST(RetargetZoom, FillsTheScreenWithoutFoldsAtEveryZoomAndKeepsLinesStraight) {
     }
 }
 
+// Retargeting+Zooming [ICAZ §6.1] keeps the z = 0 distortion at every zoom (ICAZ unrolls it):
+// each edge on screen at zoom z is its z = 0 edge times one factor, the ratio of the geometric
+// curve's magnifications s(z) = s0·(1/s0)^z, s0 = min(sw/W', sh/H') — computed here, not read
+// from the view.
+TEST(RetargetZoom, ZoomingKeepsTheZoomZeroWarp) {
+  warp::RetargetZoom rz(boats(), boats().significance);
+  warp::ViewRequest r;
+  r.screen_width = 360, r.screen_height = 640;
+  r.cx = 1200, r.cy = 700;
+  const warp::View v0 = rz.view(r);
+  const double tw = std::sqrt(2560.0 * 1600 * 360 / 640), th = std::sqrt(2560.0 * 1600 * 640 / 360);
+  const double s0 = std::min(360 / tw, 640 / th);
+  for (double z : {0.25, 0.5, 1.0}) {
+    SCOPED_TRACE("z=" + std::to_string(z));
+    r.zoom = z;
+    const warp::View v = rz.view(r);
+    ASSERT_EQ(v.source.triangles, v0.source.triangles);
+    const double k = std::pow(1 / s0, z);
+    double worst = 0;
+    for (const auto& t : v.source.triangles)
+      for (int e = 0; e < 3; ++e) {
+        const int i = t[e], j = t[(e + 1) % 3];
+        worst = std::max({worst, std::abs((v.screen[j].x - v.screen[i].x) - k * (v0.screen[j].x - v0.screen[i].x)),
+                          std::abs((v.screen[j].y - v.screen[i].y) - k * (v0.screen[j].y - v0.screen[i].y))});
+      }
+    EXPECT_LT(worst, 1e-6) << "the z = 0 warp is not what is zoomed";
+  }
+}
+
 TEST(RetargetZoom, TheSaliencyMapDrivesTheWarp) {
   const warp::ImageModel& m = boats();
   warp::SignificanceMap inverted = m.significance;

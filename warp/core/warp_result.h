@@ -15,7 +15,7 @@ struct WarpResult {
   bool converged = false;
   int guard_rounds = 0;  // rounds of the fold-over guard that were needed
   double affine_blend = 0;  // how far the result was blended towards the affine stretch (0: not)
-  int inverted = 0;         // triangles still inverted at the end (0 by construction)
+  int inverted = 0;         // triangles still inverted at the end (0 with the fold-over guard on)
 };
 
 }  // namespace zoomwarp::warp

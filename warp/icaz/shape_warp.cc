@@ -497,7 +497,7 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
   // and the warp goes on from where it is, until no triangle is inverted.
   auto bad = m.inverted(r.positions);
   std::vector<double> w = m.weights;
-  for (int round = 0; !bad.empty() && round < options.max_guard_rounds; ++round) {
+  for (int round = 0; options.fold_guard && !bad.empty() && round < options.max_guard_rounds; ++round) {
     // The neighbourhood grows by one ring of triangles per round; the last round makes every
     // weight 1 (uniform weights warp the rectangle almost affinely, with nothing to fold).
     std::vector<char> near(m.mesh.vertices.size(), 0);
@@ -538,7 +538,7 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
   // uniform weights): blend towards the affine stretch, which folds nothing and meets the same
   // boundary constraints, as little as needed (bisection on the blend factor). With pinned
   // vertices the affine stretch would move them; the (fold-free) start is the fallback then.
-  if (!bad.empty()) {
+  if (options.fold_guard && !bad.empty()) {
     std::vector<Point> affine = start;
     if (!m.has_pinned)
       for (std::size_t i = 0; i < affine.size(); ++i)

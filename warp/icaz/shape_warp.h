@@ -45,6 +45,9 @@ struct WarpOptions {
   // Converged when no vertex moved more than this many target pixels in an iteration.
   double tolerance = 0.02;
   int max_guard_rounds = 6;  // fold-over guard (see solve())
+  // false: no fold-over guard at all (neither rounds nor the affine blend), so that a test can see
+  // what the shape energy alone folds; every caller in the product keeps it on.
+  bool fold_guard = true;
   // Local–global iterations per guard round (each refactors the joint system). Bounded well
   // below max_iterations: a round only has to unfold, and what it leaves folded the affine blend
   // unfolds — so the guard's cost is bounded (a 4:1 panorama on a square screen at z = 0).
