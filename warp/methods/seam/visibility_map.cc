@@ -105,10 +105,15 @@ CarveTable carve(const VisibilityMap& map, int k) {
   out.positions.resize(std::size_t(out.kept) * out.lines);
   for (int l = 0; l < map.lines; ++l) {
     std::uint16_t* kept = out.positions.data() + std::size_t(l) * out.kept;
+    int j = 0;
     for (int p = 0; p < map.length; ++p) {
       const int v = map.at(l, p);
-      if (v == 0 || v > k) *kept++ = std::uint16_t(p);
+      if (v != 0 && v <= k) continue;
+      // A checked map keeps exactly length − k per line; never write past the line regardless.
+      if (j == out.kept) throw std::logic_error("a line keeps more positions than its carving allows");
+      kept[j++] = std::uint16_t(p);
     }
+    if (j != out.kept) throw std::logic_error("a line keeps fewer positions than its carving allows");
   }
   return out;
 }
