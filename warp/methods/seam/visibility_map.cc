@@ -3,6 +3,7 @@
 #include <lqr.h>
 
 #include <algorithm>
+#include <future>
 #include <memory>
 #include <stdexcept>
 
@@ -77,7 +78,11 @@ VisibilityMap carve_axis(const tiles::Raster& image, std::vector<gdouble> bias, 
 VisibilityMaps compute_visibility_maps(const tiles::Raster& image, const SignificanceMap& saliency, int bias_factor) {
   if (image.width < 1 || image.height < 1) throw std::invalid_argument("visibility maps of an empty image");
   const std::vector<gdouble> bias = bias_of(saliency, image.width, image.height);
-  return {carve_axis(image, bias, bias_factor, false), carve_axis(image, bias, bias_factor, true)};
+  // The axes are independent carvers (liblqr keeps no global state): the vertical one runs on
+  // another thread, which halves the ingest's wall time for this file on two cores or more.
+  auto vertical = std::async(std::launch::async, [&] { return carve_axis(image, bias, bias_factor, true); });
+  VisibilityMap horizontal = carve_axis(image, bias, bias_factor, false);
+  return {std::move(horizontal), vertical.get()};
 }
 
 std::string check_visibility_map(const VisibilityMap& map) {
