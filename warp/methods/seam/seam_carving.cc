@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
+#include <vector>
 
 #include "warp/core/uniform_zoom.h"
 #include "warp/render/level_patch.h"
@@ -87,15 +88,26 @@ VisibilityMaps parse_visibility_maps(std::string_view bytes) {
   return maps;
 }
 
+int CarvedImage::line_at(double across) const {
+  const double across_length = vertical ? width : height;
+  return std::clamp(int(std::floor(across * analysis_lines / across_length)), 0, analysis_lines - 1);
+}
+
+CarvedImage::Kept CarvedImage::kept_at(double along) const {
+  // The kept positions fill the target evenly; the fraction within one is carried through.
+  const int n = table->kept;
+  const double u = std::clamp(along * n / (vertical ? height : width), 0.0, double(n));
+  const int j = std::min(int(u), n - 1);
+  return {j, u - j};
+}
+
+double CarvedImage::source_along(int line, const Kept& kept) const {
+  return (table->line(line)[kept.index] + kept.fraction) * source_length / analysis_length;
+}
+
 Point CarvedImage::to_source(const Point& p) const {
   const double along = vertical ? p.y : p.x, across = vertical ? p.x : p.y;
-  const double target = vertical ? height : width, across_length = vertical ? width : height;
-  const int line = std::clamp(int(std::floor(across * analysis_lines / across_length)), 0, analysis_lines - 1);
-  const int n = table->kept;
-  // The kept positions fill the target evenly; the fraction within one is carried through.
-  const double u = std::clamp(along * n / target, 0.0, double(n));
-  const int j = std::min(int(u), n - 1);
-  const double source = (table->line(line)[j] + (u - j)) * source_length / analysis_length;
+  const double source = source_along(line_at(across), kept_at(along));
   return vertical ? Point{across, source} : Point{source, across};
 }
 
@@ -191,17 +203,32 @@ tiles::Raster SeamCarving::render(const ViewRequest& r, const tiles::ImageEntry&
   const LevelPatch patch =
       read_patch(image, reader, level_for(std::max(scale, along_magnification), m.levels), u0, v0, u1, v1);
 
+  // Per screen row and column what the carving needs of it — along the carved axis the kept
+  // index and fraction, across it the analysis line — so a pixel is one table read and one sample.
+  // Outside the carved image (letterbox: it is smaller than the screen) nothing is drawn.
+  const auto carved_at = [&](int i, bool y_axis) { return (y_axis ? v.view_y : v.view_x) + (i + 0.5) / scale; };
+  const int along_count = c.vertical ? sh : sw, across_count = c.vertical ? sw : sh;
+  std::vector<CarvedImage::Kept> kept(along_count);
+  for (int i = 0; i < along_count; ++i) {
+    const double t = carved_at(i, c.vertical);
+    kept[i] = t < 0 || t > target ? CarvedImage::Kept{-1, 0} : c.kept_at(t);
+  }
+  std::vector<int> line(across_count, -1);
+  std::vector<double> across(across_count);
+  for (int i = 0; i < across_count; ++i) {
+    across[i] = carved_at(i, !c.vertical);
+    if (across[i] >= 0 && across[i] <= across_length) line[i] = c.line_at(across[i]);
+  }
+
   tiles::Raster out(sw, sh, m.channels);
   for (int y = 0; y < sh; ++y) {
     check_stop(r.stop);
-    const double cy = v.view_y + (y + 0.5) / scale;
-    if (cy < 0 || cy > c.height) continue;  // letterbox: the carved image is smaller than the screen
     std::uint8_t* row = out.row(y);
     for (int x = 0; x < sw; ++x) {
-      const double cx = v.view_x + (x + 0.5) / scale;
-      if (cx < 0 || cx > c.width) continue;
-      const Point s = c.to_source({cx, cy});
-      patch.sample(s.x, s.y, row + std::size_t(x) * m.channels);
+      const int a = c.vertical ? y : x, b = c.vertical ? x : y;
+      if (kept[a].index < 0 || line[b] < 0) continue;
+      const double source = c.source_along(line[b], kept[a]);
+      patch.sample(c.vertical ? across[b] : source, c.vertical ? source : across[b], row + std::size_t(x) * m.channels);
     }
   }
   return out;

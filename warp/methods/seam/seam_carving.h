@@ -54,6 +54,16 @@ struct CarvedImage {
 
   // The source point shown at carved point p (inside [0, W_s] × [0, H_s]).
   Point to_source(const Point& p) const;
+  // to_source in parts, for a renderer that reuses them along a screen row or column: the
+  // analysis line at `across` (carved = source coordinate across the carved axis), the kept index
+  // and the fraction within it at carved coordinate `along`, and the source coordinate they give.
+  struct Kept {
+    int index = 0;
+    double fraction = 0;
+  };
+  int line_at(double across) const;
+  Kept kept_at(double along) const;
+  double source_along(int line, const Kept& kept) const;
   // The carved position of source point p (a removed pixel: where its line's next kept one is).
   Point from_source(const Point& p) const;
 };
