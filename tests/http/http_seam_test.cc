@@ -47,7 +47,8 @@ class Seam : public ::testing::Test {
     dir_ = new testing::TempDir;
     const std::string file = dir_->path() + "/boats.png";
     testing::write_image(file, bright_boats());
-    const auto ingest = testing::run_command({testing::zoomwarp_binary(), "ingest", file, "--store", store(), "--id", "boats"});
+    const auto ingest =
+        testing::run_command({testing::zoomwarp_binary(), "ingest", file, "--store", store(), "--id", "boats"});
     ingest_output_ = new std::string(ingest.output);
     ASSERT_EQ(ingest.exit_code, 0) << ingest.output;
     server_ = new testing::ServerProcess(store());
@@ -92,7 +93,8 @@ TEST_F(Seam, ViewportIsExactlyTheScreenAndCoveredAtEveryZoom) {
   for (auto [w, h] : {std::pair{360, 640}, {640, 360}, {400, 400}, {480, 300}})
     for (const char* zoom : {"0", "0.25", "0.5", "0.75", "1"})
       for (const char* centre : {"", "&cx=100&cy=700", "&cx=1200&cy=400"}) {
-        const std::string q = "zoom=" + std::string(zoom) + "&w=" + std::to_string(w) + "&h=" + std::to_string(h) + centre;
+        const std::string q =
+            "zoom=" + std::string(zoom) + "&w=" + std::to_string(w) + "&h=" + std::to_string(h) + centre;
         SCOPED_TRACE(q);
         const tiles::Raster r = viewport("boats", q);
         ASSERT_EQ(r.width, w);
@@ -121,8 +123,9 @@ TEST_F(Seam, ANarrowScreenCarvesInsteadOfCropping) {
   std::printf("[ figures ] seam at 1:1 vs uniform squeeze %.1f dB, vs centre crop %.1f dB\n", vs_squeezed, vs_cropped);
   // The left and right edges are the image's (seams rarely take border columns of a textured
   // photo); a centre crop would lose them.
-  const tiles::Raster left = testing::crop(carved, {0, 100, 8, 200}), image_left = testing::crop(squeezed, {0, 100, 8, 200});
-  EXPECT_GT(testing::psnr(left, image_left), testing::psnr(left, testing::crop(cropped, {0, 100, 8, 200})));
+  const tiles::Rect strip{0, 100, 8, 200};
+  const tiles::Raster left = testing::crop(carved, strip);
+  EXPECT_GT(testing::psnr(left, testing::crop(squeezed, strip)), testing::psnr(left, testing::crop(cropped, strip)));
 }
 
 TEST_F(Seam, MeshAnswers501WithAClearError) {
@@ -143,7 +146,8 @@ TEST_F(Seam, EveryImageShapeGetsItsScreen) {
     upload(id, testing::test_pattern(s.w, s.h, 3));
     for (Size screen : {Size{360, 640}, Size{640, 360}, Size{400, 400}})
       for (const char* zoom : {"0", "0.5", "1"}) {
-        const std::string q = "zoom=" + std::string(zoom) + "&w=" + std::to_string(screen.w) + "&h=" + std::to_string(screen.h);
+        const std::string q =
+            "zoom=" + std::string(zoom) + "&w=" + std::to_string(screen.w) + "&h=" + std::to_string(screen.h);
         SCOPED_TRACE(id + " " + q);
         const tiles::Raster r = viewport(id, q);
         EXPECT_EQ(r.width, screen.w);

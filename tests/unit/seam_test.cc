@@ -214,7 +214,8 @@ TEST(SeamDegenerate, ThinAndTinyImagesCarveWhatCanBeCarved) {
   struct Case {
     int w, h;
   };
-  for (Case s : {Case{1, 1}, Case{2, 2}, Case{1, 1024}, Case{2, 1024}, Case{1024, 1}, Case{1024, 2}, Case{16, 16}, Case{3, 700}}) {
+  for (Case s : {Case{1, 1}, Case{2, 2}, Case{1, 1024}, Case{2, 1024}, Case{1024, 1}, Case{1024, 2}, Case{16, 16},
+                 Case{3, 700}}) {
     SCOPED_TRACE(std::to_string(s.w) + "x" + std::to_string(s.h));
     const tiles::Raster image = testing::test_pattern(s.w, s.h, 3);
     warp::SignificanceMap flat;

@@ -111,6 +111,20 @@ Point CarvedImage::to_source(const Point& p) const {
   return vertical ? Point{across, source} : Point{source, across};
 }
 
+CarvedImage::Box CarvedImage::source_box(double x0, double y0, double x1, double y1) const {
+  const double along0 = vertical ? y0 : x0, along1 = vertical ? y1 : x1;
+  const double across0 = vertical ? x0 : y0, across1 = vertical ? x1 : y1;
+  const int j0 = kept_at(along0).index, j1 = kept_at(along1).index;
+  const double unit = source_length / analysis_length;
+  // Kept positions increase along a line: its first and last visible ones bound it.
+  double source0 = source_length, source1 = 0;
+  for (int l = line_at(across0), last = line_at(across1); l <= last; ++l) {
+    source0 = std::min(source0, table->line(l)[j0] * unit);
+    source1 = std::max(source1, (table->line(l)[j1] + 1) * unit);
+  }
+  return vertical ? Box{across0, source0, across1, source1} : Box{source0, across0, source1, across1};
+}
+
 Point CarvedImage::from_source(const Point& p) const {
   const double along = vertical ? p.y : p.x, across = vertical ? p.x : p.y;
   const double target = vertical ? height : width, across_length = vertical ? width : height;
@@ -178,30 +192,16 @@ tiles::Raster SeamCarving::render(const ViewRequest& r, const tiles::ImageEntry&
   // The carved rectangle on screen, and the source box its kept positions come from.
   const double x0 = std::max(0.0, v.view_x), x1 = std::min(c.width, v.view_x + sw / scale);
   const double y0 = std::max(0.0, v.view_y), y1 = std::min(c.height, v.view_y + sh / scale);
-  const Point a = c.to_source({x0, y0}), b = c.to_source({x1, y1});
-  double along0 = c.source_length, along1 = 0;
-  const double across0 = c.vertical ? x0 : y0, across1 = c.vertical ? x1 : y1;
-  const double across_length = c.vertical ? c.width : c.height;
-  const int first = std::clamp(int(across0 * c.analysis_lines / across_length), 0, c.analysis_lines - 1);
-  const int last = std::clamp(int(std::ceil(across1 * c.analysis_lines / across_length)), first + 1, c.analysis_lines);
+  const CarvedImage::Box box = c.source_box(x0, y0, x1, y1);
+  const double target = c.vertical ? c.height : c.width, across_length = c.vertical ? c.width : c.height;
   const double unit = c.source_length / c.analysis_length;  // image px per analysis position
-  const double target = c.vertical ? c.height : c.width;
-  const int n = c.table->kept;
-  const int j0 = std::clamp(int((c.vertical ? y0 : x0) * n / target), 0, n - 1);
-  const int j1 = std::clamp(int((c.vertical ? y1 : x1) * n / target), 0, n - 1);
-  for (int l = first; l < last; ++l) {
-    along0 = std::min(along0, c.table->line(l)[j0] * unit);
-    along1 = std::max(along1, (c.table->line(l)[j1] + 1) * unit);
-  }
-  const double u0 = c.vertical ? a.x : along0, u1 = c.vertical ? b.x : along1;
-  const double v0 = c.vertical ? along0 : a.y, v1 = c.vertical ? along1 : b.y;
 
   // One level for the screen: the finer of the two axes' magnifications decides, so neither
   // is minified by more than 2× (render/level_patch.h).
-  const double along_magnification = scale * (target / n) / unit;
+  const double along_magnification = scale * (target / c.table->kept) / unit;
   const tiles::Manifest& m = image.manifest;
-  const LevelPatch patch =
-      read_patch(image, reader, level_for(std::max(scale, along_magnification), m.levels), u0, v0, u1, v1);
+  const int level = level_for(std::max(scale, along_magnification), m.levels);
+  const LevelPatch patch = read_patch(image, reader, level, box.u0, box.v0, box.u1, box.v1);
 
   // Per screen row and column what the carving needs of it — along the carved axis the kept
   // index and fraction, across it the analysis line — so a pixel is one table read and one sample.

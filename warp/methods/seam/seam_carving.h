@@ -64,6 +64,11 @@ struct CarvedImage {
   int line_at(double across) const;
   Kept kept_at(double along) const;
   double source_along(int line, const Kept& kept) const;
+  // The source rectangle (image px) that carved rectangle [x0, x1] × [y0, y1] is drawn from.
+  struct Box {
+    double u0, v0, u1, v1;
+  };
+  Box source_box(double x0, double y0, double x1, double y1) const;
   // The carved position of source point p (a removed pixel: where its line's next kept one is).
   Point from_source(const Point& p) const;
 };
