@@ -8,10 +8,13 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <string_view>
 
 #include "tests/support/http_client.h"
 #include "tests/support/images.h"
 #include "tests/support/server_process.h"
+#include "warp/analysis/model_file.h"
+#include "warp/methods/seam/seam_carving.h"
 
 namespace zoomwarp {
 namespace {
@@ -126,6 +129,41 @@ TEST_F(Seam, ANarrowScreenCarvesInsteadOfCropping) {
   const tiles::Rect strip{0, 100, 8, 200};
   const tiles::Raster left = testing::crop(carved, strip);
   EXPECT_GT(testing::psnr(left, testing::crop(squeezed, strip)), testing::psnr(left, testing::crop(cropped, strip)));
+}
+
+// The view centre is carried through the carving: at zoom 1 the screen's centre pixel is the
+// image pixel the request named, wherever seams removed columns left of it. 1280×800 on 400×400
+// keeps 800 of 1280 image columns: with the analysis image at r image px per column (the pyramid
+// level ≤ 1024 px: 640×400, r = 2), a kept analysis column p stands for image columns r·p …
+// r·p + r − 1, and screen pixel 200 samples carved x + 0.5 — the centre of image pixel r·p. The
+// stored map says which columns are kept, and so where p lands (centres whose view would be
+// clamped at the carved image's edges are left out).
+TEST_F(Seam, TheViewCentreIsTrackedThroughTheCarving) {
+  const warp::RetargetingMethod& seam = *warp::find_retargeting_method("seam");
+  const std::string file = version_dir(store(), "boats") + "/seam.default.bin";
+  const auto [sealed, format] = warp::checked_payload("seam.default.bin", testing::read_file(file), seam.magic, seam.magic);
+  const warp::VisibilityMap map =
+      warp::parse_visibility_maps(std::string_view(sealed).substr(seam.magic.size())).horizontal;
+  ASSERT_EQ(1280 % map.length, 0);
+  const int r = 1280 / map.length, k = map.length - 800 / r;
+  const tiles::Raster source = bright_boats();
+  int checked = 0;
+  for (int cy : {250, 400, 520})
+    for (int p = map.length / 4; p < map.length * 3 / 4 && checked < 4 * (cy / 250); p += 11) {
+      const auto kept = [&](int q) { return map.at(cy / r, q) == 0 || map.at(cy / r, q) > k; };
+      if (!kept(p)) continue;  // carved away: no image pixel of it is shown
+      int left = 0;  // kept columns left of p: its carved position is r · left
+      for (int q = 0; q < p; ++q) left += kept(q);
+      if (r * left < 200 || r * left > 600) continue;  // the view would be clamped at an edge
+      const int cx = r * p;
+      SCOPED_TRACE("cx " + std::to_string(cx) + " cy " + std::to_string(cy));
+      const tiles::Raster shown =
+          viewport("boats", "zoom=1&w=400&h=400&cx=" + std::to_string(cx) + "&cy=" + std::to_string(cy));
+      ASSERT_EQ(shown.width, 400);
+      for (int c = 0; c < 3; ++c) EXPECT_EQ(shown.row(200)[200 * 3 + c], source.row(cy)[cx * 3 + c]) << "channel " << c;
+      ++checked;
+    }
+  EXPECT_GE(checked, 8);
 }
 
 TEST_F(Seam, MeshAnswers501WithAClearError) {
