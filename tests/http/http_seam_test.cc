@@ -166,6 +166,19 @@ TEST_F(Seam, TheViewCentreIsTrackedThroughTheCarving) {
   EXPECT_GE(checked, 8);
 }
 
+// saliency=gbvs biases the seams with the GBVS map (seam.gbvs.bin, written at ingest): another
+// carving of the same image, still exactly the screen.
+TEST_F(Seam, GbvsSaliencyCarvesAnotherWay) {
+  EXPECT_TRUE(fs::exists(version_dir(store(), "boats") + "/seam.gbvs.bin"));
+  const tiles::Raster with_default = viewport("boats", "zoom=0&w=400&h=400");
+  const tiles::Raster with_gbvs = viewport("boats", "zoom=0&w=400&h=400&saliency=gbvs");
+  ASSERT_EQ(with_gbvs.width, 400);
+  ASSERT_EQ(with_gbvs.height, 400);
+  EXPECT_EQ(uncovered_pixels(with_gbvs), 0);
+  EXPECT_NE(with_gbvs.pixels, with_default.pixels);
+  std::printf("[ figures ] seam, 1:1 screen: gbvs vs default saliency %.1f dB\n", testing::psnr(with_gbvs, with_default));
+}
+
 TEST_F(Seam, MeshAnswers501WithAClearError) {
   auto r = http.get("/v1/images/boats/mesh?method=seam&zoom=0&w=400&h=400");
   EXPECT_EQ(r.status, 501);

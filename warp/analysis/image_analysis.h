@@ -42,7 +42,7 @@ inline constexpr const char* kModelFile = "warp_model.bin";
 inline constexpr const char* kModelJsonFile = "warp.json";
 
 // The ingest hook: builds the image's model (no lines yet) and writes its files into the (still
-// staged) folder, the retargeting methods' files (method_files.h) for the default saliency
+// staged) folder, the retargeting methods' files (method_files.h) for every saliency kind
 // included. Returns how long each method file took. Throws std::runtime_error if it cannot write.
 std::vector<MethodFileTiming> write_image_analysis(const tiles::ImageEntry& image,
                                                    const SignificanceOptions& significance = {});
