@@ -29,6 +29,8 @@ build_pkgs=(
   nlohmann-json3-dev libturbojpeg0-dev libpng-dev libwebp-dev libssl-dev
   libopencv-imgproc-dev libopencv-objdetect-dev
   libssl-dev
+  # seam carving (warp/methods/seam/): liblqr's headers include GLib's, which its package does not pull in
+  liblqr-1-0-dev libglib2.0-dev
 )
 # Working on it: the face cascades the binary loads at run time (the container image gets them
 # from deploy/runtime-packages.txt), git, and the test and benchmark libraries.

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <string>
 
 #include "server/commands.h"
 #include "server/settings.h"
@@ -59,7 +60,8 @@ int ingest_command(const std::vector<std::string>& args) {
     // Time the warp engine's analysis apart from the pyramid: it is the part that grows with
     // the model, not with the pixels.
     using Clock = std::chrono::steady_clock;
-    tiles::IngestOptions options = ingest_options(o, analysis_settings(o).significance);
+    std::vector<warp::MethodFileTiming> method_timings;
+    tiles::IngestOptions options = ingest_options(o, analysis_settings(o).significance, &method_timings);
     double analysis_s = 0;
     options.analyse = [&, analyse = options.analyse](const tiles::ImageEntry& staged) {
       const auto t0 = Clock::now();
@@ -71,9 +73,18 @@ int ingest_command(const std::vector<std::string>& args) {
     const double total_s = std::chrono::duration<double>(Clock::now() - t0).count();
     if (bar) std::fputc('\n', stderr);
     if (quiet) std::printf("%s\n", m.id.c_str());
-    else
-      std::printf("ingested %s: %dx%d, %d levels, version %s, in %s; %.2f s (warp analysis %.2f s)\n", m.id.c_str(),
-                  m.width, m.height, m.levels, m.version.c_str(), store.root().c_str(), total_s, analysis_s);
+    else {
+      // The methods' precomputations are part of the warp analysis: each one's share.
+      std::string methods;
+      for (const auto& t : method_timings) {
+        char took[32];
+        std::snprintf(took, sizeof took, " %.2f s", t.seconds);
+        methods += (methods.empty() ? "; " : ", ") + t.file + took;
+      }
+      std::printf("ingested %s: %dx%d, %d levels, version %s, in %s; %.2f s (warp analysis %.2f s%s)\n", m.id.c_str(),
+                  m.width, m.height, m.levels, m.version.c_str(), store.root().c_str(), total_s, analysis_s,
+                  methods.c_str());
+    }
     return 0;
   } catch (const std::invalid_argument& e) {
     std::fprintf(stderr, "zoomwarp ingest: %s\n", e.what());

@@ -34,7 +34,8 @@ AnalysisSettings analysis_settings(const Options& o) {
   return s;
 }
 
-tiles::IngestOptions ingest_options(const Options& o, const warp::SignificanceOptions& significance) {
+tiles::IngestOptions ingest_options(const Options& o, const warp::SignificanceOptions& significance,
+                                    std::vector<warp::MethodFileTiming>* method_timings) {
   tiles::IngestOptions opt;
   opt.limits.max_pixels = std::uint64_t(o.integer("max-pixels", 1, 1LL << 40));
   opt.pyramid.compression = o.str("tile-compression");
@@ -43,7 +44,10 @@ tiles::IngestOptions ingest_options(const Options& o, const warp::SignificanceOp
   if (c != "zip" && !zip_level && c != "lzw" && c != "none")
     throw std::invalid_argument("--tile-compression must be zip:1 … zip:9, zip, lzw or none, not '" + c + "'");
   // The warp engine's significance map, published with the image.
-  opt.analyse = [significance](const tiles::ImageEntry& staged) { warp::write_image_analysis(staged, significance); };
+  opt.analyse = [significance, method_timings](const tiles::ImageEntry& staged) {
+    auto timings = warp::write_image_analysis(staged, significance);
+    if (method_timings) *method_timings = std::move(timings);
+  };
   return opt;
 }
 

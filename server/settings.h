@@ -6,6 +6,7 @@
 
 #include "server/options.h"
 #include "tiles/ingest.h"
+#include "warp/analysis/method_files.h"
 #include "warp/saliency/significance.h"
 
 namespace zoomwarp::server {
@@ -21,6 +22,9 @@ struct AnalysisSettings {
 };
 AnalysisSettings analysis_settings(const Options& o);
 
-tiles::IngestOptions ingest_options(const Options& o, const warp::SignificanceOptions& significance);
+// The ingest options; the warp analysis hook stores each method file's precompute time in
+// `*method_timings` when given (`zoomwarp ingest` prints them).
+tiles::IngestOptions ingest_options(const Options& o, const warp::SignificanceOptions& significance,
+                                    std::vector<warp::MethodFileTiming>* method_timings = nullptr);
 
 }  // namespace zoomwarp::server

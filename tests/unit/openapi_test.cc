@@ -8,10 +8,12 @@
 #include <optional>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <string>
 #include <string_view>
 
 #include "api/assets.h"
 #include "api/router.h"
+#include "warp/methods/retargeting_method.h"
 
 namespace zoomwarp {
 namespace {
@@ -112,6 +114,22 @@ TEST(OpenApi, EveryReferenceResolvesAndEveryOperationHasAnId) {
         EXPECT_TRUE(ids.insert(op["operationId"].get<std::string>()).second) << "duplicate operationId";
         EXPECT_TRUE(op.contains("responses")) << method << " " << path;
       }
+}
+
+
+// `method=` offers the ICAZ operator's three and every registered retargeting method, and /mesh
+// declares the 501 that a method without a mesh answers.
+TEST(OpenApi, MethodEnumIsTheRegistry) {
+  const json doc = json::parse(*api::asset("openapi.json"));
+  std::set<std::string> want = {"icaz", "traditional", "retarget-zoom"};
+  bool meshless = false;
+  for (const warp::RetargetingMethod* m : warp::retargeting_methods()) {
+    want.emplace(m->name);
+    meshless |= !m->has_mesh;
+  }
+  const json& values = doc["components"]["parameters"]["method"]["schema"]["enum"];
+  EXPECT_EQ(std::set<std::string>(values.begin(), values.end()), want);
+  EXPECT_TRUE(!meshless || doc["paths"]["/v1/images/{id}/mesh"]["get"]["responses"].contains("501"));
 }
 
 }  // namespace

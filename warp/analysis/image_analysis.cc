@@ -74,6 +74,18 @@ void validate_shapes(const ModelEdit& edit) {
   }
 }
 
+// The saliency kinds `image` has method files for (a version ingested before the methods: none).
+std::vector<Saliency> method_file_kinds(const tiles::ImageEntry& image) {
+  std::vector<Saliency> out;
+  for (Saliency kind : kSaliencies)
+    for (const RetargetingMethod* method : retargeting_methods())
+      if (method->precompute && exists(image, method_file_name(*method, kind).c_str())) {
+        out.push_back(kind);
+        break;
+      }
+  return out;
+}
+
 // warp.json: the curator's lines, significance edits and dismissed suggestions, checked like a
 // new edit would be. A warp.json from before line detection has no "dismissed_lines": none.
 ModelEdit read_model_json(const tiles::ImageEntry& image) {
@@ -138,7 +150,8 @@ void read_model_bin(const tiles::ImageEntry& image, ImageModel& m) {
 
 }  // namespace
 
-void write_image_analysis(const tiles::ImageEntry& image, const SignificanceOptions& significance) {
+std::vector<MethodFileTiming> write_image_analysis(const tiles::ImageEntry& image,
+                                                   const SignificanceOptions& significance) {
   tiles::PyramidReader reader(32 << 20);  // its own small cache: staged files are about to move
   const tiles::Raster analysis = read_reduced_image(image, reader);
   const ImageModel model =
@@ -146,7 +159,7 @@ void write_image_analysis(const tiles::ImageEntry& image, const SignificanceOpti
   write_image_model(image.dir, model);
   write_detected_lines(image, reader);
   write_gbvs_map(image.dir, gbvs_significance(analysis, image.manifest.width, significance));
-  write_method_files(image.dir, image, reader, model, kSaliencies);
+  return write_method_files(image.dir, image, reader, model, kSaliencies);
 }
 
 void write_image_model(const std::string& dir, const ImageModel& model) {
@@ -247,6 +260,12 @@ std::shared_ptr<const tiles::ImageEntry> edit_image_model(tiles::Store& store, c
   const std::string staging = store.make_staging_copy(current);
   try {
     write_image_model(staging, model);
+    // The methods read the significance map (as seam carving's bias): precomputed again from the
+    // edited one, on the same pyramid.
+    if (!edit.significance.empty()) {
+      tiles::PyramidReader reader(32 << 20);
+      write_method_files(staging, current, reader, model, method_file_kinds(current));
+    }
   } catch (...) {
     store.discard(staging);
     throw;

@@ -29,6 +29,7 @@
 
 #include "tiles/pyramid_reader.h"
 #include "tiles/store.h"
+#include "warp/analysis/method_files.h"
 #include "warp/analysis/model_file.h"
 #include "warp/analysis/saliency_files.h"
 #include "warp/icaz/image_model.h"
@@ -41,8 +42,10 @@ inline constexpr const char* kModelFile = "warp_model.bin";
 inline constexpr const char* kModelJsonFile = "warp.json";
 
 // The ingest hook: builds the image's model (no lines yet) and writes its files into the (still
-// staged) folder. Throws std::runtime_error if it cannot write.
-void write_image_analysis(const tiles::ImageEntry& image, const SignificanceOptions& significance = {});
+// staged) folder, the retargeting methods' files (method_files.h) for every saliency kind
+// included. Returns how long each method file took. Throws std::runtime_error if it cannot write.
+std::vector<MethodFileTiming> write_image_analysis(const tiles::ImageEntry& image,
+                                                   const SignificanceOptions& significance = {});
 
 // Writes the model's files into `dir` (each to a temporary name, then renamed into place).
 void write_image_model(const std::string& dir, const ImageModel& model);
@@ -110,7 +113,9 @@ struct ModelEdit {
 void validate(const ModelEdit& edit);
 
 // Publishes a new version of `current`'s image with the edit applied to `model` (current's
-// model; read from its files when not given). Throws std::invalid_argument for a bad edit,
+// model; read from its files when not given). When the edit paints significance, the retargeting
+// methods' files are precomputed again for every saliency kind `current` has them for (the others
+// are hard links of `current`'s: their inputs did not change). Throws std::invalid_argument for a bad edit,
 // LimitExceeded when the image would keep more than limits::kMaxStoredRegions regions, and
 // tiles::VersionConflict if the image changed since `current` was read. Nothing is published
 // when it throws.

@@ -3,11 +3,12 @@
 #include "warp/methods/retargeting_method.h"
 
 #include "warp/methods/retarget_zoom/retarget_zoom.h"
+#include "warp/methods/seam/seam_carving.h"
 
 namespace zoomwarp::warp {
 
 std::span<const RetargetingMethod* const> retargeting_methods() {
-  static const RetargetingMethod* const kAll[] = {&retarget_zoom_method()};
+  static const RetargetingMethod* const kAll[] = {&retarget_zoom_method(), &seam_carving_method()};
   return kAll;
 }
 

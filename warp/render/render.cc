@@ -4,40 +4,30 @@
 #include <cmath>
 #include <map>
 
+#include "warp/render/level_patch.h"
+
 namespace zoomwarp::warp {
 
-namespace {
-
-// The pyramid level for a triangle shown at `magnification` screen pixels per source pixel:
-// level k has 2^-k of the full resolution; take the coarsest one with 2^-k ≥ magnification.
 int level_for(double magnification, int levels) {
   if (!(magnification > 0)) return levels - 1;
   const int k = int(std::floor(std::log2(1 / magnification) + 1e-9));
   return std::clamp(k, 0, levels - 1);
 }
 
-// Pixels of one pyramid level around a source rectangle, for bilinear sampling.
-struct LevelPatch {
-  tiles::Raster pixels;
-  double scale = 1;         // level pixels per source pixel
-  long long x0 = 0, y0 = 0;  // patch origin in level pixels
-
-  // Bilinear sample at source position (u, v); level pixel centres are at integer + 0.5.
-  void sample(double u, double v, std::uint8_t* out) const {
-    const double x = u * scale - 0.5 - double(x0), y = v * scale - 0.5 - double(y0);
-    const int xi = int(std::floor(x)), yi = int(std::floor(y));
-    const double fx = x - xi, fy = y - yi;
-    const int xa = std::clamp(xi, 0, pixels.width - 1), xb = std::clamp(xi + 1, 0, pixels.width - 1);
-    const int ya = std::clamp(yi, 0, pixels.height - 1), yb = std::clamp(yi + 1, 0, pixels.height - 1);
-    const int c = pixels.channels;
-    const std::uint8_t *r0 = pixels.row(ya), *r1 = pixels.row(yb);
-    for (int k = 0; k < c; ++k) {
-      const double top = r0[xa * c + k] + fx * (r0[xb * c + k] - r0[xa * c + k]);
-      const double bottom = r1[xa * c + k] + fx * (r1[xb * c + k] - r1[xa * c + k]);
-      out[k] = std::uint8_t(std::lround(std::clamp(top + fy * (bottom - top), 0.0, 255.0)));
-    }
+void LevelPatch::sample(double u, double v, std::uint8_t* out) const {
+  const double x = u * scale - 0.5 - double(x0), y = v * scale - 0.5 - double(y0);
+  const int xi = int(std::floor(x)), yi = int(std::floor(y));
+  const double fx = x - xi, fy = y - yi;
+  const int xa = std::clamp(xi, 0, pixels.width - 1), xb = std::clamp(xi + 1, 0, pixels.width - 1);
+  const int ya = std::clamp(yi, 0, pixels.height - 1), yb = std::clamp(yi + 1, 0, pixels.height - 1);
+  const int c = pixels.channels;
+  const std::uint8_t *r0 = pixels.row(ya), *r1 = pixels.row(yb);
+  for (int k = 0; k < c; ++k) {
+    const double top = r0[xa * c + k] + fx * (r0[xb * c + k] - r0[xa * c + k]);
+    const double bottom = r1[xa * c + k] + fx * (r1[xb * c + k] - r1[xa * c + k]);
+    out[k] = std::uint8_t(std::lround(std::clamp(top + fy * (bottom - top), 0.0, 255.0)));
   }
-};
+}
 
 LevelPatch read_patch(const tiles::ImageEntry& image, tiles::PyramidReader& reader, int level, double u0, double v0,
                       double u1, double v1) {
@@ -52,8 +42,6 @@ LevelPatch read_patch(const tiles::ImageEntry& image, tiles::PyramidReader& read
   p.pixels = reader.read_level(image, level, {p.x0, p.y0, x1 - p.x0, y1 - p.y0});
   return p;
 }
-
-}  // namespace
 
 tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEntry& image,
                           tiles::PyramidReader& reader, const StopToken* stop) {

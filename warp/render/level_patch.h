@@ -1,0 +1,37 @@
+// Reading pyramid pixels for a screen: which level serves a magnification, and a patch of that
+// level sampled bilinearly at source positions. render_view uses them per triangle; renderers
+// that need no triangles (seam carving, methods/seam/) use them per screen pixel.
+//
+// Thread safety: plain functions; a LevelPatch is immutable once read.
+#pragma once
+
+#include <cstdint>
+
+#include "tiles/pyramid_reader.h"
+#include "tiles/raster.h"
+#include "tiles/store.h"
+
+namespace zoomwarp::warp {
+
+// The pyramid level for content shown at `magnification` screen pixels per source pixel: level k
+// has 2^-k of the full resolution; the coarsest one with 2^-k ≥ magnification, so nothing is
+// minified by more than 2× (no aliasing shimmer).
+int level_for(double magnification, int levels);
+
+// Pixels of one pyramid level around a source rectangle, for bilinear sampling.
+struct LevelPatch {
+  tiles::Raster pixels;
+  double scale = 1;          // level pixels per source pixel
+  long long x0 = 0, y0 = 0;  // patch origin in level pixels
+
+  // Bilinear sample at source position (u, v) into out[0 … channels); level pixel centres are at
+  // integer + 0.5, positions beyond the patch take its border pixels.
+  void sample(double u, double v, std::uint8_t* out) const;
+};
+
+// The patch of `level` covering source rectangle [u0, u1] × [v0, v1] (clamped to the image) with
+// one pixel to spare. Throws std::runtime_error if the pyramid cannot be read.
+LevelPatch read_patch(const tiles::ImageEntry& image, tiles::PyramidReader& reader, int level, double u0, double v0,
+                      double u1, double v1);
+
+}  // namespace zoomwarp::warp
