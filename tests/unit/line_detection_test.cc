@@ -132,7 +132,9 @@ TEST(LineDetection, KeepsTheLongestWithinTheCuratorsLimits) {
   double total = 0;
   for (std::size_t i = 0; i < found.size(); ++i) {
     total += length(found[i]);
-    if (i > 0) EXPECT_GE(length(found[i - 1]), length(found[i]) - 1e-9) << "longest first";
+    if (i > 0) {
+      EXPECT_GE(length(found[i - 1]), length(found[i]) - 1e-9) << "longest first";
+    }
   }
   EXPECT_LE(total, warp::limits::kMaxTotalLineLength * 1024);
 }
