@@ -42,7 +42,7 @@ inline constexpr int kRecordedSeamsPercent = 90;
 // liblqr's bias factor for the saliency map (values in [0, 1]). liblqr adds factor · s / 2 to a
 // pixel's energy and divides it by the carved side: at 1024 px a fully salient pixel gets ~0.5,
 // the order of the gradient-norm energy on textured content, so saliency and texture both count.
-// Calibrated by SeamBias's test (docs/seam.md): at half width 29.9 % of the top-decile salient
+// Calibrated by SeamBias's test (docs/algorithms.md, "seam"): at half width 29.9 % of the top-decile salient
 // pixels are removed without a bias, 22.9 % with factor 100, 18.6 % with 1000, 18.3 % with
 // 100 000 — past 1000 the bias only overrides the energy more.
 inline constexpr int kSaliencyBiasFactor = 1000;
