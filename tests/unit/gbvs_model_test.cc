@@ -18,13 +18,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string read_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 // The boats ingested with their model, then a region (the boats' right half) marked unimportant.
 class GbvsModel : public ::testing::Test {
  protected:
@@ -83,7 +76,7 @@ TEST_F(GbvsModel, IngestWritesGbvsAndIcazKeepsItsMeshWithTheGbvsMeans) {
 }
 
 TEST_F(GbvsModel, CuratorEditsApplyToTheGbvsMapAndItsFileIsCarriedOver) {
-  EXPECT_EQ(read_bytes(edited_->dir + "/" + warp::kGbvsFile), read_bytes(original_->dir + "/" + warp::kGbvsFile));
+  EXPECT_EQ(testing::read_file(edited_->dir + "/" + warp::kGbvsFile), testing::read_file(original_->dir + "/" + warp::kGbvsFile));
   const warp::ImageModel before = gbvs_model(*original_).model, after = gbvs_model(*edited_).model;
   const double s = after.significance.scale;
   const int x = int(1800 * s), y = int(1000 * s);
@@ -100,7 +93,7 @@ TEST_F(GbvsModel, ADamagedGbvsFileIsComputedAgainInMemoryAndReported) {
     const tiles::ImageEntry c{edited_->manifest, copies_.path() + "/" + damage};
     fs::copy(edited_->dir, c.dir);
     const std::string path = c.dir + "/" + warp::kGbvsFile;
-    std::string bytes = read_bytes(path);
+    std::string bytes = testing::read_file(path);
     if (damage == "truncated") bytes.resize(bytes.size() / 2);
     if (damage == "flipped") bytes[bytes.size() / 2] ^= 0x10;
     if (damage == "deleted") fs::remove(path);
@@ -112,7 +105,7 @@ TEST_F(GbvsModel, ADamagedGbvsFileIsComputedAgainInMemoryAndReported) {
     } else {
       EXPECT_EQ(loaded.source, warp::ModelSource::kRebuiltWithEdits);
       EXPECT_EQ(loaded.damaged_file, warp::kGbvsFile);
-      EXPECT_EQ(read_bytes(path), bytes) << "never written into a published version";
+      EXPECT_EQ(testing::read_file(path), bytes) << "never written into a published version";
     }
     EXPECT_TRUE(loaded.model.significance.values == intact.significance.values) << "the same map, edits painted";
     EXPECT_TRUE(loaded.model.node_mean == intact.node_mean);

@@ -20,13 +20,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string read_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 void write_bytes(const std::string& path, const std::string& bytes) {
   std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
 }
@@ -44,7 +37,7 @@ const char* name(Damage d) {
 }
 
 void damage(const std::string& path, Damage d) {
-  std::string bytes = read_bytes(path);
+  std::string bytes = testing::read_file(path);
   switch (d) {
     case Damage::kTruncate: bytes.resize(bytes.size() * 2 / 3); break;
     case Damage::kFlipMiddle:
@@ -153,7 +146,7 @@ TEST_F(ModelFiles, NoModelFilesAtAllIsAVersionFromBeforeModelsAndIsBuilt) {
 TEST_F(ModelFiles, FilesOfThePreviousFormatAreStillRead) {
   const tiles::ImageEntry c = copy();
   for (const char* file : {warp::kSignificanceFile, warp::kModelFile}) {
-    std::string bytes = read_bytes(c.dir + "/" + file);
+    std::string bytes = testing::read_file(c.dir + "/" + file);
     bytes.resize(bytes.size() - 12);
     const std::size_t digit = bytes.find('2');
     ASSERT_LT(digit, 8u);
@@ -168,7 +161,7 @@ TEST_F(ModelFiles, FilesOfThePreviousFormatAreStillRead) {
 TEST_F(ModelFiles, AChecksumCatchesAFlipThatParsesAndAFileOfAnotherImageIsRefused) {
   // A flip inside the significance values still parses as floats: only the checksum sees it.
   tiles::ImageEntry c = copy();
-  std::string bytes = read_bytes(c.dir + "/" + warp::kSignificanceFile);
+  std::string bytes = testing::read_file(c.dir + "/" + warp::kSignificanceFile);
   bytes[bytes.size() / 2] ^= 0x01;
   write_bytes(c.dir + "/" + warp::kSignificanceFile, bytes);
   EXPECT_THROW(warp::read_significance(c), warp::ModelFileError);
@@ -191,7 +184,7 @@ TEST_F(ModelFiles, ADamagedDetectedLinesFileIsDetectedAgainInMemory) {
   const std::vector<warp::Segment> stored = warp::read_detected_lines(*edited_, reader_);
   ASSERT_FALSE(stored.empty());
   const auto other_detector = [](const std::string& path) {
-    std::string text = read_bytes(path);
+    std::string text = testing::read_file(path);
     text.replace(text.find("canny+houghp/1"), 14, "canny+houghp/0");
     write_bytes(path, text);
   };
@@ -201,11 +194,11 @@ TEST_F(ModelFiles, ADamagedDetectedLinesFileIsDetectedAgainInMemory) {
     const std::string path = c.dir + "/" + warp::kDetectedLinesFile;
     if (k < 4) damage(path, Damage(k));
     else other_detector(path);
-    const std::string before = fs::exists(path) ? read_bytes(path) : "";
+    const std::string before = fs::exists(path) ? testing::read_file(path) : "";
     const auto again = warp::read_detected_lines(c, reader_);
     ASSERT_EQ(again.size(), stored.size());
     for (std::size_t i = 0; i < again.size(); ++i) EXPECT_TRUE(warp::same_segment(again[i], stored[i], 0.01)) << i;
-    EXPECT_EQ(fs::exists(path) ? read_bytes(path) : "", before) << "the version is not written";
+    EXPECT_EQ(fs::exists(path) ? testing::read_file(path) : "", before) << "the version is not written";
   }
 }
 
@@ -228,7 +221,7 @@ TEST_F(ModelFiles, DismissedLinesLiveInWarpJson) {
   EXPECT_EQ(rebuilt.model.dismissed_lines.size(), 1u);
 
   const tiles::ImageEntry old = copy();
-  nlohmann::json stored = nlohmann::json::parse(read_bytes(old.dir + "/" + warp::kModelJsonFile));
+  nlohmann::json stored = nlohmann::json::parse(testing::read_file(old.dir + "/" + warp::kModelJsonFile));
   ASSERT_EQ(stored.erase("dismissed_lines"), 1u);
   write_bytes(old.dir + "/" + warp::kModelJsonFile, stored.dump(2));
   EXPECT_TRUE(warp::read_image_model(old).dismissed_lines.empty());
