@@ -129,6 +129,8 @@ struct Contender {
   double precompute_ms = 0;  // the engine's first load: model files read, method loaded
   std::function<warp::View(const warp::ViewRequest&)> view;
   std::function<tiles::Raster(const warp::ViewRequest&)> render;
+  // Without a mesh: what each screen pixel shows (Retargeter::screen_sources).
+  std::function<std::vector<warp::Point>(const warp::ViewRequest&)> screen_sources;
 };
 
 struct Cell {
@@ -261,6 +263,7 @@ std::vector<Contender> make_contenders(const Settings& s, api::WarpEngines& engi
       c.has_mesh = engine->has_mesh();
       c.view = [engine](const warp::ViewRequest& r) { return engine->view(r); };
       c.render = [&e, &reader, engine](const warp::ViewRequest& r) { return engine->render(r, e, reader); };
+      c.screen_sources = [engine](const warp::ViewRequest& r) { return engine->screen_sources(r); };
     }
     c.precompute_ms += ms_since(t0);
     out.push_back(std::move(c));
@@ -310,7 +313,7 @@ std::vector<std::vector<warp::SheetCell>> run(const Settings& s, const tiles::Im
       cell.viewport_ms = ms_since(start);
       cell.metrics = c.has_mesh ? warp::mesh_view_metrics(c.view(r), plain->traditional(r), map, lines, s.screen_width,
                                                           s.screen_height)
-                                : warp::raster_view_metrics(shown);
+                                : warp::raster_view_metrics(shown, c.screen_sources(r), plain->traditional(r), map);
       report["rows"].push_back(row_json(c.name, cell));
       row.push_back({std::move(shown), label(c.name, cell)});
     }

@@ -117,10 +117,35 @@ TEST(Metrics, PartialCoverageIsItsShare) {
   // A rendered screen: the letterbox colour (0) is not covered.
   tiles::Raster screen(10, 4, 3);
   for (int y = 0; y < 3; ++y) std::fill_n(screen.row(y), 30, std::uint8_t(200));
-  const auto r = warp::raster_view_metrics(screen);
+  const auto r = warp::raster_view_metrics(screen, {}, warp::View{}, warp::SignificanceMap{});
   EXPECT_DOUBLE_EQ(r.coverage, 0.75);
   EXPECT_FALSE(r.folds);
   EXPECT_FALSE(r.scale_gain);
+}
+
+TEST(Metrics, ARasterMethodsGainCountsTheScreenPixelsShowingTheSalientRegion) {
+  // A 10 × 10 image whose left column is the salient tenth; traditional zoom shows it 1:1 on a
+  // 10 × 10 screen (10 salient pixels). A method that draws that column two pixels wide (and the
+  // other nine columns into the remaining eight) shows it on 20: gain 2.
+  warp::SignificanceMap map;
+  map.width = map.height = 10, map.scale = 1;
+  map.values.assign(100, 0.f);
+  for (int y = 0; y < 10; ++y) map.values[std::size_t(y) * 10] = 1.f;
+  warp::View traditional;
+  traditional.geometry.screen_scale = 1;
+  std::vector<Point> sources;
+  for (int y = 0; y < 10; ++y)
+    for (int x = 0; x < 10; ++x) sources.push_back({x < 2 ? 0.5 : 1 + (x - 2 + 0.5) * 9 / 8, y + 0.5});
+  tiles::Raster screen(10, 10, 3);
+  std::fill(screen.pixels.begin(), screen.pixels.end(), std::uint8_t(128));
+  const auto r = warp::raster_view_metrics(screen, sources, traditional, map);
+  ASSERT_TRUE(r.scale_gain);
+  EXPECT_DOUBLE_EQ(*r.scale_gain, 2);
+  EXPECT_DOUBLE_EQ(r.coverage, 1);
+  EXPECT_FALSE(r.anisotropy_salient);
+  // Letterboxed pixels (NaN) show nothing.
+  std::fill(sources.begin(), sources.begin() + 10, Point{std::nan(""), std::nan("")});
+  EXPECT_DOUBLE_EQ(*warp::raster_view_metrics(screen, sources, traditional, map).scale_gain, 1.8);
 }
 
 TEST(Metrics, SimilarityFitResidual) {

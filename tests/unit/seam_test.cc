@@ -319,5 +319,30 @@ TEST_F(SeamGeometry, KeptPointsGoThereAndBack) {
   EXPECT_THROW(engine_->view({}), warp::NoMesh);
 }
 
+// What each screen pixel shows (the metrics' input) is the carving seen through the zoom: at
+// equal aspect and zoom 1 the plain crop, pixel centre for pixel centre; on a square screen at
+// zoom 0 every pixel shows a point of the image (no letterbox), each the carved point under it.
+TEST_F(SeamGeometry, ScreenSourcesAreTheCarvingThroughTheZoom) {
+  warp::ViewRequest r;
+  r.screen_width = 48, r.screen_height = 30, r.zoom = 1, r.cx = 800, r.cy = 500;
+  std::vector<warp::Point> s = engine_->screen_sources(r);
+  ASSERT_EQ(s.size(), 48u * 30);
+  for (int y = 0; y < 30; ++y)
+    for (int x = 0; x < 48; ++x) {
+      EXPECT_NEAR(s[std::size_t(y) * 48 + x].x, 800 - 24 + x + 0.5, 1e-9);
+      EXPECT_NEAR(s[std::size_t(y) * 48 + x].y, 500 - 15 + y + 0.5, 1e-9);
+    }
+  r.screen_width = r.screen_height = 40, r.zoom = 0;
+  s = engine_->screen_sources(r);
+  const warp::CarvedImage c = engine_->carved(40, 40);
+  const double scale = 40 / c.width;
+  for (int y = 0; y < 40; y += 7)
+    for (int x = 0; x < 40; x += 5) {
+      const warp::Point expected = c.to_source({(x + 0.5) / scale, (y + 0.5) / scale});
+      EXPECT_NEAR(s[std::size_t(y) * 40 + x].x, expected.x, 1e-9);
+      EXPECT_NEAR(s[std::size_t(y) * 40 + x].y, expected.y, 1e-9);
+    }
+}
+
 }  // namespace
 }  // namespace zoomwarp

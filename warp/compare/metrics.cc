@@ -204,8 +204,39 @@ ViewMetrics mesh_view_metrics(const View& view, const View& traditional, const S
   return out;
 }
 
-ViewMetrics raster_view_metrics(const tiles::Raster& screen) {
+namespace {
+
+// Whether image point p lies in the salient region (the map pixel holding it is salient).
+bool in_salient(const Point& p, const SignificanceMap& map, const std::vector<char>& salient) {
+  if (!(p.x >= 0 && p.y >= 0)) return false;  // NaN too
+  const int x = int(p.x * map.scale), y = int(p.y * map.scale);
+  return x < map.width && y < map.height && salient[std::size_t(y) * map.width + x];
+}
+
+// Screen pixels of traditional zoom (a uniform scale of the image, view.geometry.screen_scale,
+// its origin at view_x, view_y) that show the salient region.
+std::size_t traditional_salient_pixels(const View& v, int sw, int sh, const SignificanceMap& map,
+                                       const std::vector<char>& salient) {
+  const double scale = v.geometry.screen_scale;
+  std::size_t n = 0;
+  for (int y = 0; y < sh; ++y)
+    for (int x = 0; x < sw; ++x)
+      n += in_salient({v.view_x + (x + 0.5) / scale, v.view_y + (y + 0.5) / scale}, map, salient);
+  return n;
+}
+
+}  // namespace
+
+ViewMetrics raster_view_metrics(const tiles::Raster& screen, const std::vector<Point>& sources, const View& traditional,
+                                const SignificanceMap& significance) {
   ViewMetrics out;
+  if (!sources.empty() && sources.size() == std::size_t(screen.width) * screen.height && !significance.values.empty()) {
+    const std::vector<char> salient = salient_region(significance);
+    std::size_t shown = 0;
+    for (const Point& p : sources) shown += in_salient(p, significance, salient);
+    const std::size_t reference = traditional_salient_pixels(traditional, screen.width, screen.height, significance, salient);
+    if (reference > 0) out.scale_gain = double(shown) / double(reference);
+  }
   const std::size_t pixels = std::size_t(screen.width) * screen.height;
   if (pixels == 0) return out;
   const bool alpha = screen.channels == 2 || screen.channels == 4;

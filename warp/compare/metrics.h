@@ -48,10 +48,15 @@ struct ViewMetrics {
 ViewMetrics mesh_view_metrics(const View& view, const View& traditional, const SignificanceMap& significance,
                               const std::vector<Segment>& lines, int screen_width, int screen_height);
 
-// The metrics of a method without a mesh: coverage from its rendered screen, the rest not
-// applicable. A pixel counts as covered unless it is the letterbox colour (every channel 0, or
-// alpha 0 on an image with alpha) — so black image content is undercounted.
-ViewMetrics raster_view_metrics(const tiles::Raster& screen);
+// The metrics of a method without a mesh, from its rendered screen and what each screen pixel
+// shows (Retargeter::screen_sources, image px, NaN where nothing): coverage from the screen (a
+// pixel counts as covered unless it is the letterbox colour — every channel 0, or alpha 0 on an
+// image with alpha — so black image content is undercounted); scale gain = screen pixels showing
+// the salient region ÷ the same count under traditional zoom (`traditional`, at the same
+// request) — pixels counted, which for a mesh view is the area measure above; the rest not
+// applicable (no triangles to measure). Empty `sources`: coverage only.
+ViewMetrics raster_view_metrics(const tiles::Raster& screen, const std::vector<Point>& sources, const View& traditional,
+                                const SignificanceMap& significance);
 
 // The pieces, for tests and for other measures.
 

@@ -11,6 +11,7 @@
 
 #include <cstddef>
 #include <stdexcept>
+#include <vector>
 
 #include "tiles/pyramid_reader.h"
 #include "tiles/raster.h"
@@ -40,6 +41,12 @@ class Retargeter {
   // std::runtime_error when the pyramid cannot be read.
   virtual tiles::Raster render(const ViewRequest& request, const tiles::ImageEntry& image,
                                tiles::PyramidReader& reader);
+
+  // For a method without a mesh, what its screen shows: per screen pixel centre (row-major,
+  // screen_width × screen_height) the image point drawn there, NaN where nothing is (letterbox).
+  // The comparison metrics measure such a method from it (compare/metrics.h). Empty for a mesh
+  // method: its view() says the same. Throws as render() does.
+  virtual std::vector<Point> screen_sources(const ViewRequest& request) { return {}; }
 
   // Bytes held (precomputation and caches), for the engines' memory budget.
   virtual std::size_t memory_bytes() = 0;

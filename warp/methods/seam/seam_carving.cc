@@ -1,6 +1,7 @@
 #include "warp/methods/seam/seam_carving.h"
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
@@ -180,20 +181,53 @@ CarvedImage SeamCarving::carved(int sw, int sh) {
   return c;
 }
 
-tiles::Raster SeamCarving::render(const ViewRequest& r, const tiles::ImageEntry& image, tiles::PyramidReader& reader) {
+SeamCarving::ScreenLayout SeamCarving::layout(const ViewRequest& r) {
   check_view_request(r);
   const int sw = r.screen_width, sh = r.screen_height;
-  const CarvedImage c = carved(sw, sh);
+  ScreenLayout out{carved(sw, sh), {}, {}, {}, {}};
+  const CarvedImage& c = out.carved;
   // Traditional zoom into the carved image [ICAZ §6.1]: its rectangle through core's geometry.
   const Mesh rect{{{0, 0}, {c.width, 0}, {c.width, c.height}, {0, c.height}}, {{0, 1, 2}, {0, 2, 3}}};
-  const View v = uniform_zoom(rect, rect.vertices, c.width, c.height, r, c.from_source({r.cx, r.cy}));
+  out.zoom = uniform_zoom(rect, rect.vertices, c.width, c.height, r, c.from_source({r.cx, r.cy}));
+  const View& v = out.zoom;
+  const double scale = v.geometry.screen_scale;
+  const double target = c.vertical ? c.height : c.width, across_length = c.vertical ? c.width : c.height;
+  const auto carved_at = [&](int i, bool y_axis) { return (y_axis ? v.view_y : v.view_x) + (i + 0.5) / scale; };
+  const int along_count = c.vertical ? sh : sw, across_count = c.vertical ? sw : sh;
+  out.kept.resize(along_count);
+  for (int i = 0; i < along_count; ++i) {
+    const double t = carved_at(i, c.vertical);
+    out.kept[i] = t < 0 || t > target ? CarvedImage::Kept{-1, 0} : c.kept_at(t);
+  }
+  out.line.assign(across_count, -1);
+  out.across.resize(across_count);
+  for (int i = 0; i < across_count; ++i) {
+    out.across[i] = carved_at(i, !c.vertical);
+    if (out.across[i] >= 0 && out.across[i] <= across_length) out.line[i] = c.line_at(out.across[i]);
+  }
+  return out;
+}
+
+bool SeamCarving::ScreenLayout::source_of(int x, int y, Point* p) const {
+  const int a = carved.vertical ? y : x, b = carved.vertical ? x : y;
+  if (kept[a].index < 0 || line[b] < 0) return false;
+  const double source = carved.source_along(line[b], kept[a]);
+  *p = carved.vertical ? Point{across[b], source} : Point{source, across[b]};
+  return true;
+}
+
+tiles::Raster SeamCarving::render(const ViewRequest& r, const tiles::ImageEntry& image, tiles::PyramidReader& reader) {
+  const ScreenLayout s = layout(r);
+  const CarvedImage& c = s.carved;
+  const View& v = s.zoom;
+  const int sw = r.screen_width, sh = r.screen_height;
   const double scale = v.geometry.screen_scale;
 
   // The carved rectangle on screen, and the source box its kept positions come from.
   const double x0 = std::max(0.0, v.view_x), x1 = std::min(c.width, v.view_x + sw / scale);
   const double y0 = std::max(0.0, v.view_y), y1 = std::min(c.height, v.view_y + sh / scale);
   const CarvedImage::Box box = c.source_box(x0, y0, x1, y1);
-  const double target = c.vertical ? c.height : c.width, across_length = c.vertical ? c.width : c.height;
+  const double target = c.vertical ? c.height : c.width;
   const double unit = c.source_length / c.analysis_length;  // image px per analysis position
 
   // One level for the screen: the finer of the two axes' magnifications decides, so neither
@@ -203,34 +237,25 @@ tiles::Raster SeamCarving::render(const ViewRequest& r, const tiles::ImageEntry&
   const int level = level_for(std::max(scale, along_magnification), m.levels);
   const LevelPatch patch = read_patch(image, reader, level, box.u0, box.v0, box.u1, box.v1);
 
-  // Per screen row and column what the carving needs of it — along the carved axis the kept
-  // index and fraction, across it the analysis line — so a pixel is one table read and one sample.
   // Outside the carved image (letterbox: it is smaller than the screen) nothing is drawn.
-  const auto carved_at = [&](int i, bool y_axis) { return (y_axis ? v.view_y : v.view_x) + (i + 0.5) / scale; };
-  const int along_count = c.vertical ? sh : sw, across_count = c.vertical ? sw : sh;
-  std::vector<CarvedImage::Kept> kept(along_count);
-  for (int i = 0; i < along_count; ++i) {
-    const double t = carved_at(i, c.vertical);
-    kept[i] = t < 0 || t > target ? CarvedImage::Kept{-1, 0} : c.kept_at(t);
-  }
-  std::vector<int> line(across_count, -1);
-  std::vector<double> across(across_count);
-  for (int i = 0; i < across_count; ++i) {
-    across[i] = carved_at(i, !c.vertical);
-    if (across[i] >= 0 && across[i] <= across_length) line[i] = c.line_at(across[i]);
-  }
-
   tiles::Raster out(sw, sh, m.channels);
   for (int y = 0; y < sh; ++y) {
     check_stop(r.stop);
     std::uint8_t* row = out.row(y);
     for (int x = 0; x < sw; ++x) {
-      const int a = c.vertical ? y : x, b = c.vertical ? x : y;
-      if (kept[a].index < 0 || line[b] < 0) continue;
-      const double source = c.source_along(line[b], kept[a]);
-      patch.sample(c.vertical ? across[b] : source, c.vertical ? source : across[b], row + std::size_t(x) * m.channels);
+      Point p;
+      if (s.source_of(x, y, &p)) patch.sample(p.x, p.y, row + std::size_t(x) * m.channels);
     }
   }
+  return out;
+}
+
+std::vector<Point> SeamCarving::screen_sources(const ViewRequest& r) {
+  const ScreenLayout s = layout(r);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<Point> out(std::size_t(r.screen_width) * r.screen_height, Point{nan, nan});
+  for (int y = 0; y < r.screen_height; ++y)
+    for (int x = 0; x < r.screen_width; ++x) s.source_of(x, y, &out[std::size_t(y) * r.screen_width + x]);
   return out;
 }
 

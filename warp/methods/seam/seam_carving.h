@@ -85,12 +85,27 @@ class SeamCarving final : public Retargeter {
   // (check_view_request), Stopped, std::runtime_error when the pyramid cannot be read.
   tiles::Raster render(const ViewRequest& request, const tiles::ImageEntry& image,
                        tiles::PyramidReader& reader) override;
+  std::vector<Point> screen_sources(const ViewRequest& request) override;
   std::size_t memory_bytes() override;
 
   // The carving for a screen of sw × sh (its carve table cached, the 8 most recent kept).
   CarvedImage carved(int screen_width, int screen_height);
 
  private:
+  // Where a request's screen pixels come from: the carving, the zoom into it, and per screen
+  // row and column what the carving needs of it — along the carved axis the kept index and
+  // fraction, across it the analysis line (−1 outside the carved image: letterbox) — so a pixel
+  // is one table read. source_of(x, y) is the image point shown at pixel (x, y), if any.
+  struct ScreenLayout {
+    CarvedImage carved;
+    View zoom;
+    std::vector<CarvedImage::Kept> kept;
+    std::vector<int> line;
+    std::vector<double> across;
+    bool source_of(int x, int y, Point* p) const;
+  };
+  ScreenLayout layout(const ViewRequest& request);
+
   std::shared_ptr<const CarveTable> table(bool vertical, int seams);
 
   const double width_, height_;
