@@ -145,7 +145,10 @@ TEST(Metrics, ARasterMethodsGainCountsTheScreenPixelsShowingTheSalientRegion) {
   EXPECT_FALSE(r.anisotropy_salient);
   // Letterboxed pixels (NaN) show nothing.
   std::fill(sources.begin(), sources.begin() + 10, Point{std::nan(""), std::nan("")});
-  EXPECT_DOUBLE_EQ(*warp::raster_view_metrics(screen, sources, traditional, map).scale_gain, 1.8);
+  std::fill(screen.pixels.begin(), screen.pixels.end(), std::uint8_t(0));  // black content is covered
+  const auto letterboxed = warp::raster_view_metrics(screen, sources, traditional, map);
+  EXPECT_DOUBLE_EQ(*letterboxed.scale_gain, 1.8);
+  EXPECT_DOUBLE_EQ(letterboxed.coverage, 0.9);
 }
 
 TEST(Metrics, SimilarityFitResidual) {

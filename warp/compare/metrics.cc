@@ -239,6 +239,11 @@ ViewMetrics raster_view_metrics(const tiles::Raster& screen, const std::vector<P
   }
   const std::size_t pixels = std::size_t(screen.width) * screen.height;
   if (pixels == 0) return out;
+  if (sources.size() == pixels) {
+    // What is drawn where, exactly: black or transparent image content counts as covered.
+    out.coverage = double(std::count_if(sources.begin(), sources.end(), [](const Point& p) { return p.x == p.x; })) / pixels;
+    return out;
+  }
   const bool alpha = screen.channels == 2 || screen.channels == 4;
   std::size_t covered = 0;
   for (int y = 0; y < screen.height; ++y) {

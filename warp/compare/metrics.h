@@ -49,9 +49,9 @@ ViewMetrics mesh_view_metrics(const View& view, const View& traditional, const S
                               const std::vector<Segment>& lines, int screen_width, int screen_height);
 
 // The metrics of a method without a mesh, from its rendered screen and what each screen pixel
-// shows (Retargeter::screen_sources, image px, NaN where nothing): coverage from the screen (a
-// pixel counts as covered unless it is the letterbox colour — every channel 0, or alpha 0 on an
-// image with alpha — so black image content is undercounted); scale gain = screen pixels showing
+// shows (Retargeter::screen_sources, image px, NaN where nothing): coverage = share of pixels
+// that show an image point (without sources: of rendered pixels not of the letterbox colour —
+// every channel 0, or alpha 0 — which undercounts black image content); scale gain = screen pixels showing
 // the salient region ÷ the same count under traditional zoom (`traditional`, at the same
 // request) — pixels counted, which for a mesh view is the area measure above; the rest not
 // applicable (no triangles to measure). Empty `sources`: coverage only.
