@@ -91,9 +91,16 @@ MeshInput random_input(double w, double h, int n, unsigned seed) {
   for (int i = 4; i < 8; ++i) in.constraints.push_back({i, i + 1});
   while (int(in.points.size()) < n) {
     const Point p{x(rng), y(rng)};
-    // away from the chain, so that no random point lands on a constraint
-    if (p.y > h * 0.3 && p.y < h * 0.7 && p.x < w * 0.8) continue;
-    in.points.push_back(p);
+    // Near the chain, so that its edges are not Delaunay edges by themselves, but not on it.
+    bool on_chain = false;
+    for (const auto& [a, b] : in.constraints) {
+      const Point &u = in.points[a], &v = in.points[b];
+      const double t = std::clamp(((p.x - u.x) * (v.x - u.x) + (p.y - u.y) * (v.y - u.y)) /
+                                      ((v.x - u.x) * (v.x - u.x) + (v.y - u.y) * (v.y - u.y)),
+                                  0.0, 1.0);
+      on_chain |= std::hypot(p.x - u.x - t * (v.x - u.x), p.y - u.y - t * (v.y - u.y)) < 2;
+    }
+    if (!on_chain) in.points.push_back(p);
   }
   return in;
 }
@@ -203,6 +210,17 @@ void expect_valid_model(const warp::MpModel& m) {
     }
   EXPECT_EQ(m.row_object_length.size(), std::size_t(std::lround(m.height)));
   EXPECT_EQ(m.column_object_length.size(), std::size_t(std::lround(m.width)));
+  // Every line is a chain of mesh edges on its segment.
+  const auto edges = edges_of(m.mesh);
+  for (const warp::MpLine& l : m.lines) {
+    ASSERT_GE(l.vertices.size(), 3u);
+    const Point a = m.mesh.vertices[l.vertices.front()], b = m.mesh.vertices[l.vertices.back()];
+    for (std::size_t k = 0; k < l.vertices.size(); ++k) {
+      const Point p = m.mesh.vertices[l.vertices[k]];
+      EXPECT_LT(std::abs((b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x)) / std::hypot(b.x - a.x, b.y - a.y), 1e-6);
+      if (k > 0) EXPECT_TRUE(edges.count(std::minmax(l.vertices[k - 1], l.vertices[k]))) << "line chain, vertex " << k;
+    }
+  }
 }
 
 TEST(MpPrecompute, OneDiscIsOneObjectWithItsPoleAtTheCentre) {
@@ -265,9 +283,13 @@ TEST(MpPrecompute, AnObjectAcrossTheImageIsDropped) {
 }
 
 TEST(MpPrecompute, SmallObjectsAreDropped) {
+  // A disc of 1.3 % of the image: an object by default, dropped when objects must cover 2 %.
   Input in(800, 500);
-  in.disc(400, 250, 6);  // 113 px², under 0.2 % of 400 000
-  EXPECT_TRUE(warp::build_mp_model(in.get()).objects.empty());
+  in.disc(400, 250, 40);
+  ASSERT_EQ(warp::build_mp_model(in.get()).objects.size(), 1u);
+  warp::MpPrecomputeOptions options;
+  options.min_object_fraction = 0.02;
+  EXPECT_TRUE(warp::build_mp_model(in.get(), options).objects.empty());
 }
 
 bool inside(const Point& a, const Point& b, const Point& c, const Point& q) {  // barycentric, edges in
