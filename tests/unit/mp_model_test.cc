@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <map>
 #include <random>
@@ -218,7 +219,9 @@ void expect_valid_model(const warp::MpModel& m) {
     for (std::size_t k = 0; k < l.vertices.size(); ++k) {
       const Point p = m.mesh.vertices[l.vertices[k]];
       EXPECT_LT(std::abs((b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x)) / std::hypot(b.x - a.x, b.y - a.y), 1e-6);
-      if (k > 0) EXPECT_TRUE(edges.count(std::minmax(l.vertices[k - 1], l.vertices[k]))) << "line chain, vertex " << k;
+      if (k > 0) {
+        EXPECT_TRUE(edges.count(std::minmax(l.vertices[k - 1], l.vertices[k]))) << "line chain, vertex " << k;
+      }
     }
   }
 }
@@ -402,6 +405,41 @@ TEST(MpModelBytes, RoundTripByteIdenticalAndDeterministic) {
   EXPECT_THROW(warp::parse_mp_model(bad), std::runtime_error);
 }
 
+// The model drawn over the analysis image: object regions tinted, edges white, line chains red,
+// poles blue. Written by the Samples test when ZOOMWARP_MP_FIGURES names a folder.
+void write_figure(const std::string& path, const warp::MpModel& m, const tiles::Raster& analysis) {
+  tiles::Raster r = testing::take_channels(analysis, 3);
+  const auto paint = [&](int x, int y, std::array<std::uint8_t, 3> c, double alpha) {
+    if (x < 0 || y < 0 || x >= r.width || y >= r.height) return;
+    for (int k = 0; k < 3; ++k) r.row(y)[3 * x + k] = std::uint8_t((1 - alpha) * r.row(y)[3 * x + k] + alpha * c[k]);
+  };
+  const auto segment = [&](const Point& a, const Point& b, std::array<std::uint8_t, 3> c) {
+    const int n = int(std::ceil(std::max(std::abs(b.x - a.x), std::abs(b.y - a.y)))) + 1;
+    for (int i = 0; i <= n; ++i)
+      paint(int(a.x + (b.x - a.x) * i / n), int(a.y + (b.y - a.y) * i / n), c, 1);
+  };
+  std::vector<int> owner(m.mesh.vertices.size(), -1);
+  for (int o = 0; o < int(m.objects.size()); ++o)
+    for (int v : m.objects[o].vertices) owner[v] = o;
+  for (const auto& t : m.mesh.triangles) {
+    const Point &a = m.mesh.vertices[t[0]], &b = m.mesh.vertices[t[1]], &c = m.mesh.vertices[t[2]];
+    if (owner[t[0]] >= 0 && owner[t[0]] == owner[t[1]] && owner[t[0]] == owner[t[2]])
+      for (int y = 0; y < r.height; ++y)
+        for (int x = 0; x < r.width; ++x)
+          if (std::min({a.x, b.x, c.x}) <= x + 0.5 && x + 0.5 <= std::max({a.x, b.x, c.x}) &&
+              std::min({a.y, b.y, c.y}) <= y + 0.5 && y + 0.5 <= std::max({a.y, b.y, c.y}) && inside(a, b, c, {x + 0.5, y + 0.5}))
+            paint(x, y, {255, 200, 0}, 0.45);
+    for (int k = 0; k < 3; ++k) segment(m.mesh.vertices[t[k]], m.mesh.vertices[t[(k + 1) % 3]], {255, 255, 255});
+  }
+  for (const warp::MpLine& l : m.lines)
+    for (std::size_t k = 1; k < l.vertices.size(); ++k)
+      segment(m.mesh.vertices[l.vertices[k - 1]], m.mesh.vertices[l.vertices[k]], {255, 0, 0});
+  for (const warp::MpObject& o : m.objects)
+    for (int dy = -4; dy <= 4; ++dy)
+      for (int dx = -4; dx <= 4; ++dx) paint(int(o.pole.x) + dx, int(o.pole.y) + dy, {0, 0, 255}, 1);
+  testing::write_image(path, r);
+}
+
 // The samples, both saliency kinds, as ingest would see them: a valid model, its size and time.
 TEST(MpPrecompute, Samples) {
   for (const char* file : {"boats_lake_sunset.jpg", "astronaut_portrait.png", "interior_wine_djembe_tall.jpg",
@@ -422,13 +460,21 @@ TEST(MpPrecompute, Samples) {
       const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       SCOPED_TRACE(file);
       expect_valid_model(m);
+      if (const char* dir = std::getenv("ZOOMWARP_MP_FIGURES"))
+        write_figure(std::string(dir) + "/" + file + "." + std::string(warp::saliency_name(kind)) + ".png", m, small);
+      // The largest triangle mean: Sμ = 0.6 is on this scale.
+      double top = 0;
+      for (const auto& t : m.mesh.triangles)
+        top = std::max(top, warp::mean_over_triangle(map, {m.mesh.vertices[t[0]].x / f, m.mesh.vertices[t[0]].y / f},
+                                                     {m.mesh.vertices[t[1]].x / f, m.mesh.vertices[t[1]].y / f},
+                                                     {m.mesh.vertices[t[2]].x / f, m.mesh.vertices[t[2]].y / f}));
       std::size_t chain = 0;
       for (const auto& l : m.lines) chain += l.vertices.size();
       std::printf("%-32s %-7s %4dx%-4d %4zu vertices %4zu triangles, min angle %5.2f°, %zu objects, %zu lines "
-                  "(%zu vertices) of %zu detected, %.1f ms\n",
+                  "(%zu vertices) of %zu detected, largest triangle mean %.2f, %.1f ms\n",
                   file, std::string(warp::saliency_name(kind)).c_str(), small.width, small.height,
                   m.mesh.vertices.size(), m.mesh.triangles.size(), min_angle(m.mesh), m.objects.size(), m.lines.size(),
-                  chain, detected.size(), ms);
+                  chain, detected.size(), top, ms);
     }
   }
 }
