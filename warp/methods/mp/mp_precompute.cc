@@ -98,10 +98,12 @@ FeaturePoints feature_points(const MethodInput& input, double wa, double ha, dou
   for (int j = ny; j > 0; --j) keep({0, ha * j / ny});
 
   // Lines [Guo09 §3.3.3]: the curator's first, then the detected ones (longest first).
-  const double sx = wa / input.model.width, sy = ha / input.model.height;
   std::vector<Segment> candidates;
-  for (const auto* set : {&input.model.lines, &input.detected_lines})
-    for (const Segment& s : *set) candidates.push_back({{s.a.x * sx, s.a.y * sy}, {s.b.x * sx, s.b.y * sy}});
+  if (input.model.width > 0 && input.model.height > 0) {
+    const double sx = wa / input.model.width, sy = ha / input.model.height;
+    for (const auto* set : {&input.model.lines, &input.detected_lines})
+      for (const Segment& s : *set) candidates.push_back({{s.a.x * sx, s.a.y * sy}, {s.b.x * sx, s.b.y * sy}});
+  }
   const double inset = d / 4;
   for (const Segment& s : candidates) {
     const auto c = clip(s, inset, inset, wa - inset, ha - inset);
