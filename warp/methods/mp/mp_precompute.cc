@@ -192,7 +192,7 @@ std::vector<bool> object_triangles(const MethodInput& input, const Mesh& mesh, d
   return in;
 }
 
-int find(std::vector<int>& parent, int i) {
+int root(std::vector<int>& parent, int i) {
   while (parent[i] != i) i = parent[i] = parent[parent[i]];
   return i;
 }
@@ -204,15 +204,15 @@ void add_objects(MpModel& model, const std::vector<bool>& salient, const MpPreco
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
     if (salient[f]) {
       const auto& t = mesh.triangles[f];
-      parent[find(parent, t[1])] = find(parent, t[0]);
-      parent[find(parent, t[2])] = find(parent, t[0]);
+      parent[root(parent, t[1])] = root(parent, t[0]);
+      parent[root(parent, t[2])] = root(parent, t[0]);
     }
   // Components in the order of their first triangle, so that the model is deterministic.
   std::unordered_map<int, int> component;
   std::vector<std::vector<int>> triangles;
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
     if (salient[f]) {
-      const auto [it, added] = component.emplace(find(parent, mesh.triangles[f][0]), int(triangles.size()));
+      const auto [it, added] = component.emplace(root(parent, mesh.triangles[f][0]), int(triangles.size()));
       if (added) triangles.emplace_back();
       triangles[std::size_t(it->second)].push_back(int(f));
     }
