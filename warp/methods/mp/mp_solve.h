@@ -14,7 +14,7 @@
 //   2. From the uniform stretch (fold-free), with objects' vertices free and rigidity as a penalty
 //      μ·Σ|Q_i − Q_O − z(P_i − P_O)|², μ = 1, 10, …, 1e6, one Newton run per μ (ours: 001 starts
 //      from the scaled image, which breaks eq. 3 whenever z ≠ W'/W or H'/H). A stage stops at a
-//      relative decrease of 1e-6 (ours); once every object is within rigid_enough px of eq. 3, or
+//      relative decrease of 1e-4 (ours); once every object is within rigid_enough px of eq. 3, or
 //      after μ = 1e6, step 3 follows.
 //   3. Eq. 3 substituted (unknowns: non-object vertices and one pole per object) and one more
 //      Newton run to |∇E|∞ < 1e-7·(W' + H') or a relative decrease < 1e-12 — if the substitution
