@@ -15,6 +15,7 @@
 #include <complex>
 #include <cstdio>
 #include <random>
+#include <stdexcept>
 #include <vector>
 
 #include "warp/methods/mp/mp_model.h"
@@ -190,6 +191,27 @@ TEST(MpSolve, BoundaryOnTheTargetAndNoFoldsFromOneToFourToFourToOne) {
       EXPECT_LE(q.y, th + 1e-9);
     }
   }
+}
+
+// An object on the left border: its pole's u is pinned so that its border vertices stay on the
+// border under eq. 3, at every aspect; one touching two opposite borders is refused.
+TEST(MpSolve, ObjectOnABorderStaysOnItAndRigid) {
+  MpModel m = grid(320, 240, 16, 12);
+  add_object(m, 16, 12, 0, 3, 4, 7);
+  auto all = targets(m);
+  all.emplace_back(60, 1280);
+  for (auto [tw, th] : all) {
+    const MpSolution s = warp::mp_solve(m, tw, th);
+    EXPECT_TRUE(s.rigid) << tw << " x " << th;
+    EXPECT_EQ(s.folds, 0) << tw << " x " << th;
+    EXPECT_LT(similarity_fit(m, m.objects[0], s.positions).residual, 1e-9) << tw << " x " << th;
+    for (size_t i = 0; i < s.positions.size(); ++i) {
+      if (m.mesh.vertices[i].x == 0) EXPECT_NEAR(s.positions[i].x, 0, 1e-9) << tw << " x " << th << " vertex " << i;
+    }
+  }
+  MpModel wide = grid(320, 240, 16, 12);
+  add_object(wide, 16, 12, 0, 16, 4, 7);
+  EXPECT_THROW(warp::mp_solve(wide, 200, 384), std::invalid_argument);
 }
 
 TEST(MpSolve, ObjectMovesBySimilarityOfScaleZWithoutRotation) {
