@@ -206,7 +206,9 @@ TEST(MpSolve, ObjectOnABorderStaysOnItAndRigid) {
     EXPECT_EQ(s.folds, 0) << tw << " x " << th;
     EXPECT_LT(similarity_fit(m, m.objects[0], s.positions).residual, 1e-9) << tw << " x " << th;
     for (size_t i = 0; i < s.positions.size(); ++i) {
-      if (m.mesh.vertices[i].x == 0) EXPECT_NEAR(s.positions[i].x, 0, 1e-9) << tw << " x " << th << " vertex " << i;
+      if (m.mesh.vertices[i].x == 0) {
+        EXPECT_NEAR(s.positions[i].x, 0, 1e-9) << tw << " x " << th << " vertex " << i;
+      }
     }
   }
   MpModel wide = grid(320, 240, 16, 12);
