@@ -461,6 +461,10 @@ MpSolution mp_solve(const MpModel& model, double target_w, double target_h, cons
   for (const MpEdge& e : mp_ideal_edges(model, target_w, target_h, pb.z))
     if (pb.object_of[e.a] < 0 || pb.object_of[e.a] != pb.object_of[e.b]) pb.edges.push_back(e);
   for (const MpLine& line : model.lines) {
+    for (int i : line.vertices)
+      if (i < 0 || static_cast<size_t>(i) >= n) throw std::invalid_argument("mp_solve: a line vertex out of range");
+    if (line.vertices.size() < 2 || line.vertices.front() == line.vertices.back())
+      throw std::invalid_argument("mp_solve: a line needs two distinct ends");
     const Point& a = model.mesh.vertices[line.vertices.front()];
     const Point& b = model.mesh.vertices[line.vertices.back()];
     pb.line_length.push_back(std::hypot(b.x - a.x, b.y - a.y));
@@ -555,8 +559,7 @@ MpSolution mp_solve(const MpModel& model, double target_w, double target_h, cons
       if (try_hard(qs, ps)) return sol;
     }
   }
-  finish(soft, x);
-  return sol;
+  return sol;  // the μ = 1e6 result, finished above: eq. 3 substituted would fold
 }
 
 }  // namespace zoomwarp::warp

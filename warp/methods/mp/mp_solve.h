@@ -47,7 +47,7 @@ struct MpSolveOptions {
   // The rigidity residual (px) at which the continuation hands over to the hard parametrization.
   double rigid_enough = 0.5;
   // The positions of every mesh vertex for another target (a cached solve of the same model), or
-  // empty: a cold start from the uniform stretch.
+  // empty: a cold start from the uniform stretch (also when the size does not match the mesh).
   std::vector<Point> warm_start;
   double warm_width = 0, warm_height = 0;  // the target warm_start was solved for
   const StopToken* stop = nullptr;         // checked before every Newton step (throws Stopped)
@@ -93,7 +93,7 @@ MpSym2 mp_edge_hessian(Point d, double l);
 
 // The solve above. Preconditions (the precompute guarantees them; std::invalid_argument
 // otherwise): positive sizes, boundary vertices on the rectangle, CCW triangles, no object
-// touching two opposite borders, no vertex in two objects.
+// touching two opposite borders, no vertex in two objects, lines with two distinct ends.
 MpSolution mp_solve(const MpModel& model, double target_w, double target_h, const MpSolveOptions& options = {});
 
 }  // namespace zoomwarp::warp
