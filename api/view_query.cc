@@ -133,7 +133,7 @@ ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double W
   if ((long long)q.view.screen_width * q.view.screen_height > warp::limits::kMaxScreenPixels)
     bad("the screen (w × h) has at most " + std::to_string(warp::limits::kMaxScreenPixels) + " pixels");
   if (q.auto_lines && q.method != ViewMethod::kIcaz)
-    bad("lines=auto applies to method=icaz (mp always uses the detected lines; the others use none)");
+    bad("lines=auto applies to method=icaz only");
   if (from_zoom || from_cx || from_cy) {
     q.from = q.view;
     if (from_zoom) q.from->zoom = *from_zoom;
