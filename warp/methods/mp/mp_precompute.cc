@@ -184,11 +184,18 @@ std::vector<bool> object_triangles(const MethodInput& input, const Mesh& mesh, d
   } else {
     map.values = s.values;
   }
+  std::vector<double> mean(mesh.triangles.size());
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
     const auto& t = mesh.triangles[f];
-    const double mean = mean_over_triangle(map, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
-    in[f] = input.saliency_kind == Saliency::kGbvs ? mean >= options.region_cover : mean > options.object_saliency;
+    mean[f] = mean_over_triangle(map, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
   }
+  // Sμ is on 001's scale, a map whose most salient region is 1; ours (faces and curator edits
+  // aside) peaks at 0.5–0.7 over a triangle, which would leave no object on real photographs. So
+  // the threshold is Sμ times the largest triangle mean (ours).
+  const double top = mean.empty() ? 0 : *std::max_element(mean.begin(), mean.end());
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
+    in[f] = input.saliency_kind == Saliency::kGbvs ? mean[f] >= options.region_cover
+                                                   : top > 0 && mean[f] > options.object_saliency * top;
   return in;
 }
 

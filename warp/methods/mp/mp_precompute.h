@@ -13,7 +13,8 @@
 //            analysis px, clipped d/4 inside the border and cut back to their pieces ≥ d/2 from
 //            every line taken before (ours: crossing constraints cannot be meshed exactly), pieces
 //            shorter than d dropped; each kept piece is one MpLine, its vertex chain in order;
-//   objects  [Guo09 §3.3.2 eq. 2] triangles whose mean saliency exceeds Sμ = 0.6 — for
+//   objects  [Guo09 §3.3.2 eq. 2] triangles whose mean saliency exceeds Sμ = 0.6 times the largest
+//            triangle mean (ours: 001's maps peak at 1, ours at 0.5–0.7 on photographs) — for
 //            saliency=gbvs instead [Kumar (004) §III-B] triangles with ≥ 50 % of their area in
 //            attention regions with AV ≥ 0.1·max AV (saliency/attention.h) — grouped into
 //            vertex-connected components, so no vertex is in two objects; objects under 0.2 % of
@@ -40,7 +41,7 @@ struct MpPrecomputeOptions {
   int point_count = 300;               // N [Guo09 §3.2: "several hundred"]
   double vertex_budget_factor = 1.3;   // refinement stops at this × N vertices (ours)
   double min_angle_degrees = 20;       // refinement's target (ours)
-  double object_saliency = 0.6;        // Sμ [Guo09 §3.3.2]
+  double object_saliency = 0.6;        // Sμ [Guo09 §3.3.2], times the largest triangle mean (ours)
   double attention_fraction = 0.1;     // saliency=gbvs: regions with AV ≥ this × max AV (ours)
   double region_cover = 0.5;           // saliency=gbvs: object triangles' share inside them (ours)
   double min_object_fraction = 0.002;  // of Wa·Ha: smaller objects are dropped (ours)

@@ -39,7 +39,9 @@
 namespace zoomwarp::warp {
 
 struct MpSolveOptions {
-  double line_weight = 0.5;  // λ of eq. 15
+  // λ of eq. 15. 001 uses 0.5 (METHODS §1); lines then bend 3–46 px on photographs, so ours is
+  // 5e4, which keeps them within 1 px (the term is a squared distance, in px² like E_l).
+  double line_weight = 5e4;
   double beta = 0.25;        // the least background scale, as a share of W'/W and H'/H
   // ε of the fold barrier ε·Σ_t A⁰_t(r_t − 1 − log r_t), r_t = area / area under the uniform
   // stretch (ours: without it the fold-free line search stalls against a collapsing triangle).
