@@ -1,20 +1,9 @@
-// A CGAL translation unit (meshing/README.md). CGAL's own checks stay on here even in release
-// builds, as in coarse_mesh.cc: refinement that meets a flat face then throws
-// CGAL::Failure_exception (refused as bad input) instead of dereferencing null.
-#ifdef NDEBUG
-#undef NDEBUG
-#endif
-#ifdef CGAL_NDEBUG
-#undef CGAL_NDEBUG
-#endif
+// A CGAL translation unit (meshing/README.md, cgal_cdt.h): refinement that meets a flat face
+// throws CGAL::Failure_exception (refused as bad input) instead of dereferencing null.
+#include "warp/meshing/cgal_cdt.h"
 #include "warp/meshing/constrained_mesh.h"
 
-#include <CGAL/Constrained_Delaunay_triangulation_2.h>
 #include <CGAL/Delaunay_mesh_criteria_2.h>
-#include <CGAL/Delaunay_mesh_face_base_2.h>
-#include <CGAL/Delaunay_mesher_2.h>
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#include <CGAL/Triangulation_vertex_base_with_info_2.h>
 
 #include <algorithm>
 #include <cmath>
@@ -26,13 +15,10 @@ namespace zoomwarp::warp {
 
 namespace {
 
-using K = CGAL::Exact_predicates_inexact_constructions_kernel;
-using Vb = CGAL::Triangulation_vertex_base_with_info_2<int, K>;
-using Fb = CGAL::Delaunay_mesh_face_base_2<K>;
-using Tds = CGAL::Triangulation_data_structure_2<Vb, Fb>;
-// Exact orientation tests; crossing constraints are refused before meshing (check_input), so
-// CGAL never has to construct (and round) an intersection point.
-using CDT = CGAL::Constrained_Delaunay_triangulation_2<K, Tds, CGAL::Exact_predicates_tag>;
+using cgal_cdt::CDT;
+using cgal_cdt::K;
+// Crossing constraints are refused before meshing (check_input), so CGAL never has to construct
+// (and round) an intersection point.
 using Criteria = CGAL::Delaunay_mesh_criteria_2<CDT>;
 using Mesher = CGAL::Delaunay_mesher_2<CDT, Criteria>;
 

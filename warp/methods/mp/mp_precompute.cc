@@ -25,24 +25,6 @@ constexpr double kCannyLow = 30, kCannyHigh = 90;
 
 double length(const Segment& s) { return std::hypot(s.b.x - s.a.x, s.b.y - s.a.y); }
 
-// Liang–Barsky clipping of a segment to [x0, x1] × [y0, y1].
-std::optional<Segment> clip(const Segment& s, double x0, double y0, double x1, double y1) {
-  double t0 = 0, t1 = 1;
-  const double dx = s.b.x - s.a.x, dy = s.b.y - s.a.y;
-  const double p[4] = {-dx, dx, -dy, dy}, q[4] = {s.a.x - x0, x1 - s.a.x, s.a.y - y0, y1 - s.a.y};
-  for (int i = 0; i < 4; ++i) {
-    if (p[i] == 0) {
-      if (q[i] < 0) return std::nullopt;
-      continue;
-    }
-    const double t = q[i] / p[i];
-    if (p[i] < 0) t0 = std::max(t0, t);
-    else t1 = std::min(t1, t);
-  }
-  if (t0 >= t1) return std::nullopt;
-  return Segment{{s.a.x + t0 * dx, s.a.y + t0 * dy}, {s.a.x + t1 * dx, s.a.y + t1 * dy}};
-}
-
 // The kept points in cells of side `cell`, for "is anything within r ≤ cell" queries.
 class PointGrid {
  public:
@@ -106,7 +88,7 @@ FeaturePoints feature_points(const MethodInput& input, double wa, double ha, dou
   }
   const double inset = d / 4;
   for (const Segment& s : candidates) {
-    const auto c = clip(s, inset, inset, wa - inset, ha - inset);
+    const auto c = clip_segment(s, inset, inset, wa - inset, ha - inset);
     if (!c) continue;
     for (const Segment& piece : clear_pieces(*c, out.lines, d / 2, d)) {
       out.lines.push_back(piece);
