@@ -15,7 +15,7 @@ out=""
 zoomwarp_bin="$repo_dir/build/bin/zoomwarp"
 
 usage() {
-  sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '2,8p' "$0" | sed 's/^# \{0,1\}//'
 }
 
 while [ $# -gt 0 ]; do
