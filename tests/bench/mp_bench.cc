@@ -7,7 +7,7 @@
 //   800×600 → 320×320, 320×240, 512×270   [Kumar (004)]
 //   1024×768 → 360×640                    the goal: ≤ 10 ms per request on one core
 //            → 665×1182                   what the server solves for a 360×640 screen (the
-//                                         image's area at the screen's aspect, METHODS §0)
+//                                         image's area at the screen's aspect)
 //
 // Each source is a corpus photograph resized to that size (it is its own analysis image, long
 // side ≤ 1024). The other targets are the papers' own sizes, not the server's equal-area ones.
