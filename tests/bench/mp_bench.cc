@@ -12,8 +12,9 @@
 // Each source is a corpus photograph resized to that size (it is its own analysis image, long
 // side ≤ 1024). The other targets are the papers' own sizes, not the server's equal-area ones.
 //
-//   build/bin/mp_bench   (corpus: $ZOOMWARP_CORPUS, default ../shared/corpus; without it the
-//                         benchmark says so and measures nothing)
+//   build/bin/mp_bench --benchmark_min_time=0.2   (~30 s; corpus: $ZOOMWARP_CORPUS, default
+//                                                 ../shared/corpus; without it the benchmark
+//                                                 says so and measures nothing)
 #include <benchmark/benchmark.h>
 
 #include <cstdio>
