@@ -3,11 +3,13 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
+#include <Eigen/SparseLU>
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <iterator>
 #include <utility>
 
 namespace zoomwarp::warp {
@@ -368,6 +370,137 @@ Eigen::VectorXd pack(const Problem& pb, const Layout& lay, const std::vector<Poi
   return x;
 }
 
+// The rigid start's mesh around its objects (ours), given the positions of the `placed` vertices
+// (every object vertex). Border vertices outside objects: along their side, piecewise linear in
+// the source coordinate between the corners and the objects' border vertices (so the side stays in
+// order whenever the objects are), the normal coordinate on the side (eq. 1). The rest: Floater's
+// mean value coordinates [Floater 2003] on the uniformly stretched mesh — positive weights that
+// reproduce affine maps, so the free vertices keep the stretched mesh's shape where nothing
+// pulls, and (Tutte–Floater) fold nothing while the fixed vertices are in convex position.
+void extend(const Problem& pb, std::vector<Point>& f, std::vector<bool> placed) {
+  const MpModel& m = *pb.model;
+  const auto& p = m.mesh.vertices;
+  const size_t n = p.size();
+  struct Side {
+    bool vertical;
+    double source_len, target_len, normal;
+    std::vector<std::pair<double, double>> anchors;  // (source, field) along the side
+    std::vector<int> members;
+  };
+  std::array<Side, 4> sides{Side{true, m.height, pb.th, 0, {}, {}}, Side{true, m.height, pb.th, pb.tw, {}, {}},
+                            Side{false, m.width, pb.tw, 0, {}, {}}, Side{false, m.width, pb.tw, pb.th, {}, {}}};
+  for (size_t i = 0; i < n; ++i) {
+    const Borders b = borders_of(p[i], m.width, m.height);
+    const bool on[4] = {b.left, b.right, b.top, b.bottom};
+    for (int k = 0; k < 4; ++k) {
+      if (!on[k]) continue;
+      Side& side = sides[k];
+      if (placed[i]) side.anchors.emplace_back(side.vertical ? p[i].y : p[i].x, side.vertical ? f[i].y : f[i].x);
+      side.members.push_back(static_cast<int>(i));
+    }
+  }
+  for (Side& side : sides) {
+    side.anchors.emplace_back(0, 0);
+    side.anchors.emplace_back(side.source_len, side.target_len);
+    std::sort(side.anchors.begin(), side.anchors.end());
+    for (int i : side.members) {
+      if (placed[i]) continue;
+      const double along = side.vertical ? p[i].y : p[i].x;
+      auto hi = std::upper_bound(side.anchors.begin(), side.anchors.end(), std::make_pair(along, kInf));
+      if (hi == side.anchors.end()) --hi;
+      const auto lo = hi == side.anchors.begin() ? hi : std::prev(hi);
+      const double t = hi->first > lo->first ? (along - lo->first) / (hi->first - lo->first) : 0;
+      const double value = lo->second + t * (hi->second - lo->second);
+      f[i] = side.vertical ? Point{side.normal, value} : Point{value, side.normal};
+    }
+  }
+  for (const Side& side : sides)
+    for (int i : side.members) placed[i] = true;
+
+  std::vector<int> index(n, -1);
+  int free = 0;
+  for (size_t i = 0; i < n; ++i)
+    if (!placed[i]) index[i] = free++;
+  if (free == 0) return;
+  const double kx = pb.tw / m.width, ky = pb.th / m.height;
+  Triplets trips;
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(free, 2);
+  for (const Triangle& t : m.mesh.triangles) {
+    for (int c = 0; c < 3; ++c) {
+      const int i = t[c];
+      if (index[i] < 0) continue;
+      // w_ij = (tan(θ/2) + tan(θ'/2))/|v_j − v_i|, θ, θ' the angles at v_i beside edge ij.
+      const int nb[2] = {t[(c + 1) % 3], t[(c + 2) % 3]};
+      const Point e[2] = {{kx * (p[nb[0]].x - p[i].x), ky * (p[nb[0]].y - p[i].y)},
+                          {kx * (p[nb[1]].x - p[i].x), ky * (p[nb[1]].y - p[i].y)}};
+      const double half_tan =
+          std::tan(0.5 * std::atan2(e[0].x * e[1].y - e[0].y * e[1].x, e[0].x * e[1].x + e[0].y * e[1].y));
+      for (int k = 0; k < 2; ++k) {
+        const double w = half_tan / std::hypot(e[k].x, e[k].y);
+        trips.emplace_back(index[i], index[i], w);
+        if (index[nb[k]] >= 0) {
+          trips.emplace_back(index[i], index[nb[k]], -w);
+        } else {
+          rhs(index[i], 0) += w * f[nb[k]].x;
+          rhs(index[i], 1) += w * f[nb[k]].y;
+        }
+      }
+    }
+  }
+  Eigen::SparseMatrix<double> weights(free, free);
+  weights.setFromTriplets(trips.begin(), trips.end());
+  weights.makeCompressed();
+  const Eigen::SparseLU<Eigen::SparseMatrix<double>> lu(weights);
+  const Eigen::MatrixXd solved = lu.solve(rhs);
+  for (size_t i = 0; i < n; ++i)
+    if (index[i] >= 0) f[i] = {solved(index[i], 0), solved(index[i], 1)};
+}
+
+// A free pole coordinate puts the object's bounding box where eq. 8 puts a single object in its
+// band: the gaps before and after it scaled alike, (T − z·ext)/(S − ext), so it stays inside the
+// rectangle (ours).
+double rigid_pole(double lo, double hi, double pole, double source, double target, double z) {
+  const double ext = hi - lo, room = target - z * ext;
+  const double lo_target = source - ext < 1 || room < 0 ? 0.5 * room : lo * room / (source - ext);
+  return lo_target + z * (pole - lo);
+}
+
+std::vector<Point> rigid_poles(const Problem& pb, const Layout& hard) {
+  const MpModel& m = *pb.model;
+  std::vector<Point> poles(m.objects.size());
+  for (size_t o = 0; o < poles.size(); ++o) {
+    const MpObject& obj = m.objects[o];
+    double x0 = kInf, x1 = -kInf, y0 = kInf, y1 = -kInf;
+    for (int i : obj.vertices) {
+      const Point& v = m.mesh.vertices[i];
+      x0 = std::min(x0, v.x), x1 = std::max(x1, v.x), y0 = std::min(y0, v.y), y1 = std::max(y1, v.y);
+    }
+    poles[o].x = hard.pole_var[o][0] < 0 ? hard.pole_fixed[o].x : rigid_pole(x0, x1, obj.pole.x, m.width, pb.tw, pb.z);
+    poles[o].y = hard.pole_var[o][1] < 0 ? hard.pole_fixed[o].y : rigid_pole(y0, y1, obj.pole.y, m.height, pb.th, pb.z);
+  }
+  return poles;
+}
+
+// The rigid start (ours): every object at eq. 3 around its rigid pole, the rest extended as
+// above. When it folds nothing, the hard parametrization runs from it at once, without the penalty
+// continuation's six or seven runs.
+std::vector<Point> rigid_start(const Problem& pb, const std::vector<Point>& poles) {
+  const MpModel& m = *pb.model;
+  const size_t n = m.mesh.vertices.size();
+  std::vector<Point> q(n);
+  std::vector<bool> placed(n, false);
+  for (size_t i = 0; i < n; ++i) {
+    const int o = pb.object_of[i];
+    if (o < 0) continue;
+    const Point& p = m.mesh.vertices[i];
+    const Point& po = m.objects[o].pole;
+    q[i] = {poles[o].x + pb.z * (p.x - po.x), poles[o].y + pb.z * (p.y - po.y)};
+    placed[i] = true;
+  }
+  extend(pb, q, placed);
+  return q;
+}
+
 }  // namespace
 
 double mp_edge_energy(Point d, double l) {
@@ -545,6 +678,8 @@ MpSolution mp_solve(const MpModel& model, double target_w, double target_h, cons
     try_hard(q0, p0);
     return sol;
   }
+  const std::vector<Point> poles_r = rigid_poles(pb, hard);
+  if (try_hard(rigid_start(pb, poles_r), poles_r)) return sol;
   // Rigidity by continuation: μ up 10× per stage (more stalls the line search against folds).
   // Once the objects are within `rigid_enough` px of eq. 3 (ours), the remaining stages would only
   // creep toward what the hard parametrization reaches in a few steps: substitute eq. 3 then.
