@@ -215,6 +215,36 @@ TEST(MpSolve, ObjectOnABorderStaysOnItAndRigid) {
   EXPECT_THROW(warp::mp_solve(wide, 200, 384), std::invalid_argument);
 }
 
+// An object on the left border filling most of its band, with a notch of background on that
+// border — 300 × 200 of 320 × 240, as astronaut_portrait.png's GBVS object (93 % of the width, 82 %
+// of the height, background cut into it at the border) — at every aspect: exactly rigid,
+// fold-free, on its border. (001's penalty continuation alone stalls here at 1:4, its fold barrier
+// holding the object's rim while μ grows, 124 px from eq. 3; substituting eq. 3 then folds it.)
+TEST(MpSolve, ObjectFillingItsBandOnABorderStaysRigid) {
+  MpModel m = grid(320, 240, 16, 12);
+  // Columns 0…15, rows 1…11, less the vertices of columns 0…1 on rows 6…7 (the notch).
+  warp::MpObject o;
+  for (int j = 1; j <= 11; ++j)
+    for (int i = 0; i <= 15; ++i)
+      if (i > 1 || j < 6 || j > 7) o.vertices.push_back(grid_id(16, i, j));
+  for (int v : o.vertices) o.pole.x += m.mesh.vertices[v].x / o.vertices.size(), o.pole.y += m.mesh.vertices[v].y / o.vertices.size();
+  // The notch's cells are columns 0…1 on rows 5…7 (every cell with a notch vertex).
+  for (int y = 20; y < 220; ++y) m.row_object_length[y] = y >= 100 && y < 160 ? 300 - 40 : 300;
+  for (int x = 0; x < 300; ++x) m.column_object_length[x] = x < 40 ? 200 - 60 : 200;
+  for (double l : m.row_object_length) o.area += l;
+  m.objects.push_back(o);
+  for (auto [tw, th] : targets(m)) {
+    const MpSolution s = warp::mp_solve(m, tw, th);
+    EXPECT_TRUE(s.rigid) << tw << " x " << th;
+    EXPECT_EQ(s.folds, 0) << tw << " x " << th;
+    EXPECT_LT(s.rigidity_residual, 1e-9) << tw << " x " << th;
+    EXPECT_LT(similarity_fit(m, m.objects[0], s.positions).residual, 1e-9) << tw << " x " << th;
+    for (int j = 1; j <= 11; ++j) {
+      if (j < 6 || j > 7) EXPECT_NEAR(s.positions[grid_id(16, 0, j)].x, 0, 1e-9) << tw << " x " << th;
+    }
+  }
+}
+
 TEST(MpSolve, ObjectMovesBySimilarityOfScaleZWithoutRotation) {
   const MpModel m = line_model();
   // 60 × 1280 forces z < 1 through the row bound: (60 − β·60/320·240)/80 = 0.609375.
