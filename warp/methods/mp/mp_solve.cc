@@ -253,16 +253,24 @@ int count_folds(const Mesh& mesh, const std::vector<Point>& q) {
   return folds;
 }
 
+// The Newton system of the runs that share one layout's variables (the shape continuation's
+// stages and the final run; the penalty stages): its pattern, symbolic analysis and where each
+// triplet lands, computed by the first run and reused by the rest (ours: the symbolic analysis
+// was a tenth of a solve).
+struct NewtonSystem {
+  Eigen::SparseMatrix<double> H;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+  std::vector<int> slots;  // per triplet, its index in H's values
+};
+
 // Newton [Guo09 §3.4.2] with the projected Hessian and the fold-free Armijo line search; returns
 // the steps taken and appends the energies to `history`.
 int newton(const Problem& pb, const Layout& lay, Eigen::VectorXd& x, double mu, double rel_tol, int max_steps,
-           const StopToken* stop, std::vector<double>& history) {
+           const StopToken* stop, NewtonSystem& system, std::vector<double>& history) {
   const double grad_tol = 1e-7 * (pb.tw + pb.th);
   Eigen::VectorXd g;
   Triplets trips;
-  Eigen::SparseMatrix<double> H(lay.size, lay.size);
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
-  std::vector<int> slots;  // per triplet, its index in H's values
+  auto& [H, ldlt, slots] = system;
   double e = evaluate(pb, lay, x, mu, &g, &trips);
   history.push_back(e);
   int steps = 0;
@@ -276,11 +284,13 @@ int newton(const Problem& pb, const Layout& lay, Eigen::VectorXd& x, double mu, 
       if (t.row() == t.col()) trace += t.value();
     const double reg = std::max(1e-9 * trace / lay.size, 1e-300);
     for (int i = 0; i < lay.size; ++i) trips.emplace_back(i, i, reg);
-    if (slots.empty()) {
+    if (slots.size() != trips.size()) {
       // First step: the pattern, its symbolic analysis, and where each triplet lands in it —
-      // evaluate() emits the same triplets in the same order every time, so later steps add
-      // values into place instead of sorting triplets again.
+      // evaluate() emits the same triplets in the same order every time for one layout's
+      // variables, so later steps add values into place instead of sorting triplets again.
+      H.resize(lay.size, lay.size);
       H.setFromTriplets(trips.begin(), trips.end());
+      slots.clear();
       ldlt.analyzePattern(H);
       slots.reserve(trips.size());
       for (const auto& t : trips) {
@@ -384,92 +394,109 @@ Eigen::VectorXd pack(const Problem& pb, const Layout& lay, const std::vector<Poi
   return x;
 }
 
-// The rigid start's mesh around its objects (ours), given the positions of the `placed` vertices
-// (every object vertex). Border vertices outside objects: along their side, piecewise linear in
-// the source coordinate between the corners and the objects' border vertices (so the side stays in
-// order whenever the objects are), the normal coordinate on the side (eq. 1). The rest: Floater's
-// mean value coordinates [Floater 2003] on the uniformly stretched mesh — positive weights that
-// reproduce affine maps, so the free vertices keep the stretched mesh's shape where nothing
-// pulls, and (Tutte–Floater) fold nothing while the fixed vertices are in convex position.
-void extend(const Problem& pb, bool displacement, std::vector<Point>& f, std::vector<bool> placed) {
-  const MpModel& m = *pb.model;
-  const auto& p = m.mesh.vertices;
-  const size_t n = p.size();
-  struct Side {
-    bool vertical;
-    double source_len, target_len, normal;
-    std::vector<std::pair<double, double>> anchors;  // (source, field) along the side
-    std::vector<int> members;
-  };
-  std::array<Side, 4> sides{Side{true, m.height, pb.th, 0, {}, {}}, Side{true, m.height, pb.th, pb.tw, {}, {}},
-                            Side{false, m.width, pb.tw, 0, {}, {}}, Side{false, m.width, pb.tw, pb.th, {}, {}}};
-  for (size_t i = 0; i < n; ++i) {
-    const Borders b = borders_of(p[i], m.width, m.height);
-    const bool on[4] = {b.left, b.right, b.top, b.bottom};
-    for (int k = 0; k < 4; ++k) {
-      if (!on[k]) continue;
-      Side& side = sides[k];
-      if (placed[i]) side.anchors.emplace_back(side.vertical ? p[i].y : p[i].x, side.vertical ? f[i].y : f[i].x);
-      side.members.push_back(static_cast<int>(i));
+// The rigid start's mesh around its objects (ours): a field given on the object vertices, filled
+// in on the rest — positions, or a displacement (zero at the corners and across the border).
+// Border vertices outside objects: along their side, piecewise linear in the source coordinate
+// between the corners and the objects' border vertices (so the side stays in order whenever the
+// objects are), the normal coordinate on the side (eq. 1). The rest: Floater's mean value
+// coordinates [Floater 2003] on the uniformly stretched mesh — positive weights that reproduce
+// affine maps, so the free vertices keep the stretched mesh's shape where nothing pulls, and
+// (Tutte–Floater) fold nothing while the fixed vertices are in convex position. The weights are
+// factorised once per solve.
+class Extension {
+ public:
+  explicit Extension(const Problem& pb) : pb_(pb) {
+    const MpModel& m = *pb.model;
+    const auto& p = m.mesh.vertices;
+    const size_t n = p.size();
+    sides_ = {Side{true, m.height, pb.th, 0, {}, {}}, Side{true, m.height, pb.th, pb.tw, {}, {}},
+              Side{false, m.width, pb.tw, 0, {}, {}}, Side{false, m.width, pb.tw, pb.th, {}, {}}};
+    std::vector<bool> fixed(n);
+    for (size_t i = 0; i < n; ++i) {
+      const Borders b = borders_of(p[i], m.width, m.height);
+      const bool on[4] = {b.left, b.right, b.top, b.bottom};
+      fixed[i] = pb.object_of[i] >= 0 || b.left || b.right || b.top || b.bottom;
+      for (int k = 0; k < 4; ++k) {
+        if (!on[k]) continue;
+        auto& list = pb.object_of[i] >= 0 ? sides_[k].anchors : sides_[k].members;
+        list.push_back(static_cast<int>(i));
+      }
     }
-  }
-  for (Side& side : sides) {
-    side.anchors.emplace_back(0, 0);
-    side.anchors.emplace_back(side.source_len, displacement ? 0 : side.target_len);
-    const double normal = displacement ? 0 : side.normal;
-    std::sort(side.anchors.begin(), side.anchors.end());
-    for (int i : side.members) {
-      if (placed[i]) continue;
-      const double along = side.vertical ? p[i].y : p[i].x;
-      auto hi = std::upper_bound(side.anchors.begin(), side.anchors.end(), std::make_pair(along, kInf));
-      if (hi == side.anchors.end()) --hi;
-      const auto lo = hi == side.anchors.begin() ? hi : std::prev(hi);
-      const double t = hi->first > lo->first ? (along - lo->first) / (hi->first - lo->first) : 0;
-      const double value = lo->second + t * (hi->second - lo->second);
-      f[i] = side.vertical ? Point{normal, value} : Point{value, normal};
-    }
-  }
-  for (const Side& side : sides)
-    for (int i : side.members) placed[i] = true;
-
-  std::vector<int> index(n, -1);
-  int free = 0;
-  for (size_t i = 0; i < n; ++i)
-    if (!placed[i]) index[i] = free++;
-  if (free == 0) return;
-  const double kx = pb.tw / m.width, ky = pb.th / m.height;
-  Triplets trips;
-  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(free, 2);
-  for (const Triangle& t : m.mesh.triangles) {
-    for (int c = 0; c < 3; ++c) {
-      const int i = t[c];
-      if (index[i] < 0) continue;
-      // w_ij = (tan(θ/2) + tan(θ'/2))/|v_j − v_i|, θ, θ' the angles at v_i beside edge ij.
-      const int nb[2] = {t[(c + 1) % 3], t[(c + 2) % 3]};
-      const Point e[2] = {{kx * (p[nb[0]].x - p[i].x), ky * (p[nb[0]].y - p[i].y)},
-                          {kx * (p[nb[1]].x - p[i].x), ky * (p[nb[1]].y - p[i].y)}};
-      const double half_tan =
-          std::tan(0.5 * std::atan2(e[0].x * e[1].y - e[0].y * e[1].x, e[0].x * e[1].x + e[0].y * e[1].y));
-      for (int k = 0; k < 2; ++k) {
-        const double w = half_tan / std::hypot(e[k].x, e[k].y);
-        trips.emplace_back(index[i], index[i], w);
-        if (index[nb[k]] >= 0) {
-          trips.emplace_back(index[i], index[nb[k]], -w);
-        } else {
-          rhs(index[i], 0) += w * f[nb[k]].x;
-          rhs(index[i], 1) += w * f[nb[k]].y;
+    index_.assign(n, -1);
+    for (size_t i = 0; i < n; ++i)
+      if (!fixed[i]) index_[i] = free_++;
+    if (free_ == 0) return;
+    const double kx = pb.tw / m.width, ky = pb.th / m.height;
+    Triplets trips;
+    for (const Triangle& t : m.mesh.triangles) {
+      for (int c = 0; c < 3; ++c) {
+        const int i = t[c];
+        if (index_[i] < 0) continue;
+        // w_ij = (tan(θ/2) + tan(θ'/2))/|v_j − v_i|, θ, θ' the angles at v_i beside edge ij.
+        const int nb[2] = {t[(c + 1) % 3], t[(c + 2) % 3]};
+        const Point e[2] = {{kx * (p[nb[0]].x - p[i].x), ky * (p[nb[0]].y - p[i].y)},
+                            {kx * (p[nb[1]].x - p[i].x), ky * (p[nb[1]].y - p[i].y)}};
+        const double half_tan =
+            std::tan(0.5 * std::atan2(e[0].x * e[1].y - e[0].y * e[1].x, e[0].x * e[1].x + e[0].y * e[1].y));
+        for (int k = 0; k < 2; ++k) {
+          const double w = half_tan / std::hypot(e[k].x, e[k].y);
+          trips.emplace_back(index_[i], index_[i], w);
+          if (index_[nb[k]] >= 0)
+            trips.emplace_back(index_[i], index_[nb[k]], -w);
+          else
+            boundary_.push_back({index_[i], nb[k], w});
         }
       }
     }
+    Eigen::SparseMatrix<double> weights(free_, free_);
+    weights.setFromTriplets(trips.begin(), trips.end());
+    weights.makeCompressed();
+    lu_.compute(weights);
   }
-  Eigen::SparseMatrix<double> weights(free, free);
-  weights.setFromTriplets(trips.begin(), trips.end());
-  weights.makeCompressed();
-  const Eigen::SparseLU<Eigen::SparseMatrix<double>> lu(weights);
-  const Eigen::MatrixXd solved = lu.solve(rhs);
-  for (size_t i = 0; i < n; ++i)
-    if (index[i] >= 0) f[i] = {solved(index[i], 0), solved(index[i], 1)};
-}
+
+  void operator()(bool displacement, std::vector<Point>& f) const {
+    const auto& p = pb_.model->mesh.vertices;
+    for (const Side& side : sides_) {
+      auto along = [&](int i) { return side.vertical ? p[i].y : p[i].x; };
+      std::vector<std::pair<double, double>> anchors{{0, 0}, {side.source_len, displacement ? 0 : side.target_len}};
+      for (int i : side.anchors) anchors.emplace_back(along(i), side.vertical ? f[i].y : f[i].x);
+      std::sort(anchors.begin(), anchors.end());
+      const double normal = displacement ? 0 : side.normal;
+      for (int i : side.members) {
+        auto hi = std::upper_bound(anchors.begin(), anchors.end(), std::make_pair(along(i), kInf));
+        if (hi == anchors.end()) --hi;
+        const auto lo = hi == anchors.begin() ? hi : std::prev(hi);
+        const double t = hi->first > lo->first ? (along(i) - lo->first) / (hi->first - lo->first) : 0;
+        const double value = lo->second + t * (hi->second - lo->second);
+        f[i] = side.vertical ? Point{normal, value} : Point{value, normal};
+      }
+    }
+    if (free_ == 0) return;
+    Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(free_, 2);
+    for (const auto& b : boundary_) rhs(b.row, 0) += b.weight * f[b.vertex].x, rhs(b.row, 1) += b.weight * f[b.vertex].y;
+    const Eigen::MatrixXd solved = lu_.solve(rhs);
+    for (size_t i = 0; i < f.size(); ++i)
+      if (index_[i] >= 0) f[i] = {solved(index_[i], 0), solved(index_[i], 1)};
+  }
+
+ private:
+  struct Side {
+    bool vertical;
+    double source_len, target_len, normal;
+    std::vector<int> anchors;  // object vertices on the side
+    std::vector<int> members;  // the other vertices on it
+  };
+  struct BoundaryWeight {
+    int row, vertex;
+    double weight;
+  };
+  const Problem& pb_;
+  std::array<Side, 4> sides_;
+  std::vector<int> index_;  // per vertex, its row among the free ones or −1
+  int free_ = 0;
+  std::vector<BoundaryWeight> boundary_;
+  Eigen::SparseLU<Eigen::SparseMatrix<double>> lu_;
+};
 
 // A free pole coordinate puts the object's bounding box where eq. 8 puts a single object in its
 // band: the gaps before and after it scaled alike, (T − z·ext)/(S − ext), so it stays inside the
@@ -499,20 +526,18 @@ std::vector<Point> rigid_poles(const Problem& pb, const Layout& hard) {
 // The rigid start (ours): every object at eq. 3 around its rigid pole, the rest extended as
 // above. When it folds nothing, the hard parametrization runs from it at once, without the penalty
 // continuation's six or seven runs.
-std::vector<Point> rigid_start(const Problem& pb, const std::vector<Point>& poles) {
+std::vector<Point> rigid_start(const Problem& pb, const Extension& extend, const std::vector<Point>& poles) {
   const MpModel& m = *pb.model;
   const size_t n = m.mesh.vertices.size();
   std::vector<Point> q(n);
-  std::vector<bool> placed(n, false);
   for (size_t i = 0; i < n; ++i) {
     const int o = pb.object_of[i];
     if (o < 0) continue;
     const Point& p = m.mesh.vertices[i];
     const Point& po = m.objects[o].pole;
     q[i] = {poles[o].x + pb.z * (p.x - po.x), poles[o].y + pb.z * (p.y - po.y)};
-    placed[i] = true;
   }
-  extend(pb, false, q, placed);
+  extend(false, q);
   return q;
 }
 
@@ -641,6 +666,7 @@ MpSolution mp_solve(const MpModel& model, double target_w, double target_h, cons
   MpSolution sol;
   sol.object_scale = pb.z;
   auto budget = [&] { return std::clamp(kSolveSteps - sol.iterations, 0, kRunSteps); };
+  NewtonSystem hard_system, soft_system;
   const Layout hard = make_layout(pb, true, {pb.z, pb.z});
   std::vector<Point> q, poles;
 
@@ -670,7 +696,7 @@ MpSolution mp_solve(const MpModel& model, double target_w, double target_h, cons
     positions(pb, hard, x, qh, ph);
     if (count_folds(model.mesh, qh) > 0) return false;
     sol.energy_history.emplace_back();
-    sol.iterations += newton(pb, hard, x, 0, 1e-12, budget(), options.stop, sol.energy_history.back());
+    sol.iterations += newton(pb, hard, x, 0, 1e-12, budget(), options.stop, hard_system, sol.energy_history.back());
     finish(hard, x);
     return true;
   };
@@ -679,14 +705,12 @@ MpSolution mp_solve(const MpModel& model, double target_w, double target_h, cons
   // eq. 3's z·I in stages, each a Newton run of the hard parametrization with that map (poles and
   // the rest free, the barrier holding every triangle open); a stage whose map would fold the
   // mesh as it stands is halved. Its last stage is eq. 3 itself.
-  auto shape_continuation = [&]() -> bool {
+  auto shape_continuation = [&](const Extension& extend) -> bool {
     const Point stretch{target_w / model.width, target_h / model.height};
     auto layout_at = [&](double t) {
       return make_layout(pb, true, {stretch.x + t * (pb.z - stretch.x), stretch.y + t * (pb.z - stretch.y)});
     };
     Layout lay = layout_at(0);
-    std::vector<bool> is_object(n);
-    for (size_t i = 0; i < n; ++i) is_object[i] = pb.object_of[i] >= 0;
     std::vector<Point> qs(n), ps(model.objects.size());
     for (size_t i = 0; i < n; ++i) qs[i] = {model.mesh.vertices[i].x * stretch.x, model.mesh.vertices[i].y * stretch.y};
     for (size_t o = 0; o < ps.size(); ++o) ps[o] = {model.objects[o].pole.x * stretch.x, model.objects[o].pole.y * stretch.y};
@@ -706,7 +730,7 @@ MpSolution mp_solve(const MpModel& model, double target_w, double target_h, cons
       std::vector<Point> delta(n);
       for (size_t i = 0; i < n; ++i)
         if (pb.object_of[i] >= 0) delta[i] = {q1[i].x - qs[i].x, q1[i].y - qs[i].y};
-      extend(pb, true, delta, is_object);
+      extend(true, delta);
       for (size_t i = 0; i < n; ++i)
         if (pb.object_of[i] < 0) q1[i] = {qs[i].x + delta[i].x, qs[i].y + delta[i].y};
       x1 = pack(pb, next, q1, p1);
@@ -716,7 +740,7 @@ MpSolution mp_solve(const MpModel& model, double target_w, double target_h, cons
       }
       if (t1 == 1) return try_hard(q1, p1);
       sol.energy_history.emplace_back();
-      sol.iterations += newton(staged, next, x1, 0, kStageTolerance, budget(), options.stop, sol.energy_history.back());
+      sol.iterations += newton(staged, next, x1, 0, kStageTolerance, budget(), options.stop, hard_system, sol.energy_history.back());
       t = t1, lay = next, x = x1, dt *= 2;
     }
     return false;
@@ -754,8 +778,9 @@ MpSolution mp_solve(const MpModel& model, double target_w, double target_h, cons
     return sol;
   }
   const std::vector<Point> poles_r = rigid_poles(pb, hard);
-  if (try_hard(rigid_start(pb, poles_r), poles_r)) return sol;
-  if (shape_continuation()) return sol;
+  const Extension extend(pb);
+  if (try_hard(rigid_start(pb, extend, poles_r), poles_r)) return sol;
+  if (shape_continuation(extend)) return sol;
   // Rigidity by continuation: μ up 10× per stage (more stalls the line search against folds).
   // Once the objects are within `rigid_enough` px of eq. 3 (ours), the remaining stages would only
   // creep toward what the hard parametrization reaches in a few steps: substitute eq. 3 then.
@@ -763,7 +788,7 @@ MpSolution mp_solve(const MpModel& model, double target_w, double target_h, cons
   Eigen::VectorXd x = pack(pb, soft, q0, p0);
   for (double mu = 1; mu <= 1e6; mu *= 10) {
     sol.energy_history.emplace_back();
-    sol.iterations += newton(pb, soft, x, mu, kStageTolerance, budget(), options.stop, sol.energy_history.back());
+    sol.iterations += newton(pb, soft, x, mu, kStageTolerance, budget(), options.stop, soft_system, sol.energy_history.back());
     finish(soft, x);
     if (sol.rigidity_residual <= options.rigid_enough || mu == 1e6) {
       const std::vector<Point> qs = sol.positions, ps = sol.poles;
