@@ -18,7 +18,7 @@
 //      rectangle); border vertices piecewise linear along their side between the corners and the
 //      objects' border vertices; the rest by Floater's mean value coordinates [Floater 2003] on
 //      the stretched mesh (positive weights reproducing affine maps). If that folds nothing, the
-//      final run (5) starts from it at once. On the samples it does so in about half the cases.
+//      final run (5) starts from it at once. On the samples it does so in 18 of 32 cases.
 //   3. Otherwise the shape continuation (ours): the hard parametrization with the objects' map
 //      Q_i = Q_O + diag(s)(P_i − P_O) taken from the stretch s = (W'/W, H'/H) to eq. 3's (z, z) in
 //      stages — each stage moves the rest along with the objects (the extension of step 2 applied
