@@ -14,9 +14,8 @@
 #include <random>
 #include <set>
 
+#include "tests/support/analysed_image.h"
 #include "tests/support/images.h"
-#include "tests/support/server_process.h"
-#include "warp/lines/line_detection.h"
 #include "warp/meshing/constrained_mesh.h"
 #include "warp/methods/mp/mp_precompute.h"
 #include "warp/saliency/gbvs.h"
@@ -435,19 +434,13 @@ void write_figure(const std::string& path, const warp::MpModel& m, const tiles::
 TEST(MpPrecompute, Samples) {
   for (const char* file : {"boats_lake_sunset.jpg", "astronaut_portrait.png", "interior_wine_djembe_tall.jpg",
                            "pano_grossmugl_field_4to1.png"}) {
-    const tiles::Raster full = testing::load_image(testing::samples_dir() + "/" + file);
-    const double f = std::min(1.0, 1024.0 / std::max(full.width, full.height));
-    const tiles::Raster small = testing::resize(full, int(full.width * f), int(full.height * f));
-    warp::ImageModel model;
-    model.width = full.width;
-    model.height = full.height;
-    const std::vector<Segment> detected = warp::detect_lines(small, full.width, full.height);
+    const testing::AnalysedImage sample = testing::analyse_sample(file);
+    const tiles::Raster& small = sample.analysis;
     for (warp::Saliency kind : warp::kSaliencies) {
-      const warp::SignificanceMap map = kind == warp::Saliency::kGbvs
-                                            ? warp::compute_gbvs(small, full.width, small.width, small.height)
-                                            : warp::compute_significance(small, full.width, {""});
+      const warp::SignificanceMap map = sample.saliency(kind);
+      const double f = map.scale;
       const auto t0 = std::chrono::steady_clock::now();
-      const warp::MpModel m = warp::build_mp_model({model, kind, map, small, detected});
+      const warp::MpModel m = warp::build_mp_model(sample.input(kind, map));
       const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       SCOPED_TRACE(file);
       expect_valid_model(m);
@@ -465,7 +458,7 @@ TEST(MpPrecompute, Samples) {
                   "(%zu vertices) of %zu detected, largest triangle mean %.2f, %.1f ms\n",
                   file, std::string(warp::saliency_name(kind)).c_str(), small.width, small.height,
                   m.mesh.vertices.size(), m.mesh.triangles.size(), min_angle(m.mesh), m.objects.size(), m.lines.size(),
-                  chain, detected.size(), top, ms);
+                  chain, sample.detected.size(), top, ms);
     }
   }
 }

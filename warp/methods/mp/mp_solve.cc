@@ -3,11 +3,13 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
+#include <Eigen/SparseLU>
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <iterator>
 #include <utility>
 
 namespace zoomwarp::warp {
@@ -19,6 +21,16 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // A penalty stage only has to hand a good start to the next one (ours): it stops at a relative
 // decrease below this, the final run at 1e-12 (METHODS §1).
 constexpr double kStageTolerance = 1e-4;
+// The shape continuation gives up below this stage (of the way from the stretch to eq. 3); one
+// Newton run takes at most kRunSteps steps, one solve kSolveSteps in all (ours: bounded time —
+// the samples take ≤ 250).
+constexpr double kLeastShapeStage = 1.0 / 1024;
+constexpr int kRunSteps = 100, kSolveSteps = 1000;
+// The fold barrier's weight in the shape continuation's stages, over ε (ours): at ε the stretch
+// energy squeezes some triangles nearly flat (area ratio ~1e-4 on the samples), and the next
+// stage's change of the objects' map then folds them at any step size; ×30 keeps them open. The
+// last run (eq. 3) has ε, so the result minimises the same energy as every other run.
+constexpr double kStageBarrier = 30;
 
 // Which borders a source point lies on. The precompute puts boundary vertices exactly on the
 // rectangle; the tolerance only absorbs rounding in its arithmetic.
@@ -35,6 +47,9 @@ Borders borders_of(const Point& p, double w, double h) {
 // — so ∂Q_i/∂(variable) is 1 in every case and the chain rule onto the pole is a scatter-add.
 struct Layout {
   bool hard = false;
+  // The objects' map in the hard parametrization: Q_i = Q_O + diag(scale)(P_i − P_O); (z, z) is
+  // eq. 3, anything else a stage of the shape continuation in mp_solve.
+  Point scale;
   std::vector<std::array<int, 2>> vertex_var;  // variable index per coordinate, −1: fixed
   std::vector<std::array<int, 2>> pole_var;
   std::vector<Point> vertex_fixed;  // the value of a fixed vertex coordinate
@@ -68,7 +83,7 @@ void positions(const Problem& pb, const Layout& lay, const Eigen::VectorXd& x, s
     if (lay.hard && o >= 0) {  // [Guo09 eq. 3], rotation 0
       const Point& p = m.mesh.vertices[i];
       const Point& po = m.objects[o].pole;
-      q[i] = {poles[o].x + pb.z * (p.x - po.x), poles[o].y + pb.z * (p.y - po.y)};
+      q[i] = {poles[o].x + lay.scale.x * (p.x - po.x), poles[o].y + lay.scale.y * (p.y - po.y)};
     } else {
       const auto& v = lay.vertex_var[i];
       q[i] = {v[0] >= 0 ? x[v[0]] : lay.vertex_fixed[i].x, v[1] >= 0 ? x[v[1]] : lay.vertex_fixed[i].y};
@@ -238,20 +253,28 @@ int count_folds(const Mesh& mesh, const std::vector<Point>& q) {
   return folds;
 }
 
+// The Newton system of the runs that share one layout's variables (the shape continuation's
+// stages and the final run; the penalty stages): its pattern, symbolic analysis and where each
+// triplet lands, computed by the first run and reused by the rest (ours: the symbolic analysis
+// was a tenth of a solve).
+struct NewtonSystem {
+  Eigen::SparseMatrix<double> H;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+  std::vector<int> slots;  // per triplet, its index in H's values
+};
+
 // Newton [Guo09 §3.4.2] with the projected Hessian and the fold-free Armijo line search; returns
 // the steps taken and appends the energies to `history`.
-int newton(const Problem& pb, const Layout& lay, Eigen::VectorXd& x, double mu, double rel_tol, const StopToken* stop,
-           std::vector<double>& history) {
+int newton(const Problem& pb, const Layout& lay, Eigen::VectorXd& x, double mu, double rel_tol, int max_steps,
+           const StopToken* stop, NewtonSystem& system, std::vector<double>& history) {
   const double grad_tol = 1e-7 * (pb.tw + pb.th);
   Eigen::VectorXd g;
   Triplets trips;
-  Eigen::SparseMatrix<double> H(lay.size, lay.size);
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
-  std::vector<int> slots;  // per triplet, its index in H's values
+  auto& [H, ldlt, slots] = system;
   double e = evaluate(pb, lay, x, mu, &g, &trips);
   history.push_back(e);
   int steps = 0;
-  for (; steps < 100; ++steps) {
+  for (; steps < max_steps; ++steps) {
     if (lay.size == 0 || g.lpNorm<Eigen::Infinity>() < grad_tol) break;
     if (stop) stop->check();
     // 1e-9·trace/n on the diagonal: the projection may leave null directions (e.g. a vertex
@@ -261,11 +284,13 @@ int newton(const Problem& pb, const Layout& lay, Eigen::VectorXd& x, double mu, 
       if (t.row() == t.col()) trace += t.value();
     const double reg = std::max(1e-9 * trace / lay.size, 1e-300);
     for (int i = 0; i < lay.size; ++i) trips.emplace_back(i, i, reg);
-    if (slots.empty()) {
+    if (slots.size() != trips.size()) {
       // First step: the pattern, its symbolic analysis, and where each triplet lands in it —
-      // evaluate() emits the same triplets in the same order every time, so later steps add
-      // values into place instead of sorting triplets again.
+      // evaluate() emits the same triplets in the same order every time for one layout's
+      // variables, so later steps add values into place instead of sorting triplets again.
+      H.resize(lay.size, lay.size);
       H.setFromTriplets(trips.begin(), trips.end());
+      slots.clear();
       ldlt.analyzePattern(H);
       slots.reserve(trips.size());
       for (const auto& t : trips) {
@@ -307,11 +332,12 @@ int newton(const Problem& pb, const Layout& lay, Eigen::VectorXd& x, double mu, 
 
 // The layout of one run: hard (eq. 3 substituted) or penalty (object vertices free), with the
 // boundary of eq. 1.
-Layout make_layout(const Problem& pb, bool hard) {
+Layout make_layout(const Problem& pb, bool hard, Point scale) {
   const MpModel& m = *pb.model;
   const size_t n = m.mesh.vertices.size(), no = m.objects.size();
   Layout lay;
   lay.hard = hard;
+  lay.scale = scale;
   lay.vertex_var.assign(n, {-1, -1});
   lay.pole_var.assign(no, {-1, -1});
   lay.vertex_fixed.assign(n, {});
@@ -325,10 +351,10 @@ Layout make_layout(const Problem& pb, bool hard) {
       touch.left |= b.left, touch.right |= b.right, touch.top |= b.top, touch.bottom |= b.bottom;
     }
     const Point& po = m.objects[o].pole;
-    if (touch.left) lay.pole_fixed[o].x = pb.z * po.x;
-    if (touch.right) lay.pole_fixed[o].x = pb.tw - pb.z * (m.width - po.x);
-    if (touch.top) lay.pole_fixed[o].y = pb.z * po.y;
-    if (touch.bottom) lay.pole_fixed[o].y = pb.th - pb.z * (m.height - po.y);
+    if (touch.left) lay.pole_fixed[o].x = scale.x * po.x;
+    if (touch.right) lay.pole_fixed[o].x = pb.tw - scale.x * (m.width - po.x);
+    if (touch.top) lay.pole_fixed[o].y = scale.y * po.y;
+    if (touch.bottom) lay.pole_fixed[o].y = pb.th - scale.y * (m.height - po.y);
     if (!touch.left && !touch.right) lay.pole_var[o][0] = lay.size++;
     if (!touch.top && !touch.bottom) lay.pole_var[o][1] = lay.size++;
   }
@@ -368,6 +394,153 @@ Eigen::VectorXd pack(const Problem& pb, const Layout& lay, const std::vector<Poi
   return x;
 }
 
+// The rigid start's mesh around its objects (ours): a field given on the object vertices, filled
+// in on the rest — positions, or a displacement (zero at the corners and across the border).
+// Border vertices outside objects: along their side, piecewise linear in the source coordinate
+// between the corners and the objects' border vertices (so the side stays in order whenever the
+// objects are), the normal coordinate on the side (eq. 1). The rest: Floater's mean value
+// coordinates [Floater 2003] on the uniformly stretched mesh — positive weights that reproduce
+// affine maps, so the free vertices keep the stretched mesh's shape where nothing pulls, and
+// (Tutte–Floater) fold nothing while the fixed vertices are in convex position. The weights are
+// factorised once per solve.
+class Extension {
+ public:
+  explicit Extension(const Problem& pb) : pb_(pb) {
+    const MpModel& m = *pb.model;
+    const auto& p = m.mesh.vertices;
+    const size_t n = p.size();
+    sides_ = {Side{true, m.height, pb.th, 0, {}, {}}, Side{true, m.height, pb.th, pb.tw, {}, {}},
+              Side{false, m.width, pb.tw, 0, {}, {}}, Side{false, m.width, pb.tw, pb.th, {}, {}}};
+    std::vector<bool> fixed(n);
+    for (size_t i = 0; i < n; ++i) {
+      const Borders b = borders_of(p[i], m.width, m.height);
+      const bool on[4] = {b.left, b.right, b.top, b.bottom};
+      fixed[i] = pb.object_of[i] >= 0 || b.left || b.right || b.top || b.bottom;
+      for (int k = 0; k < 4; ++k) {
+        if (!on[k]) continue;
+        auto& list = pb.object_of[i] >= 0 ? sides_[k].anchors : sides_[k].members;
+        list.push_back(static_cast<int>(i));
+      }
+    }
+    index_.assign(n, -1);
+    for (size_t i = 0; i < n; ++i)
+      if (!fixed[i]) index_[i] = free_++;
+    if (free_ == 0) return;
+    const double kx = pb.tw / m.width, ky = pb.th / m.height;
+    Triplets trips;
+    for (const Triangle& t : m.mesh.triangles) {
+      for (int c = 0; c < 3; ++c) {
+        const int i = t[c];
+        if (index_[i] < 0) continue;
+        // w_ij = (tan(θ/2) + tan(θ'/2))/|v_j − v_i|, θ, θ' the angles at v_i beside edge ij.
+        const int nb[2] = {t[(c + 1) % 3], t[(c + 2) % 3]};
+        const Point e[2] = {{kx * (p[nb[0]].x - p[i].x), ky * (p[nb[0]].y - p[i].y)},
+                            {kx * (p[nb[1]].x - p[i].x), ky * (p[nb[1]].y - p[i].y)}};
+        const double half_tan =
+            std::tan(0.5 * std::atan2(e[0].x * e[1].y - e[0].y * e[1].x, e[0].x * e[1].x + e[0].y * e[1].y));
+        for (int k = 0; k < 2; ++k) {
+          const double w = half_tan / std::hypot(e[k].x, e[k].y);
+          trips.emplace_back(index_[i], index_[i], w);
+          if (index_[nb[k]] >= 0)
+            trips.emplace_back(index_[i], index_[nb[k]], -w);
+          else
+            boundary_.push_back({index_[i], nb[k], w});
+        }
+      }
+    }
+    Eigen::SparseMatrix<double> weights(free_, free_);
+    weights.setFromTriplets(trips.begin(), trips.end());
+    weights.makeCompressed();
+    lu_.compute(weights);
+  }
+
+  void operator()(bool displacement, std::vector<Point>& f) const {
+    const auto& p = pb_.model->mesh.vertices;
+    for (const Side& side : sides_) {
+      auto along = [&](int i) { return side.vertical ? p[i].y : p[i].x; };
+      std::vector<std::pair<double, double>> anchors{{0, 0}, {side.source_len, displacement ? 0 : side.target_len}};
+      for (int i : side.anchors) anchors.emplace_back(along(i), side.vertical ? f[i].y : f[i].x);
+      std::sort(anchors.begin(), anchors.end());
+      const double normal = displacement ? 0 : side.normal;
+      for (int i : side.members) {
+        auto hi = std::upper_bound(anchors.begin(), anchors.end(), std::make_pair(along(i), kInf));
+        if (hi == anchors.end()) --hi;
+        const auto lo = hi == anchors.begin() ? hi : std::prev(hi);
+        const double t = hi->first > lo->first ? (along(i) - lo->first) / (hi->first - lo->first) : 0;
+        const double value = lo->second + t * (hi->second - lo->second);
+        f[i] = side.vertical ? Point{normal, value} : Point{value, normal};
+      }
+    }
+    if (free_ == 0) return;
+    Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(free_, 2);
+    for (const auto& b : boundary_) rhs(b.row, 0) += b.weight * f[b.vertex].x, rhs(b.row, 1) += b.weight * f[b.vertex].y;
+    const Eigen::MatrixXd solved = lu_.solve(rhs);
+    for (size_t i = 0; i < f.size(); ++i)
+      if (index_[i] >= 0) f[i] = {solved(index_[i], 0), solved(index_[i], 1)};
+  }
+
+ private:
+  struct Side {
+    bool vertical;
+    double source_len, target_len, normal;
+    std::vector<int> anchors;  // object vertices on the side
+    std::vector<int> members;  // the other vertices on it
+  };
+  struct BoundaryWeight {
+    int row, vertex;
+    double weight;
+  };
+  const Problem& pb_;
+  std::array<Side, 4> sides_;
+  std::vector<int> index_;  // per vertex, its row among the free ones or −1
+  int free_ = 0;
+  std::vector<BoundaryWeight> boundary_;
+  Eigen::SparseLU<Eigen::SparseMatrix<double>> lu_;
+};
+
+// A free pole coordinate puts the object's bounding box where eq. 8 puts a single object in its
+// band: the gaps before and after it scaled alike, (T − z·ext)/(S − ext), so it stays inside the
+// rectangle (ours).
+double rigid_pole(double lo, double hi, double pole, double source, double target, double z) {
+  const double ext = hi - lo, room = target - z * ext;
+  const double lo_target = source - ext < 1 || room < 0 ? 0.5 * room : lo * room / (source - ext);
+  return lo_target + z * (pole - lo);
+}
+
+std::vector<Point> rigid_poles(const Problem& pb, const Layout& hard) {
+  const MpModel& m = *pb.model;
+  std::vector<Point> poles(m.objects.size());
+  for (size_t o = 0; o < poles.size(); ++o) {
+    const MpObject& obj = m.objects[o];
+    double x0 = kInf, x1 = -kInf, y0 = kInf, y1 = -kInf;
+    for (int i : obj.vertices) {
+      const Point& v = m.mesh.vertices[i];
+      x0 = std::min(x0, v.x), x1 = std::max(x1, v.x), y0 = std::min(y0, v.y), y1 = std::max(y1, v.y);
+    }
+    poles[o].x = hard.pole_var[o][0] < 0 ? hard.pole_fixed[o].x : rigid_pole(x0, x1, obj.pole.x, m.width, pb.tw, pb.z);
+    poles[o].y = hard.pole_var[o][1] < 0 ? hard.pole_fixed[o].y : rigid_pole(y0, y1, obj.pole.y, m.height, pb.th, pb.z);
+  }
+  return poles;
+}
+
+// The rigid start (ours): every object at eq. 3 around its rigid pole, the rest extended as
+// above. When it folds nothing, the hard parametrization runs from it at once, without the penalty
+// continuation's six or seven runs.
+std::vector<Point> rigid_start(const Problem& pb, const Extension& extend, const std::vector<Point>& poles) {
+  const MpModel& m = *pb.model;
+  const size_t n = m.mesh.vertices.size();
+  std::vector<Point> q(n);
+  for (size_t i = 0; i < n; ++i) {
+    const int o = pb.object_of[i];
+    if (o < 0) continue;
+    const Point& p = m.mesh.vertices[i];
+    const Point& po = m.objects[o].pole;
+    q[i] = {poles[o].x + pb.z * (p.x - po.x), poles[o].y + pb.z * (p.y - po.y)};
+  }
+  extend(false, q);
+  return q;
+}
+
 }  // namespace
 
 double mp_edge_energy(Point d, double l) {
@@ -399,6 +572,18 @@ double mp_object_scale(const MpModel& model, double target_w, double target_h, d
     if (lr > 0) z = std::min(z, (target_w - beta * (target_w / model.width) * (model.width - lr)) / lr);
   for (double lc : model.column_object_length)
     if (lc > 0) z = std::min(z, (target_h - beta * (target_h / model.height) * (model.height - lc)) / lc);
+  // Each object's bounding box likewise (ours): the tables hold a row's object length, which for a
+  // slanted object is shorter than its extent; eq. 3 moves the whole extent at z, and an object
+  // on a border could not fit the rectangle otherwise.
+  for (const MpObject& o : model.objects) {
+    double x0 = std::numeric_limits<double>::infinity(), x1 = -x0, y0 = x0, y1 = -x0;
+    for (int i : o.vertices) {
+      const Point& p = model.mesh.vertices[i];
+      x0 = std::min(x0, p.x), x1 = std::max(x1, p.x), y0 = std::min(y0, p.y), y1 = std::max(y1, p.y);
+    }
+    if (x1 > x0) z = std::min(z, (target_w - beta * (target_w / model.width) * (model.width - (x1 - x0))) / (x1 - x0));
+    if (y1 > y0) z = std::min(z, (target_h - beta * (target_h / model.height) * (model.height - (y1 - y0))) / (y1 - y0));
+  }
   return z;
 }
 
@@ -480,7 +665,9 @@ MpSolution mp_solve(const MpModel& model, double target_w, double target_h, cons
 
   MpSolution sol;
   sol.object_scale = pb.z;
-  const Layout hard = make_layout(pb, true);
+  auto budget = [&] { return std::clamp(kSolveSteps - sol.iterations, 0, kRunSteps); };
+  NewtonSystem hard_system, soft_system;
+  const Layout hard = make_layout(pb, true, {pb.z, pb.z});
   std::vector<Point> q, poles;
 
   auto finish = [&](const Layout& lay, const Eigen::VectorXd& x) {
@@ -509,9 +696,54 @@ MpSolution mp_solve(const MpModel& model, double target_w, double target_h, cons
     positions(pb, hard, x, qh, ph);
     if (count_folds(model.mesh, qh) > 0) return false;
     sol.energy_history.emplace_back();
-    sol.iterations += newton(pb, hard, x, 0, 1e-12, options.stop, sol.energy_history.back());
+    sol.iterations += newton(pb, hard, x, 0, 1e-12, budget(), options.stop, hard_system, sol.energy_history.back());
     finish(hard, x);
     return true;
+  };
+
+  // The shape continuation: the objects' map goes from the uniform stretch diag(W'/W, H'/H) to
+  // eq. 3's z·I in stages, each a Newton run of the hard parametrization with that map (poles and
+  // the rest free, the barrier holding every triangle open); a stage whose map would fold the
+  // mesh as it stands is halved. Its last stage is eq. 3 itself.
+  auto shape_continuation = [&](const Extension& extend) -> bool {
+    const Point stretch{target_w / model.width, target_h / model.height};
+    auto layout_at = [&](double t) {
+      return make_layout(pb, true, {stretch.x + t * (pb.z - stretch.x), stretch.y + t * (pb.z - stretch.y)});
+    };
+    Layout lay = layout_at(0);
+    std::vector<Point> qs(n), ps(model.objects.size());
+    for (size_t i = 0; i < n; ++i) qs[i] = {model.mesh.vertices[i].x * stretch.x, model.mesh.vertices[i].y * stretch.y};
+    for (size_t o = 0; o < ps.size(); ++o) ps[o] = {model.objects[o].pole.x * stretch.x, model.objects[o].pole.y * stretch.y};
+    Eigen::VectorXd x = pack(pb, lay, qs, ps);
+    Problem staged = pb;
+    staged.barrier = kStageBarrier * pb.barrier;
+    double t = 0, dt = 0.25;
+    while (t < 1) {
+      if (dt < kLeastShapeStage || budget() == 0) return false;
+      const double t1 = std::min(1.0, t + dt);
+      const Layout next = layout_at(t1);
+      positions(pb, lay, x, qs, ps);
+      Eigen::VectorXd x1 = pack(pb, next, qs, ps);
+      std::vector<Point> q1, p1;
+      positions(pb, next, x1, q1, p1);
+      // The rest moves along with the objects (extended as in the rigid start).
+      std::vector<Point> delta(n);
+      for (size_t i = 0; i < n; ++i)
+        if (pb.object_of[i] >= 0) delta[i] = {q1[i].x - qs[i].x, q1[i].y - qs[i].y};
+      extend(true, delta);
+      for (size_t i = 0; i < n; ++i)
+        if (pb.object_of[i] < 0) q1[i] = {qs[i].x + delta[i].x, qs[i].y + delta[i].y};
+      x1 = pack(pb, next, q1, p1);
+      if (count_folds(model.mesh, q1) > 0) {
+        dt *= 0.5;
+        continue;
+      }
+      if (t1 == 1) return try_hard(q1, p1);
+      sol.energy_history.emplace_back();
+      sol.iterations += newton(staged, next, x1, 0, kStageTolerance, budget(), options.stop, hard_system, sol.energy_history.back());
+      t = t1, lay = next, x = x1, dt *= 2;
+    }
+    return false;
   };
 
   // Warm start: the nearby solution mapped affinely onto the new rectangle (orientation kept, the
@@ -545,14 +777,18 @@ MpSolution mp_solve(const MpModel& model, double target_w, double target_h, cons
     try_hard(q0, p0);
     return sol;
   }
+  const std::vector<Point> poles_r = rigid_poles(pb, hard);
+  const Extension extend(pb);
+  if (try_hard(rigid_start(pb, extend, poles_r), poles_r)) return sol;
+  if (shape_continuation(extend)) return sol;
   // Rigidity by continuation: μ up 10× per stage (more stalls the line search against folds).
   // Once the objects are within `rigid_enough` px of eq. 3 (ours), the remaining stages would only
   // creep toward what the hard parametrization reaches in a few steps: substitute eq. 3 then.
-  const Layout soft = make_layout(pb, false);
+  const Layout soft = make_layout(pb, false, {pb.z, pb.z});
   Eigen::VectorXd x = pack(pb, soft, q0, p0);
   for (double mu = 1; mu <= 1e6; mu *= 10) {
     sol.energy_history.emplace_back();
-    sol.iterations += newton(pb, soft, x, mu, kStageTolerance, options.stop, sol.energy_history.back());
+    sol.iterations += newton(pb, soft, x, mu, kStageTolerance, budget(), options.stop, soft_system, sol.energy_history.back());
     finish(soft, x);
     if (sol.rigidity_residual <= options.rigid_enough || mu == 1e6) {
       const std::vector<Point> qs = sol.positions, ps = sol.poles;
