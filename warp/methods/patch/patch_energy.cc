@@ -207,10 +207,6 @@ PatchGrid make_patch_grid(const Patches& patches, const SignificanceMap& salienc
       const int qj = std::min(g.ny - 1, int((y + 0.5) * g.ny / g.height));
       ++votes[std::size_t(qj) * g.nx + qi][label];
     }
-  double top = 0;
-  g.significance.resize(patches.count);
-  for (int p = 0; p < patches.count; ++p) top = std::max(top, g.significance[p] = sum[p] / patches.size[p]);
-  for (double& s : g.significance) s = top > 0 ? s / top : 0;
   // A quad belongs to the patch covering most of its pixels (ties: the lower label).
   g.quad_patch.resize(votes.size());
   for (std::size_t q = 0; q < votes.size(); ++q) {
@@ -219,6 +215,13 @@ PatchGrid make_patch_grid(const Patches& patches, const SignificanceMap& salienc
       if (n > count) best = label, count = n;
     g.quad_patch[q] = best;
   }
+  // Normalised by the largest mean among patches that own a quad (ours): a few-pixel patch on a
+  // saliency peak, owning no quad and so no energy, would otherwise set the scale for all.
+  g.significance.resize(patches.count);
+  for (int p = 0; p < patches.count; ++p) g.significance[p] = sum[p] / patches.size[p];
+  double top = 0;
+  for (int p : g.quad_patch) top = std::max(top, g.significance[p]);
+  for (double& s : g.significance) s = top > 0 ? std::min(1.0, s / top) : 0;
   return g;
 }
 
