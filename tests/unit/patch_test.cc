@@ -118,6 +118,10 @@ TEST(PatchRetargeting, NoFoldOverAtFourAspectsWithBothSaliencies) {
         double t = 0;
         const std::vector<Point> q = r.warped(tw, th, &t);
         EXPECT_TRUE(warp::folded_triangles(r.mesh(), q).empty()) << file << " " << a;
+        // The guard blends only where the energy's minimiser itself folds.
+        const std::vector<Point> raw = warp::patch_positions(b.model, tw * b.model.grid.width / b.image.model.width,
+                                                             th * b.model.grid.height / b.image.model.height);
+        EXPECT_EQ(t > 0, !warp::folded_triangles(warp::patch_mesh(b.model.grid), raw).empty()) << file << " " << a;
         blended += t > 0;
         ++total;
         if (t > 0) std::printf("[ guard    ] %s %s aspect %.2f: blended %.4f toward the stretch\n", file,
@@ -125,6 +129,7 @@ TEST(PatchRetargeting, NoFoldOverAtFourAspectsWithBothSaliencies) {
       }
     }
   std::printf("[ guard    ] %d of %d targets needed the blend\n", blended, total);
+  EXPECT_GT(blended, 0) << "the 4:1 panorama on a 9:16 screen folds: the guard must have been exercised";
 }
 
 // D_OR keeps the grid's horizontal lines horizontal [Lin13 eq. 5]: without it, the mean
