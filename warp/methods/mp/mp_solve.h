@@ -11,7 +11,10 @@
 //   1. z = mp_object_scale(): one scale for all objects, ≤ 1 and small enough that every row and
 //      column keeps a background scale ≥ β·W'/W (β·H'/H), so the ideal lengths of eq. 8 stay
 //      positive; z = 1 at W' = W, H' = H. Ours: each object's bounding box too (the row tables
-//      under-count a slanted object, which eq. 3 could then not fit in the rectangle at all).
+//      under-count a slanted object, which eq. 3 could then not fit in the rectangle at all), and
+//      on each row (column) the objects' mesh extents added up, an object on a border reaching it
+//      (the tables count masks; vertices sharing rows that masks do not left z = 1 where eq. 3
+//      could not put two objects side by side, and every continuation stalled between them).
 //   2. The rigid start (ours): every object placed by eq. 3 at scale z, a pinned pole coordinate
 //      as eq. 1 needs it, a free one putting the object's bounding box where eq. 8 puts a lone
 //      object in its band (the gaps before and after scaled alike, so it stays inside the
@@ -95,7 +98,7 @@ struct MpSolution {
 
 // z of METHODS §1: min(1, sqrt(W'H'/ΣA_O), min over object rows of (W' − β(W'/W)(W − Lr))/Lr,
 // likewise over columns), and (ours) the same bound with each object's bounding-box width
-// (height) for Lr (Lc).
+// (height) for Lr (Lc), and with each row's (column's) sum of the objects' mesh extents on it.
 double mp_object_scale(const MpModel& model, double target_w, double target_h, double beta = 0.25);
 
 // Ideal edge lengths [Guo09 eqs 8–9] for every mesh edge (a, b), a < b, in the order returned.
