@@ -4,7 +4,8 @@
 // and lines, the boundary on the target, no folds from 1:4 to 4:1, objects moved by exactly scale
 // z and no rotation [Guo09 eq. 3] (also two objects sharing rows outside their masks), lines
 // straighter with the line term than without, the projected edge Hessian against finite
-// differences, energy strictly decreasing, and the warm start. (The time per solve is measured by tests/bench/mp_bench.cc.)
+// differences, energy strictly decreasing, and the warm start. (The time per solve is measured by
+// tests/bench/mp_bench.cc.)
 #include "warp/methods/mp/mp_solve.h"
 
 #include <gtest/gtest.h>
@@ -261,7 +262,8 @@ TEST(MpSolve, ObjectsSharingRowsOutsideTheirMasksFitSideBySideAndStayRigid) {
   for (int j = 6; j <= 7; ++j)
     for (int i = 8; i <= 13; ++i) b.vertices.push_back(grid_id(16, i, j));
   b.pole = {};
-  for (int v : b.vertices) b.pole.x += m.mesh.vertices[v].x / b.vertices.size(), b.pole.y += m.mesh.vertices[v].y / b.vertices.size();
+  for (int v : b.vertices) b.pole = {b.pole.x + m.mesh.vertices[v].x, b.pole.y + m.mesh.vertices[v].y};
+  b.pole = {b.pole.x / b.vertices.size(), b.pole.y / b.vertices.size()};
   warp::MpLine horizon;
   for (int i = 0; i <= 16; ++i) horizon.vertices.push_back(grid_id(16, i, 5));
   m.lines.push_back(horizon);
@@ -275,7 +277,8 @@ TEST(MpSolve, ObjectsSharingRowsOutsideTheirMasksFitSideBySideAndStayRigid) {
     EXPECT_TRUE(s.rigid) << tw << " x " << th;
     EXPECT_EQ(folds(m, s.positions), 0) << tw << " x " << th;
     EXPECT_LT(s.rigidity_residual, 1e-9) << tw << " x " << th;
-    for (const warp::MpObject& o : m.objects) EXPECT_LT(similarity_fit(m, o, s.positions).residual, 1e-9) << tw << " x " << th;
+    for (const warp::MpObject& o : m.objects)
+      EXPECT_LT(similarity_fit(m, o, s.positions).residual, 1e-9) << tw << " x " << th;
     EXPECT_LE(bend(m, s.positions), 1) << tw << " x " << th;
   }
 }
