@@ -399,7 +399,7 @@ Eigen::VectorXd pack(const Problem& pb, const Layout& lay, const std::vector<Poi
 // Border vertices outside objects: along their side, piecewise linear in the source coordinate
 // between the corners and the objects' border vertices (so the side stays in order whenever the
 // objects are), the normal coordinate on the side (eq. 1). The rest: Floater's mean value
-// coordinates [Floater 2003] on the uniformly stretched mesh — positive weights that reproduce
+// coordinates [Floater03] on the uniformly stretched mesh — positive weights that reproduce
 // affine maps, so the free vertices keep the stretched mesh's shape where nothing pulls, and
 // (Tutte–Floater) fold nothing while the fixed vertices are in convex position. The weights are
 // factorised once per solve.

@@ -19,7 +19,7 @@
 //      as eq. 1 needs it, a free one putting the object's bounding box where eq. 8 puts a lone
 //      object in its band (the gaps before and after scaled alike, so it stays inside the
 //      rectangle); border vertices piecewise linear along their side between the corners and the
-//      objects' border vertices; the rest by Floater's mean value coordinates [Floater 2003] on
+//      objects' border vertices; the rest by Floater's mean value coordinates [Floater03] on
 //      the stretched mesh (positive weights reproducing affine maps). If that folds nothing, the
 //      final run (5) starts from it at once. On the samples it does so in 18 of 32 cases.
 //   3. Otherwise the shape continuation (ours): the hard parametrization with the objects' map
