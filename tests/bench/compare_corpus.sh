@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # `zoomwarp compare` over every image of a folder (default: the corpus next to the repository,
 # ../shared/corpus): one output folder per image (sheet.png, metrics.json, metrics.md) and
-# OUT/summary.md, every image's table one after the other, with the run's settings. The table in
-# docs/compare.md comes from it.
+# OUT/summary.md, every image's table one after the other, with the run's settings, then an
+# overview with one row per image (jq). The table in docs/compare.md is that overview.
 #
 #   tests/bench/compare_corpus.sh [--corpus DIR] [-o OUT] [-- COMPARE OPTIONS…]
 #   e.g. tests/bench/compare_corpus.sh -o /tmp/cmp -- --size 360x640 --zoom 0,0.25,0.5,1
@@ -54,5 +54,37 @@ for image in "${images[@]}"; do
     failed=1
   fi
 done
+# The overview, one row per image (the table of docs/compare.md): per method but traditional zoom,
+# in the order compared, the salient-region gain at z = 0 and 0.5, the salient anisotropy at z = 0
+# beside the uniform stretch's, the folds over every cell, precompute and z = 0.5 viewport times.
+overview='
+def fixed(d): if . == null then "n/a" else (. * pow(10; d) | round | tostring) as $s
+  | if d == 0 then $s else ("0" * ([0, d + 1 - ($s | length)] | max) + $s) as $p
+    | $p[:($p | length) - d] + "." + $p[($p | length) - d:] end end;
+def cell(m; z; f): [.rows[] | select(.method == m and .zoom == z) | f][0];
+. as $r | [$r.methods[] | select(.name != "traditional") | .name] as $ms
+| (($r.width / $r.height) / ($r.screen[0] / $r.screen[1])) as $a
+| "| \($r.image) | \($r.width)×\($r.height) | "
+  + ([([$ms[] as $m | $r | cell($m; 0; .scale_gain) | fixed(2)] | join(" / ")),
+      ([$ms[] as $m | $r | cell($m; 0.5; .scale_gain) | fixed(2)] | join(" / ")),
+      ((if $a < 1 then 1 / $a else $a end) | fixed(2)) + " · "
+        + ([$ms[] as $m | $r | cell($m; 0; .anisotropy_salient) | fixed(2)] | join(" / ")),
+      ([$r.rows[] | .folds // 0] | add | tostring),
+      ([$ms[] as $m | $r.methods[] | select(.name == $m) | .precompute_ms | fixed(0)] | join(" / ")),
+      ([$ms[] as $m | $r | cell($m; 0.5; .viewport_ms) | fixed(0)] | join(" / "))] | join(" | ")) + " |"'
+metrics=("$out"/*/metrics.json)
+if [ ${#metrics[@]} -gt 0 ]; then
+  methods=$(jq -r '[.methods[] | select(.name != "traditional") | .name] | join(" / ")' "${metrics[0]}")
+  {
+    echo
+    echo "## Overview"
+    echo
+    echo "Per method ($methods): gain z=0 | gain z=0.5 | salient anisotropy z=0 (the uniform stretch's · each method's) | folds, all cells | precompute ms | viewport ms z=0.5"
+    echo
+    echo "| image | size | gain z=0 | gain z=0.5 | aniso. z=0: stretch · methods | folds | precompute ms | viewport ms z=0.5 |"
+    echo "|---|---|---|---|---|---|---|---|"
+    for m in "${metrics[@]}"; do jq -r "$overview" "$m"; done
+  } >> "$summary"
+fi
 echo "compare_corpus.sh: $summary" >&2
 exit $failed

@@ -260,11 +260,13 @@ std::shared_ptr<const tiles::ImageEntry> edit_image_model(tiles::Store& store, c
   const std::string staging = store.make_staging_copy(current);
   try {
     write_image_model(staging, model);
-    // The methods read the significance map (as seam carving's bias): precomputed again from the
-    // edited one, on the same pyramid.
-    if (!edit.significance.empty()) {
+    // The methods read the significance map (as seam carving's bias, as mp's objects): all are
+    // precomputed again from the edited one, on the same pyramid; those that read lines (mp's
+    // constrained mesh) also when only the lines or the dismissed suggestions changed.
+    if (!edit.significance.empty() || edit.lines || edit.dismissed_lines) {
       tiles::PyramidReader reader(32 << 20);
-      write_method_files(staging, current, reader, model, method_file_kinds(current));
+      write_method_files(staging, current, reader, model, method_file_kinds(current),
+                         edit.significance.empty() ? MethodSelection::kReadingLines : MethodSelection::kAll);
     }
   } catch (...) {
     store.discard(staging);

@@ -32,10 +32,10 @@ std::string method_file_name(const RetargetingMethod& method, Saliency saliency)
 
 std::vector<MethodFileTiming> write_method_files(const std::string& dir, const tiles::ImageEntry& image,
                                                  tiles::PyramidReader& reader, const ImageModel& model,
-                                                 std::span<const Saliency> kinds) {
+                                                 std::span<const Saliency> kinds, MethodSelection which) {
   std::vector<MethodFileTiming> out;
   for (const RetargetingMethod* method : retargeting_methods()) {
-    if (!method->precompute) continue;
+    if (!method->precompute || (which == MethodSelection::kReadingLines && !method->reads_lines)) continue;
     for (Saliency kind : kinds) {
       const auto start = std::chrono::steady_clock::now();
       const std::string file = method_file_name(*method, kind);

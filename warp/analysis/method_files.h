@@ -28,15 +28,19 @@ namespace zoomwarp::warp {
 // "<name>.<saliency>.bin", e.g. "seam.default.bin".
 std::string method_file_name(const RetargetingMethod& method, Saliency saliency);
 
-// Precomputes every registered method that keeps a file, for each kind in `kinds`, and writes the
-// files into `dir`. Returns how long each took (for `zoomwarp ingest`'s report).
+// Precomputes every registered method that keeps a file (kReadingLines: only those whose
+// precomputation reads lines — what an edit of the lines alone makes stale), for each kind in
+// `kinds`, and writes the files into `dir`. Returns how long each took (for `zoomwarp ingest`'s
+// report).
 struct MethodFileTiming {
   std::string file;
   double seconds = 0;
 };
+enum class MethodSelection { kAll, kReadingLines };
 std::vector<MethodFileTiming> write_method_files(const std::string& dir, const tiles::ImageEntry& image,
                                                  tiles::PyramidReader& reader, const ImageModel& model,
-                                                 std::span<const Saliency> kinds);
+                                                 std::span<const Saliency> kinds,
+                                                 MethodSelection which = MethodSelection::kAll);
 
 // How load_retargeter got the precomputation.
 enum class MethodSource { kStored, kNoFile, kBuiltInMemory, kRebuiltDamaged };

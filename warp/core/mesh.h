@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <vector>
 
 namespace zoomwarp::warp {
@@ -29,6 +30,9 @@ struct Segment {
 inline double signed_area2(const Point& a, const Point& b, const Point& c) {
   return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
 }
+
+// The part of segment s inside the rectangle [x0, x1] × [y0, y1] (Liang–Barsky), or nothing.
+std::optional<Segment> clip_segment(const Segment& s, double x0, double y0, double x1, double y1);
 
 // The vertices of `mesh` lying on segment s (within rounding), ordered from s.a to s.b. Mesh
 // refinement only ever adds midpoints of constrained edges, so this recovers a line's chain.

@@ -1,25 +1,9 @@
-// The only translation unit that includes CGAL (it is header-heavy: keeping it here keeps the build fast).
-//
-// CGAL's own checks stay on here even in release builds. Delaunay refinement of crossing line
-// constraints — whose intersection points inexact constructions round — can meet a flat face
-// (64 lines on a grid: "orientation(...) != COLLINEAR" in Mesh_2/Refine_faces.h); without the
-// checks it runs on into a null dereference and takes the process down. With them it throws
-// CGAL::Failure_exception, refused below as bad input. Exact constructions were tried instead:
-// the refinement then did not finish within 90 s.
-#ifdef NDEBUG
-#undef NDEBUG
-#endif
-#ifdef CGAL_NDEBUG
-#undef CGAL_NDEBUG
-#endif
+// The coarsest mesh (meshing/README.md): a CGAL translation unit, see cgal_cdt.h for why CGAL's
+// checks stay on and how a refinement that meets a flat face is refused.
+#include "warp/meshing/cgal_cdt.h"
 #include "warp/meshing/coarse_mesh.h"
 
-#include <CGAL/Constrained_Delaunay_triangulation_2.h>
-#include <CGAL/Delaunay_mesh_face_base_2.h>
 #include <CGAL/Delaunay_mesh_size_criteria_2.h>
-#include <CGAL/Delaunay_mesher_2.h>
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#include <CGAL/Triangulation_vertex_base_with_info_2.h>
 
 #include <algorithm>
 #include <cmath>
@@ -30,31 +14,10 @@ namespace zoomwarp::warp {
 
 namespace {
 
-using K = CGAL::Exact_predicates_inexact_constructions_kernel;
-using Vb = CGAL::Triangulation_vertex_base_with_info_2<int, K>;
-using Fb = CGAL::Delaunay_mesh_face_base_2<K>;
-using Tds = CGAL::Triangulation_data_structure_2<Vb, Fb>;
-// Exact_predicates_tag: crossing line constraints are split at their intersection.
-using CDT = CGAL::Constrained_Delaunay_triangulation_2<K, Tds, CGAL::Exact_predicates_tag>;
+using cgal_cdt::CDT;
+using cgal_cdt::K;
+// Crossing line constraints are split at their intersection.
 using Criteria = CGAL::Delaunay_mesh_size_criteria_2<CDT>;
-
-// Liang–Barsky clipping of a segment to [0, w] × [0, h].
-std::optional<Segment> clip(Segment s, double w, double h) {
-  double t0 = 0, t1 = 1;
-  const double dx = s.b.x - s.a.x, dy = s.b.y - s.a.y;
-  const double p[4] = {-dx, dx, -dy, dy}, q[4] = {s.a.x, w - s.a.x, s.a.y, h - s.a.y};
-  for (int i = 0; i < 4; ++i) {
-    if (p[i] == 0) {
-      if (q[i] < 0) return std::nullopt;
-      continue;
-    }
-    const double t = q[i] / p[i];
-    if (p[i] < 0) t0 = std::max(t0, t);
-    else t1 = std::min(t1, t);
-  }
-  if (t0 >= t1) return std::nullopt;
-  return Segment{{s.a.x + t0 * dx, s.a.y + t0 * dy}, {s.a.x + t1 * dx, s.a.y + t1 * dy}};
-}
 
 CoarseMesh triangulate(double w, double h, const std::vector<std::optional<Segment>>& lines, double max_area,
                        double min_angle_degrees) {
@@ -101,7 +64,7 @@ CoarseMesh build_coarse_mesh(double width, double height, const std::vector<Segm
                              const CoarseMeshOptions& options) {
   std::vector<std::optional<Segment>> clipped;
   for (const Segment& s : lines) {
-    auto c = clip(s, width, height);
+    auto c = clip_segment(s, 0, 0, width, height);
     if (c && std::hypot(c->b.x - c->a.x, c->b.y - c->a.y) < 1.0) c.reset();
     clipped.push_back(c);
   }

@@ -2,13 +2,14 @@
 // and this file is the one place that names them all (no static-initialisation tricks).
 #include "warp/methods/retargeting_method.h"
 
+#include "warp/methods/mp/mp_retargeter.h"
 #include "warp/methods/retarget_zoom/retarget_zoom.h"
 #include "warp/methods/seam/seam_carving.h"
 
 namespace zoomwarp::warp {
 
 std::span<const RetargetingMethod* const> retargeting_methods() {
-  static const RetargetingMethod* const kAll[] = {&retarget_zoom_method(), &seam_carving_method()};
+  static const RetargetingMethod* const kAll[] = {&retarget_zoom_method(), &seam_carving_method(), &mp_method()};
   return kAll;
 }
 

@@ -49,6 +49,10 @@ struct RetargetingMethod {
   bool has_mesh = true;      // false: /mesh answers 501 (seam carving)
   // The model file's magic (8 bytes, its format version included); unused without precompute.
   std::array<char, 8> magic{};
+  // Whether the precomputation reads lines (the curator's and MethodInput::detected_lines): an
+  // edit of the lines or of the dismissed suggestions then precomputes it again. Every
+  // precomputation is taken to read the saliency map (edited by significance edits).
+  bool reads_lines = false;
   // The precomputation's bytes; empty: the method keeps no file and load() gets "".
   std::function<std::string(const MethodInput&)> precompute;
   // The Retargeter of one version from the model, the selected saliency map and the

@@ -41,21 +41,14 @@ RetargetZoom::RetargetZoom(const ImageModel& model, const SignificanceMap& salie
 std::vector<Point> RetargetZoom::warped(double tw, double th, WarpResult* stats, const StopToken* stop) {
   const auto key = std::make_pair(std::llround(tw * 1000), std::llround(th * 1000));
   std::lock_guard lock(mu_);
-  if (auto it = cache_.find(key); it != cache_.end()) {
-    it->second.last_used = ++clock_;
-    return it->second.positions;
-  }
+  if (const std::vector<Point>* cached = cache_.find(key)) return *cached;
   // 0.05 px of the retargeted image: zoom 1 shows it 1:1, so no view sees the residual larger.
   WarpOptions options;
   options.tolerance = 0.05;
   options.fixed_line_normals = true;
   options.stop = stop;
   *stats = warp_.solve(tw, th, options);
-  if (cache_.size() >= kCachedSizes)
-    cache_.erase(std::min_element(cache_.begin(), cache_.end(),
-                                  [](const auto& a, const auto& b) { return a.second.last_used < b.second.last_used; }));
-  cache_.emplace(key, CachedWarp{stats->positions, ++clock_});
-  return stats->positions;
+  return cache_.put(key, stats->positions);
 }
 
 View RetargetZoom::view(const ViewRequest& r) {
@@ -80,7 +73,7 @@ std::size_t RetargetZoom::memory_bytes() {
   std::size_t cached = 0;
   {
     std::lock_guard lock(mu_);
-    for (const auto& [size, c] : cache_) cached += c.positions.capacity() * sizeof(Point);
+    for (const auto& [size, positions] : cache_.entries()) cached += positions.capacity() * sizeof(Point);
   }
   return m.vertices.capacity() * sizeof(Point) + m.triangles.capacity() * sizeof(Triangle) + factor + cached;
 }

@@ -22,14 +22,13 @@
 // (single flight; CHOLMOD's solve on the shared factor is not reentrant).
 #pragma once
 
-#include <cstdint>
-#include <map>
 #include <mutex>
 #include <utility>
 #include <vector>
 
 #include "warp/icaz/image_model.h"
 #include "warp/icaz/shape_warp.h"
+#include "warp/methods/recent_cache.h"
 #include "warp/methods/retargeter.h"
 #include "warp/methods/retargeting_method.h"
 
@@ -54,16 +53,10 @@ class RetargetZoom : public Retargeter {
   // The warp onto target_width × target_height, from the cache or solved now.
   std::vector<Point> warped(double target_width, double target_height, WarpResult* stats, const StopToken* stop);
 
-  struct CachedWarp {
-    std::vector<Point> positions;
-    std::uint64_t last_used = 0;
-  };
-
   const double width_, height_;
   const ShapeWarp warp_;
   std::mutex mu_;  // guards the cache and warp_'s solves
-  std::map<std::pair<long long, long long>, CachedWarp> cache_;  // by target size (1/1000 px)
-  std::uint64_t clock_ = 0;
+  RecentCache<std::pair<long long, long long>, std::vector<Point>> cache_{kCachedSizes};  // by size (1/1000 px)
 };
 
 // The area bound of the uniform mesh for `model`: the largest leaf among the forest's kept nodes.

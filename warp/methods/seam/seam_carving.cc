@@ -14,8 +14,6 @@ namespace zoomwarp::warp {
 
 namespace {
 
-constexpr std::size_t kCachedTables = 8;
-
 void put_int(std::string& out, std::int32_t v) { out.append(reinterpret_cast<const char*>(&v), sizeof v); }
 
 void put_map(std::string& out, const VisibilityMap& m) {
@@ -151,15 +149,9 @@ View SeamCarving::view(const ViewRequest&) {
 
 std::shared_ptr<const CarveTable> SeamCarving::table(bool vertical, int seams) {
   std::lock_guard lock(mu_);
-  for (auto it = tables_.begin(); it != tables_.end(); ++it)
-    if (it->vertical == vertical && it->seams == seams) {
-      tables_.splice(tables_.begin(), tables_, it);
-      return it->table;
-    }
-  auto made = std::make_shared<const CarveTable>(carve(vertical ? maps_.vertical : maps_.horizontal, seams));
-  tables_.push_front({vertical, seams, made});
-  if (tables_.size() > kCachedTables) tables_.pop_back();
-  return made;
+  if (const auto* cached = tables_.find({vertical, seams})) return *cached;
+  return tables_.put({vertical, seams},
+                     std::make_shared<const CarveTable>(carve(vertical ? maps_.vertical : maps_.horizontal, seams)));
 }
 
 CarvedImage SeamCarving::carved(int sw, int sh) {
@@ -262,7 +254,7 @@ std::vector<Point> SeamCarving::screen_sources(const ViewRequest& r) {
 std::size_t SeamCarving::memory_bytes() {
   std::size_t bytes = (maps_.horizontal.order.size() + maps_.vertical.order.size()) * sizeof(std::uint16_t);
   std::lock_guard lock(mu_);
-  for (const Cached& t : tables_) bytes += t.table->bytes();
+  for (const auto& [key, table] : tables_.entries()) bytes += table->bytes();
   return bytes;
 }
 

@@ -22,12 +22,13 @@
 #pragma once
 
 #include <cstdint>
-#include <list>
 #include <memory>
 #include <mutex>
 #include <string>
 #include <string_view>
+#include <utility>
 
+#include "warp/methods/recent_cache.h"
 #include "warp/methods/retargeting_method.h"
 #include "warp/methods/seam/visibility_map.h"
 
@@ -111,12 +112,8 @@ class SeamCarving final : public Retargeter {
   const double width_, height_;
   const VisibilityMaps maps_;
   std::mutex mu_;
-  struct Cached {
-    bool vertical;
-    int seams;
-    std::shared_ptr<const CarveTable> table;
-  };
-  std::list<Cached> tables_;  // most recently used first
+  // By (vertical, seams); the 8 most recent.
+  RecentCache<std::pair<bool, int>, std::shared_ptr<const CarveTable>> tables_{8};
 };
 
 }  // namespace zoomwarp::warp

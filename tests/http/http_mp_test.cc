@@ -1,0 +1,232 @@
+// method=mp over the wire: ingest precomputes mp.default.bin and mp.gbvs.bin; /viewport?method=mp
+// is exactly w×h at every zoom and, on a screen of the image's aspect, zoom 1 is the IIIF crop;
+// /mesh?method=mp has ICAZ's shape and at zoom 0 spans the whole screen without a fold-over; a
+// curator's line becomes a chain of mesh vertices that stays straight on the screen; a
+// significance edit marking a region as important makes it one rigid object (a similarity, no
+// rotation), which it was not before.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <complex>
+#include <filesystem>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <vector>
+
+#include "tests/support/http_client.h"
+#include "tests/support/images.h"
+#include "tests/support/server_process.h"
+
+namespace zoomwarp {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using testing::HttpClient;
+
+// A /mesh vertex: source (u, v) in image pixels, screen (x, y).
+struct MeshVertex {
+  double u, v, x, y;
+};
+
+std::vector<MeshVertex> vertices_of(const json& mesh) {
+  std::vector<MeshVertex> out;
+  for (const json& v : mesh["vertices"]) out.push_back({v[0], v[1], v[2], v[3]});
+  return out;
+}
+
+// The best similarity screen ≈ a·source + t over `vs` (complex a): its residual, RMS over
+// |a|·(RMS radius) — dimensionless, 0 for a rigid object [Guo09 eq. 3] — and its rotation.
+struct SimilarityFit {
+  double residual = 0, rotation = 0;
+};
+SimilarityFit similarity_fit(const std::vector<MeshVertex>& vs) {
+  using C = std::complex<double>;
+  C pm, qm;
+  for (const MeshVertex& m : vs) pm += C(m.u, m.v), qm += C(m.x, m.y);
+  pm /= double(vs.size());
+  qm /= double(vs.size());
+  C num;
+  double den = 0;
+  for (const MeshVertex& m : vs) {
+    num += std::conj(C(m.u, m.v) - pm) * (C(m.x, m.y) - qm);
+    den += std::norm(C(m.u, m.v) - pm);
+  }
+  const C a = num / den;
+  double r2 = 0;
+  for (const MeshVertex& m : vs) r2 += std::norm(C(m.x, m.y) - qm - a * (C(m.u, m.v) - pm));
+  return {std::sqrt(r2 / den) / std::abs(a), std::arg(a)};
+}
+
+class Mp : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir;
+    file_ = new std::string(dir_->path() + "/boats.png");
+    testing::write_image(*file_, testing::resize(testing::load_image(testing::samples_dir() + "/boats_lake_sunset.jpg"),
+                                                 1280, 800));
+    const auto ingest =
+        testing::run_command({testing::zoomwarp_binary(), "ingest", *file_, "--store", store(), "--id", "boats"});
+    ingest_output_ = new std::string(ingest.output);
+    ASSERT_EQ(ingest.exit_code, 0) << ingest.output;
+    server_ = new testing::ServerProcess(store());
+  }
+  static void TearDownTestSuite() {
+    delete server_;
+    delete ingest_output_;
+    delete file_;
+    delete dir_;
+  }
+  static std::string store() { return dir_->path() + "/store"; }
+
+  // Uploads the boats again under `id` (a version of its own to edit).
+  void upload(const std::string& id) {
+    auto r = http.request("POST", "/v1/images?id=" + id, testing::read_file(*file_));
+    ASSERT_EQ(r.status, 201) << r.body;
+  }
+
+  json mesh(const std::string& id, const std::string& query) {
+    auto r = http.get("/v1/images/" + id + "/mesh?method=mp&" + query);
+    EXPECT_EQ(r.status, 200) << query << ": " << r.body;
+    return r.status == 200 ? json::parse(r.body) : json();
+  }
+
+  tiles::Raster image(const std::string& target) {
+    auto r = http.get(target);
+    EXPECT_EQ(r.status, 200) << target << ": " << r.body;
+    return r.status == 200 ? testing::decode_image(r.body) : tiles::Raster();
+  }
+
+  HttpClient http{server_->port()};
+  static testing::TempDir* dir_;
+  static testing::ServerProcess* server_;
+  static std::string* file_;
+  static std::string* ingest_output_;
+};
+testing::TempDir* Mp::dir_ = nullptr;
+testing::ServerProcess* Mp::server_ = nullptr;
+std::string* Mp::file_ = nullptr;
+std::string* Mp::ingest_output_ = nullptr;
+
+TEST_F(Mp, IngestPrecomputesBothSaliencyKindsAndSaysHowLong) {
+  const std::string dir = fs::canonical(store() + "/images/boats").string();
+  for (const char* file : {"mp.default.bin", "mp.gbvs.bin"}) {
+    EXPECT_TRUE(fs::exists(dir + "/" + file)) << file;
+    EXPECT_NE(ingest_output_->find(std::string(file) + " "), std::string::npos) << *ingest_output_;
+  }
+}
+
+TEST_F(Mp, ViewportIsExactlyTheScreenAtEveryZoomAndTheCropAtZoomOne) {
+  for (const char* saliency : {"default", "gbvs"})
+    for (auto [w, h] : {std::pair{360, 640}, {640, 360}, {400, 400}, {960, 320}})
+      for (const char* zoom : {"0", "0.5", "1"}) {
+        const std::string q = "/v1/images/boats/viewport?method=mp&format=png&saliency=" + std::string(saliency) +
+                              "&zoom=" + zoom + "&w=" + std::to_string(w) + "&h=" + std::to_string(h);
+        const tiles::Raster v = image(q);
+        EXPECT_EQ(v.width, w) << q;
+        EXPECT_EQ(v.height, h) << q;
+      }
+  // 480 × 300 is the image's 16:10: the warp is the identity, zoom 1 the plain crop around (640, 400).
+  const tiles::Raster crop = image("/v1/images/boats/viewport?method=mp&zoom=1&cx=640&cy=400&w=480&h=300&format=png");
+  const tiles::Raster iiif = image("/iiif/3/boats/400,250,480,300/max/0/default.png");
+  EXPECT_EQ(testing::psnr(crop, iiif), std::numeric_limits<double>::infinity());
+}
+
+// The JSON a thin client texture-maps: ICAZ's keys, every triangle at zoom 0, the screen exactly
+// covered (the boundary on the target rectangle, scaled to the screen), counter-clockwise.
+TEST_F(Mp, MeshHasIcazsShapeAndCoversTheScreenWithoutFoldOvers) {
+  const json icaz = json::parse(http.get("/v1/images/boats/mesh?method=icaz&zoom=0&w=360&h=640").body);
+  for (auto [w, h] : {std::pair{360, 640}, {640, 360}, {960, 320}}) {
+    const json m = mesh("boats", "zoom=0&w=" + std::to_string(w) + "&h=" + std::to_string(h));
+    std::set<std::string> keys, icaz_keys;
+    for (const auto& [k, v] : m.items()) keys.insert(k);
+    for (const auto& [k, v] : icaz.items()) icaz_keys.insert(k);
+    EXPECT_EQ(keys, icaz_keys);
+    EXPECT_EQ(m["view"]["method"], "mp");
+    const std::vector<MeshVertex> vs = vertices_of(m);
+    ASSERT_GT(vs.size(), 100u) << "a few hundred feature points [Guo09 §3.2]";
+    double x0 = 1e9, x1 = -1e9, y0 = 1e9, y1 = -1e9;
+    for (const MeshVertex& v : vs) x0 = std::min(x0, v.x), x1 = std::max(x1, v.x), y0 = std::min(y0, v.y), y1 = std::max(y1, v.y);
+    EXPECT_NEAR(x0, 0, 0.002);
+    EXPECT_NEAR(y0, 0, 0.002);
+    EXPECT_NEAR(x1, w, 0.002);
+    EXPECT_NEAR(y1, h, 0.002);
+    double area = 0;
+    for (const json& t : m["triangles"]) {
+      const MeshVertex &a = vs[t[0]], &b = vs[t[1]], &c = vs[t[2]];
+      const double a2 = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+      EXPECT_GT(a2, 0) << "fold-over at (" << a.u << ", " << a.v << ")";
+      area += a2 / 2;
+    }
+    EXPECT_NEAR(area, double(w) * h, 1) << "every triangle listed, the screen covered once";
+  }
+}
+
+// A curator's line from (150, 560) to (1130, 700): after the PUT it is a chain of mesh vertices
+// (every ~d/2 [Guo09 §3.3.3]) whose screen positions lie on one line within 1 px.
+TEST_F(Mp, ACuratorLineIsAChainOfVerticesKeptStraight) {
+  upload("lined");
+  const double ax = 150, ay = 560, bx = 1130, by = 700;
+  const auto on_line = [&](const std::vector<MeshVertex>& vs) {
+    std::vector<MeshVertex> out;
+    const double len = std::hypot(bx - ax, by - ay);
+    for (const MeshVertex& v : vs) {
+      const double t = ((v.u - ax) * (bx - ax) + (v.v - ay) * (by - ay)) / (len * len);
+      if (t >= 0 && t <= 1 && std::abs((bx - ax) * (v.v - ay) - (by - ay) * (v.u - ax)) / len < 0.05) out.push_back(v);
+    }
+    return out;
+  };
+  const std::string view = "zoom=0&w=360&h=640";
+  EXPECT_LT(on_line(vertices_of(mesh("lined", view))).size(), 3u) << "the line is not in the mesh before the PUT";
+  const json lines = {{"lines", {{ax, ay, bx, by}}}};
+  auto r = http.request("PUT", "/v1/images/lined/lines", lines.dump());
+  ASSERT_EQ(r.status, 200) << r.body;
+  for (const std::string screen : {"w=360&h=640", "w=960&h=320"}) {
+    const std::vector<MeshVertex> chain = on_line(vertices_of(mesh("lined", "zoom=0&" + screen)));
+    ASSERT_GE(chain.size(), 10u) << screen;
+    const MeshVertex* first = &chain[0];
+    const MeshVertex* last = &chain[0];
+    for (const MeshVertex& v : chain) {
+      if (v.u < first->u) first = &v;
+      if (v.u > last->u) last = &v;
+    }
+    const double len = std::hypot(last->x - first->x, last->y - first->y);
+    double bend = 0;
+    for (const MeshVertex& v : chain)
+      bend = std::max(bend, std::abs((last->x - first->x) * (v.y - first->y) - (last->y - first->y) * (v.x - first->x)) / len);
+    std::printf("[ figures ] curator line on %s: %zu vertices, %.3f px from straight\n", screen.c_str(), chain.size(), bend);
+    EXPECT_LT(bend, 1) << screen;
+  }
+}
+
+// The sky from (120, 60) to (520, 300), marked as important (weight 1): its vertices then move
+// by one similarity without rotation — a rigid object [Guo09 eq. 3] — where before the edit the
+// stretch distorted them.
+TEST_F(Mp, ARegionMarkedImportantBecomesARigidObject) {
+  upload("marked");
+  const auto inside = [](const std::vector<MeshVertex>& vs) {
+    std::vector<MeshVertex> out;
+    for (const MeshVertex& v : vs)  // a margin of one feature spacing (~60 px) inside the region
+      if (v.u > 180 && v.u < 460 && v.v > 120 && v.v < 240) out.push_back(v);
+    return out;
+  };
+  const std::string view = "zoom=0&w=360&h=640";
+  const std::vector<MeshVertex> before = inside(vertices_of(mesh("marked", view)));
+  const json regions = {{"regions", {{{"rect", {120, 60, 400, 240}}, {"weight", 1}}}}};
+  auto r = http.request("PATCH", "/v1/images/marked/significance", regions.dump());
+  ASSERT_EQ(r.status, 200) << r.body;
+  const std::vector<MeshVertex> after = inside(vertices_of(mesh("marked", view)));
+  ASSERT_GE(before.size(), 4u);
+  ASSERT_GE(after.size(), 4u);
+  const SimilarityFit fit_before = similarity_fit(before), fit_after = similarity_fit(after);
+  std::printf("[ figures ] marked region: similarity residual %.2e before the edit, %.2e after; rotation %.2e\n",
+              fit_before.residual, fit_after.residual, fit_after.rotation);
+  EXPECT_GT(fit_before.residual, 0.05) << "the stretch to 9:16 distorts an unmarked region";
+  // The JSON's 0.001 px rounding over a region of ~100 screen px.
+  EXPECT_LT(fit_after.residual, 1e-4);
+  EXPECT_NEAR(fit_after.rotation, 0, 1e-4);
+}
+
+}  // namespace
+}  // namespace zoomwarp

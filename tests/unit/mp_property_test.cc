@@ -1,0 +1,295 @@
+// method=mp against issue 13's acceptance, as properties of every solve (warp/methods/mp/
+// mp_solve.h) on models built as ingest builds them (mp_precompute.h) — from the four samples and
+// from a synthetic picture, with both saliency kinds — at targets of the image's area and the
+// screen aspects 9:16, 1:1, 16:9 and 3:1:
+//   - no triangle folds over;
+//   - the boundary lies exactly on the target rectangle [Guo09 eq. 1]: border vertices on their
+//     side to 1e-9 px, corners exact;
+//   - every salient object stays rigid [Guo09 eq. 3]: its similarity-fit residual (the comparison's
+//     object-shape metric, warp/compare/metrics.h: the best similarity over its vertices, the RMS
+//     residual over scale × RMS radius, dimensionless) < 1e-9;
+//   - every line stays straight: no vertex of its chain farther than 1 px from the chord of its
+//     warped ends (target px: analysis px of the target rectangle);
+//   - the image's own aspect gives the identity, and with no objects and no lines the result is
+//     exactly the uniform stretch.
+// And that the energy does the work: without the object term the objects distort, without the
+// line term a line bends.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <initializer_list>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "tests/support/analysed_image.h"
+#include "warp/compare/metrics.h"
+#include "warp/methods/mp/mp_precompute.h"
+#include "warp/methods/mp/mp_solve.h"
+
+namespace zoomwarp {
+namespace {
+
+using warp::MpModel;
+using warp::MpSolution;
+using warp::Point;
+using warp::Saliency;
+
+constexpr double kRigid = 1e-9;     // similarity-fit residual of a rigid object (dimensionless)
+constexpr double kStraight = 1;     // px, a line's largest distance from its chord
+constexpr double kOnSide = 1e-9;    // px, a border vertex from its side
+constexpr double kIdentity = 1e-6;  // px, identity and uniform stretch
+
+struct Aspect {
+  const char* name;
+  double ratio;  // W'/H'
+};
+constexpr Aspect kAspects[] = {{"9:16", 9.0 / 16}, {"1:1", 1}, {"16:9", 16.0 / 9}, {"3:1", 3}};
+
+// The target of the model's area at an aspect, W'·H' = W·H, as the server solves for a screen.
+struct Target {
+  double w = 0, h = 0;
+};
+Target equal_area(const MpModel& m, double ratio) {
+  return {std::sqrt(m.width * m.height * ratio), std::sqrt(m.width * m.height / ratio)};
+}
+
+// A picture made here: a bright disc and a bright block on the left border, a dark straight bar
+// and a horizon from border to border, over a plain sky and ground. Its default map makes an
+// object where the bar crosses the horizon, GBVS one about the bar's top and one about the disc
+// and the block, on the left border; the bar and the horizon are lines.
+tiles::Raster synthetic_picture() {
+  const int w = 960, h = 600;
+  tiles::Raster r(w, h, 3);
+  const auto on_bar = [](double x, double y) {  // within 6 px of (560, 120)–(900, 480)
+    const double t = std::clamp(((x - 560) * 340 + (y - 120) * 360) / (340.0 * 340 + 360.0 * 360), 0.0, 1.0);
+    return std::hypot(x - 560 - 340 * t, y - 120 - 360 * t) < 6;
+  };
+  using Rgb = std::array<std::uint8_t, 3>;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      Rgb c = y < 200 ? Rgb{150, 170, 190} : Rgb{90, 100, 70};
+      if (std::hypot(x + 0.5 - 320, y + 0.5 - 360) < 90) c = {240, 200, 40};
+      if (x < 140 && y >= 380 && y < 520) c = {30, 150, 240};
+      if (on_bar(x + 0.5, y + 0.5)) c = {20, 20, 20};
+      std::copy(c.begin(), c.end(), r.row(y) + 3 * x);
+    }
+  return r;
+}
+
+constexpr const char* kSynthetic = "synthetic";
+
+// The analysed images, each made once per process (gtest runs the tests on one thread).
+const testing::AnalysedImage& analysed(const std::string& name) {
+  static std::map<std::string, testing::AnalysedImage> cache;
+  auto it = cache.find(name);
+  if (it == cache.end())
+    it = cache.emplace(name, name == kSynthetic ? testing::analyse_image(synthetic_picture()) : testing::analyse_sample(name))
+             .first;
+  return it->second;
+}
+
+// An image's saliency map of one kind and its mp model, as ingest builds them.
+struct Subject {
+  const testing::AnalysedImage* image = nullptr;
+  warp::SignificanceMap map;
+  MpModel model;
+};
+const Subject& subject(const std::string& name, Saliency kind) {
+  static std::map<std::pair<std::string, Saliency>, Subject> cache;
+  auto it = cache.find({name, kind});
+  if (it == cache.end()) {
+    Subject s;
+    s.image = &analysed(name);
+    s.map = s.image->saliency(kind);
+    s.model = warp::build_mp_model(s.image->input(kind, s.map));
+    it = cache.emplace(std::pair{name, kind}, std::move(s)).first;
+  }
+  return it->second;
+}
+
+std::vector<Point> at(const std::vector<Point>& positions, const std::vector<int>& vertices) {
+  std::vector<Point> out;
+  for (int v : vertices) out.push_back(positions[v]);
+  return out;
+}
+
+double object_residual(const MpModel& m, const warp::MpObject& o, const std::vector<Point>& q) {
+  return warp::similarity_fit_residual(at(m.mesh.vertices, o.vertices), at(q, o.vertices));
+}
+
+double largest_bend(const MpModel& m, const std::vector<Point>& q) {
+  double worst = 0;
+  for (const warp::MpLine& l : m.lines) worst = std::max(worst, warp::chord_deviation(at(q, l.vertices)));
+  return worst;
+}
+
+// Counted here from the positions, not taken from the solution's own count.
+int fold_overs(const MpModel& m, const std::vector<Point>& q) {
+  int n = 0;
+  for (const auto& t : m.mesh.triangles) n += warp::signed_area2(q[t[0]], q[t[1]], q[t[2]]) <= 0;
+  return n;
+}
+
+// Border vertices on their side of the target, corners exact [Guo09 eq. 1]. With no fold-over,
+// the warped mesh then tiles the target exactly.
+void expect_boundary_on_target(const MpModel& m, Target t, const std::vector<Point>& q) {
+  for (std::size_t i = 0; i < q.size(); ++i) {
+    const Point &p = m.mesh.vertices[i], &w = q[i];
+    const bool left = p.x == 0, right = p.x == m.width, top = p.y == 0, bottom = p.y == m.height;
+    if (left || right) {
+      EXPECT_NEAR(w.x, left ? 0 : t.w, kOnSide) << "vertex " << i;
+    }
+    if (top || bottom) {
+      EXPECT_NEAR(w.y, top ? 0 : t.h, kOnSide) << "vertex " << i;
+    }
+    if ((left || right) && (top || bottom)) {
+      EXPECT_EQ(w.x, left ? 0 : t.w) << "corner " << i;
+      EXPECT_EQ(w.y, top ? 0 : t.h) << "corner " << i;
+    }
+  }
+}
+
+// One image (a file in samples/, or kSynthetic) and a saliency kind.
+struct Case {
+  const char* image;
+  Saliency kind;
+  friend std::ostream& operator<<(std::ostream& out, const Case& c) {
+    return out << c.image << ", saliency=" << warp::saliency_name(c.kind);
+  }
+};
+
+class MpProperty : public ::testing::TestWithParam<Case> {
+ protected:
+  const Subject& tested() const { return subject(GetParam().image, GetParam().kind); }
+};
+
+TEST_P(MpProperty, NoFoldsBoundaryOnTargetObjectsRigidLinesStraight) {
+  const MpModel& m = tested().model;
+  for (const Aspect& a : kAspects) {
+    SCOPED_TRACE(a.name);
+    const Target t = equal_area(m, a.ratio);
+    const MpSolution s = warp::mp_solve(m, t.w, t.h);
+    EXPECT_EQ(fold_overs(m, s.positions), 0);
+    expect_boundary_on_target(m, t, s.positions);
+    double worst = 0;
+    for (std::size_t o = 0; o < m.objects.size(); ++o) {
+      const double r = object_residual(m, m.objects[o], s.positions);
+      worst = std::max(worst, r);
+      EXPECT_LT(r, kRigid) << "object " << o << " of " << m.objects.size() << " (area " << m.objects[o].area
+                           << " px²): the solve says rigid = " << s.rigid << ", eq. 3 off by "
+                           << s.rigidity_residual << " px";
+    }
+    const double bend = largest_bend(m, s.positions);
+    EXPECT_LE(bend, kStraight);
+    std::printf("[ mp       ] %-5s %6.1f x %-6.1f z %.3f, %zu objects (residual %.1e), %zu lines (bend %.3f px), "
+                "%d Newton steps\n",
+                a.name, t.w, t.h, s.object_scale, m.objects.size(), worst, m.lines.size(), bend, s.iterations);
+  }
+}
+
+TEST_P(MpProperty, IdentityAtTheImagesOwnAspect) {
+  const MpModel& m = tested().model;
+  const MpSolution s = warp::mp_solve(m, m.width, m.height);
+  double worst = 0;
+  for (std::size_t i = 0; i < s.positions.size(); ++i)
+    worst = std::max(worst, std::hypot(s.positions[i].x - m.mesh.vertices[i].x, s.positions[i].y - m.mesh.vertices[i].y));
+  EXPECT_LT(worst, kIdentity);
+}
+
+// No objects (every threshold above the map's maximum) and no lines (none detected, none drawn):
+// nothing departs from the uniform stretch, so the warp is that stretch.
+TEST_P(MpProperty, WithoutObjectsAndLinesExactlyTheUniformStretch) {
+  const Subject& with = tested();
+  const Saliency kind = GetParam().kind;
+  testing::AnalysedImage plain = *with.image;
+  plain.detected.clear();
+  warp::MpPrecomputeOptions none;
+  none.object_saliency = 2;
+  none.attention_fraction = 2;
+  const MpModel m = warp::build_mp_model(plain.input(kind, with.map), none);
+  ASSERT_TRUE(m.objects.empty());
+  ASSERT_TRUE(m.lines.empty());
+  for (const Aspect& a : kAspects) {
+    const Target t = equal_area(m, a.ratio);
+    const MpSolution s = warp::mp_solve(m, t.w, t.h);
+    double worst = 0;
+    for (std::size_t i = 0; i < s.positions.size(); ++i)
+      worst = std::max(worst, std::hypot(s.positions[i].x - m.mesh.vertices[i].x * t.w / m.width,
+                                         s.positions[i].y - m.mesh.vertices[i].y * t.h / m.height));
+    EXPECT_LT(worst, kIdentity) << a.name;
+  }
+}
+
+// Each image with both saliency kinds.
+std::vector<Case> cases(std::initializer_list<const char*> images) {
+  std::vector<Case> out;
+  for (const char* image : images)
+    for (Saliency kind : warp::kSaliencies) out.push_back({image, kind});
+  return out;
+}
+
+std::string name_of(const ::testing::TestParamInfo<Case>& info) {
+  const std::string image = info.param.image;
+  return image.substr(0, image.find('.')) + "_" + std::string(warp::saliency_name(info.param.kind));
+}
+
+INSTANTIATE_TEST_SUITE_P(MpPropertySamples, MpProperty,
+                         ::testing::ValuesIn(cases({"boats_lake_sunset.jpg", "astronaut_portrait.png",
+                                                    "interior_wine_djembe_tall.jpg", "pano_grossmugl_field_4to1.png"})),
+                         name_of);
+INSTANTIATE_TEST_SUITE_P(MpPropertySynthetic, MpProperty, ::testing::ValuesIn(cases({kSynthetic})), name_of);
+
+// The synthetic picture has objects and lines with both kinds: without them its properties above
+// would hold trivially.
+TEST(MpPropertyTerms, SyntheticPictureHasObjectsAndLines) {
+  for (Saliency kind : warp::kSaliencies) {
+    const MpModel& m = subject(kSynthetic, kind).model;
+    EXPECT_GE(m.objects.size(), 1u) << warp::saliency_name(kind);
+    EXPECT_GE(m.lines.size(), 2u) << warp::saliency_name(kind);
+  }
+}
+
+// The same model without its objects (and so without their object-length tables): the former
+// objects are stretched like the background, far from any similarity.
+TEST(MpPropertyTerms, WithoutTheObjectTermObjectsDistort) {
+  for (const char* image : {"boats_lake_sunset.jpg", kSynthetic}) {
+    const MpModel& m = subject(image, Saliency::kDefault).model;
+    ASSERT_FALSE(m.objects.empty()) << image;
+    MpModel without = m;
+    without.objects.clear();
+    std::fill(without.row_object_length.begin(), without.row_object_length.end(), 0.0);
+    std::fill(without.column_object_length.begin(), without.column_object_length.end(), 0.0);
+    const Target t = equal_area(m, 9.0 / 16);
+    const MpSolution rigid = warp::mp_solve(m, t.w, t.h), free = warp::mp_solve(without, t.w, t.h);
+    for (std::size_t o = 0; o < m.objects.size(); ++o) {
+      const double kept = object_residual(m, m.objects[o], rigid.positions);
+      const double lost = object_residual(m, m.objects[o], free.positions);
+      std::printf("[ objects  ] %s 9:16, object %zu: residual %.1e with the object term, %.3f without\n", image, o,
+                  kept, lost);
+      EXPECT_LT(kept, kRigid) << image << " object " << o;
+      EXPECT_GT(lost, 0.1) << image << " object " << o;
+    }
+  }
+}
+
+// λ = 0: nothing holds a line straight where the objects change the row and column scales.
+TEST(MpPropertyTerms, WithoutTheLineTermALineBends) {
+  const MpModel& m = subject("boats_lake_sunset.jpg", Saliency::kDefault).model;
+  ASSERT_FALSE(m.lines.empty());
+  const Target t = equal_area(m, 9.0 / 16);
+  warp::MpSolveOptions no_line_term;
+  no_line_term.line_weight = 0;
+  const double bent = largest_bend(m, warp::mp_solve(m, t.w, t.h, no_line_term).positions);
+  const double kept = largest_bend(m, warp::mp_solve(m, t.w, t.h).positions);
+  std::printf("[ lines    ] boats 9:16: largest bend %.2f px with lambda = 0, %.3f px with the default\n", bent, kept);
+  EXPECT_GT(bent, kStraight);
+  EXPECT_LE(kept, kStraight);
+}
+
+}  // namespace
+}  // namespace zoomwarp
