@@ -73,9 +73,15 @@ void expect_drawable(const json& m, const json& openapi, double zoom, int w, int
   double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
   for (int i = 0; i < int(v.size()); ++i)
     x0 = std::min(x0, screen(i).x), x1 = std::max(x1, screen(i).x), y0 = std::min(y0, screen(i).y), y1 = std::max(y1, screen(i).y);
-  if (crop_possible) ASSERT_TRUE(x0 <= 0.01 && y0 <= 0.01 && x1 >= w - 0.01 && y1 >= h - 0.01) << "a black band";
-  if (x0 > 0.01 || x1 < w - 0.01) ASSERT_NEAR(x0, w - x1, 2) << "bands not centred";
-  if (y0 > 0.01 || y1 < h - 0.01) ASSERT_NEAR(y0, h - y1, 2) << "bands not centred";
+  if (crop_possible) {
+    ASSERT_TRUE(x0 <= 0.01 && y0 <= 0.01 && x1 >= w - 0.01 && y1 >= h - 0.01) << "a black band";
+  }
+  if (x0 > 0.01 || x1 < w - 0.01) {
+    ASSERT_NEAR(x0, w - x1, 2) << "bands not centred";
+  }
+  if (y0 > 0.01 || y1 < h - 0.01) {
+    ASSERT_NEAR(y0, h - y1, 2) << "bands not centred";
+  }
   for (int gy = 0; gy <= 8; ++gy)
     for (int gx = 0; gx <= 8; ++gx) {
       const Pt p{std::clamp(w * gx / 8.0, x0, x1), std::clamp(h * gy / 8.0, y0, y1)};

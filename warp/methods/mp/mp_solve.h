@@ -11,12 +11,15 @@
 //   1. z = mp_object_scale(): one scale for all objects, ≤ 1 and small enough that every row and
 //      column keeps a background scale ≥ β·W'/W (β·H'/H), so the ideal lengths of eq. 8 stay
 //      positive; z = 1 at W' = W, H' = H. Ours: each object's bounding box too (the row tables
-//      under-count a slanted object, which eq. 3 could then not fit in the rectangle at all).
+//      under-count a slanted object, which eq. 3 could then not fit in the rectangle at all), and
+//      on each row (column) the objects' mesh extents added up, an object on a border reaching it
+//      (the tables count masks; vertices sharing rows that masks do not left z = 1 where eq. 3
+//      could not put two objects side by side, and every continuation stalled between them).
 //   2. The rigid start (ours): every object placed by eq. 3 at scale z, a pinned pole coordinate
 //      as eq. 1 needs it, a free one putting the object's bounding box where eq. 8 puts a lone
 //      object in its band (the gaps before and after scaled alike, so it stays inside the
 //      rectangle); border vertices piecewise linear along their side between the corners and the
-//      objects' border vertices; the rest by Floater's mean value coordinates [Floater 2003] on
+//      objects' border vertices; the rest by Floater's mean value coordinates [Floater03] on
 //      the stretched mesh (positive weights reproducing affine maps). If that folds nothing, the
 //      final run (5) starts from it at once. On the samples it does so in 18 of 32 cases.
 //   3. Otherwise the shape continuation (ours): the hard parametrization with the objects' map
@@ -63,8 +66,10 @@ namespace zoomwarp::warp {
 
 struct MpSolveOptions {
   // λ of eq. 15. 001 uses 0.5 (METHODS §1); lines then bend 3–46 px on photographs, so ours is
-  // 5e4, which keeps them within 1 px (the term is a squared distance, in px² like E_l).
-  double line_weight = 5e4;
+  // 1e5, which keeps them within 1 px (the term is a squared distance, in px² like E_l): at most
+  // 0.69 px on the samples and mp_property_test.cc's synthetic picture, all aspects 9:16 to 3:1
+  // (5e4 left 1.34 px where a line leaves an object at z = 0.79 into a background stretched 1.69×).
+  double line_weight = 1e5;
   double beta = 0.25;        // the least background scale, as a share of W'/W and H'/H
   // ε of the fold barrier ε·Σ_t A⁰_t(r_t − 1 − log r_t), r_t = area / area under the uniform
   // stretch (ours: without it the fold-free line search stalls against a collapsing triangle).
@@ -95,7 +100,7 @@ struct MpSolution {
 
 // z of METHODS §1: min(1, sqrt(W'H'/ΣA_O), min over object rows of (W' − β(W'/W)(W − Lr))/Lr,
 // likewise over columns), and (ours) the same bound with each object's bounding-box width
-// (height) for Lr (Lc).
+// (height) for Lr (Lc), and with each row's (column's) sum of the objects' mesh extents on it.
 double mp_object_scale(const MpModel& model, double target_w, double target_h, double beta = 0.25);
 
 // Ideal edge lengths [Guo09 eqs 8–9] for every mesh edge (a, b), a < b, in the order returned.
