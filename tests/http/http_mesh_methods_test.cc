@@ -247,9 +247,9 @@ TEST_F(MeshMethods, MpMakesARegionMarkedImportantARigidObject) {
   EXPECT_NEAR(fit_after.rotation, 0, 1e-4);
 }
 
-// A region marked important writes the new version's patch files from the edited map, and the
-// warp follows them: the mesh of the same view changes.
-TEST_F(MeshMethods, PatchFollowsASignificanceEdit) {
+// A region marked important, then a curator's line, each write the new version's patch files
+// (the edited map; the line term), and the warp follows them: the mesh of the same view changes.
+TEST_F(MeshMethods, PatchFollowsSignificanceAndLineEdits) {
   upload("patched");
   const std::string dir = fs::canonical(store() + "/images/patched").string();
   const std::string file_before = testing::read_file(dir + "/patch.default.bin");
@@ -262,6 +262,15 @@ TEST_F(MeshMethods, PatchFollowsASignificanceEdit) {
   const json after = mesh("patched", "zoom=0&w=360&h=640", "patch");
   EXPECT_NE(after["image"]["version"], before["image"]["version"]);
   EXPECT_GT(max_screen_shift(vertices_of(before), vertices_of(after)), 1) << "the warp follows the edit";
+
+  const std::string file_marked = testing::read_file(after_dir + "/patch.default.bin");
+  const json lines = {{"lines", {{150, 560, 1130, 700}}}};
+  r = http.request("PUT", "/v1/images/patched/lines", lines.dump());
+  ASSERT_EQ(r.status, 200) << r.body;
+  const std::string lined_dir = fs::canonical(store() + "/images/patched").string();
+  EXPECT_NE(testing::read_file(lined_dir + "/patch.default.bin"), file_marked) << "lines are in patch's energy";
+  const json lined = mesh("patched", "zoom=0&w=360&h=640", "patch");
+  EXPECT_GT(max_screen_shift(vertices_of(after), vertices_of(lined)), 0.1) << "the warp follows the line";
 }
 
 }  // namespace
