@@ -128,48 +128,62 @@ std::vector<Residual> residuals(const PatchGrid& g, const std::vector<Segment>& 
   return out;
 }
 
-// The normal equations of the residuals over the free coordinates, the boundary's coordinates
-// fixed (x' = 0 / W' on the left / right column, y' = 0 / H' on the top / bottom row), and the
-// solution for (W', H') = (1, 0) and (0, 1): coordinates per unit W' and per unit H'.
-std::pair<std::vector<double>, std::vector<double>> unit_solutions(const PatchGrid& g, const std::vector<Residual>& rs) {
+// Which grid coordinates are unknowns: per coordinate its free index, or −1 and its value per
+// unit W' and per unit H' — the hard boundary: x' = 0 / W' on the left / right column, y' = 0 /
+// H' on the top / bottom row.
+struct Unknowns {
+  std::vector<int> free;
+  std::vector<double> fixed_w, fixed_h;
+  int count = 0;
+};
+Unknowns unknowns_of(const PatchGrid& g) {
   const int n = 2 * (g.nx + 1) * (g.ny + 1);
-  // Per coordinate: its free index, or −1 and its value per unit W', H'.
-  std::vector<int> free(n, -1);
-  std::vector<double> fixed_w(n, 0), fixed_h(n, 0);
-  int unknowns = 0;
+  Unknowns u{std::vector<int>(n, -1), std::vector<double>(n, 0), std::vector<double>(n, 0), 0};
   for (int j = 0; j <= g.ny; ++j)
     for (int i = 0; i <= g.nx; ++i) {
       const int v = g.vertex(i, j);
-      if (i == g.nx) fixed_w[x_of(v)] = 1;
-      if (j == g.ny) fixed_h[y_of(v)] = 1;
-      if (i != 0 && i != g.nx) free[x_of(v)] = unknowns++;
-      if (j != 0 && j != g.ny) free[y_of(v)] = unknowns++;
+      if (i == g.nx) u.fixed_w[x_of(v)] = 1;
+      if (j == g.ny) u.fixed_h[y_of(v)] = 1;
+      if (i != 0 && i != g.nx) u.free[x_of(v)] = u.count++;
+      if (j != 0 && j != g.ny) u.free[y_of(v)] = u.count++;
     }
+  return u;
+}
+
+// The normal equations Σ weight·c·cᵀ over the free coordinates, and their right-hand sides for
+// targets (1, 0) and (0, 1).
+struct NormalEquations {
+  Eigen::SparseMatrix<double> matrix;
+  Eigen::VectorXd per_w, per_h;
+};
+NormalEquations normal_equations(const Unknowns& u, const std::vector<Residual>& rs) {
   std::vector<Eigen::Triplet<double>> triplets;
-  Eigen::VectorXd bw = Eigen::VectorXd::Zero(unknowns), bh = Eigen::VectorXd::Zero(unknowns);
+  NormalEquations e{Eigen::SparseMatrix<double>(u.count, u.count), Eigen::VectorXd::Zero(u.count),
+                    Eigen::VectorXd::Zero(u.count)};
   for (const Residual& r : rs) {
     double cw = r.per_w, ch = r.per_h;
-    for (const auto& [u, c] : r.terms)
-      if (free[u] < 0) cw += c * fixed_w[u], ch += c * fixed_h[u];
-    for (const auto& [u, c] : r.terms) {
-      if (free[u] < 0) continue;
-      bw[free[u]] -= r.weight * c * cw;
-      bh[free[u]] -= r.weight * c * ch;
-      for (const auto& [u2, c2] : r.terms)
-        if (free[u2] >= 0) triplets.emplace_back(free[u], free[u2], r.weight * c * c2);
+    for (const auto& [k, c] : r.terms)
+      if (u.free[k] < 0) cw += c * u.fixed_w[k], ch += c * u.fixed_h[k];
+    for (const auto& [k, c] : r.terms) {
+      if (u.free[k] < 0) continue;
+      e.per_w[u.free[k]] -= r.weight * c * cw;
+      e.per_h[u.free[k]] -= r.weight * c * ch;
+      for (const auto& [k2, c2] : r.terms)
+        if (u.free[k2] >= 0) triplets.emplace_back(u.free[k], u.free[k2], r.weight * c * c2);
     }
   }
-  std::vector<double> per_w(fixed_w), per_h(fixed_h);
-  if (unknowns > 0) {
-    Eigen::SparseMatrix<double> a(unknowns, unknowns);
-    a.setFromTriplets(triplets.begin(), triplets.end());
-    const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(a);
-    if (solver.info() != Eigen::Success) throw std::runtime_error("patch energy: the system could not be factored");
-    const Eigen::VectorXd xw = solver.solve(bw), xh = solver.solve(bh);
-    for (int u = 0; u < n; ++u)
-      if (free[u] >= 0) per_w[u] = xw[free[u]], per_h[u] = xh[free[u]];
+  e.matrix.setFromTriplets(triplets.begin(), triplets.end());
+  return e;
+}
+
+// Every coordinate's value from the free ones' solution `x` and the target.
+std::vector<Point> positions_of(const Unknowns& u, const Eigen::VectorXd& x, double tw, double th) {
+  std::vector<Point> out(u.free.size() / 2);
+  for (std::size_t k = 0; k < u.free.size(); ++k) {
+    const double value = u.free[k] >= 0 ? x[u.free[k]] : tw * u.fixed_w[k] + th * u.fixed_h[k];
+    (k % 2 == 0 ? out[k / 2].x : out[k / 2].y) = value;
   }
-  return {per_w, per_h};
+  return out;
 }
 
 void check_grid(const PatchGrid& g) {
@@ -227,62 +241,32 @@ PatchGrid make_patch_grid(const Patches& patches, const SignificanceMap& salienc
 
 PatchBasis solve_patch_basis(const PatchGrid& grid, const std::vector<Segment>& lines, const PatchEnergyOptions& options) {
   check_grid(grid);
-  const auto [per_w, per_h] = unit_solutions(grid, residuals(grid, lines, options));
-  PatchBasis b;
-  for (std::size_t v = 0; v < per_w.size() / 2; ++v) {
-    b.per_width.push_back({per_w[2 * v], per_w[2 * v + 1]});
-    b.per_height.push_back({per_h[2 * v], per_h[2 * v + 1]});
+  const Unknowns u = unknowns_of(grid);
+  const NormalEquations e = normal_equations(u, residuals(grid, lines, options));
+  Eigen::VectorXd xw = Eigen::VectorXd::Zero(u.count), xh = Eigen::VectorXd::Zero(u.count);
+  if (u.count > 0) {
+    const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(e.matrix);
+    if (solver.info() != Eigen::Success) throw std::runtime_error("patch energy: the system could not be factored");
+    xw = solver.solve(e.per_w);
+    xh = solver.solve(e.per_h);
   }
-  return b;
+  return {positions_of(u, xw, 1, 0), positions_of(u, xh, 0, 1)};
 }
 
 std::vector<Point> solve_patch_direct(const PatchGrid& grid, const std::vector<Segment>& lines, double target_w,
                                       double target_h, const PatchEnergyOptions& options) {
   check_grid(grid);
-  // The same normal equations with the right-hand side of this one target, solved once.
-  std::vector<Residual> rs = residuals(grid, lines, options);
-  for (Residual& r : rs) {
-    r.per_w *= target_w;
-    r.per_h *= target_h;
-  }
-  const int n = 2 * (grid.nx + 1) * (grid.ny + 1);
-  std::vector<int> free(n, -1);
-  std::vector<double> fixed(n, 0);
-  int unknowns = 0;
-  for (int j = 0; j <= grid.ny; ++j)
-    for (int i = 0; i <= grid.nx; ++i) {
-      const int v = grid.vertex(i, j);
-      if (i == grid.nx) fixed[x_of(v)] = target_w;
-      if (j == grid.ny) fixed[y_of(v)] = target_h;
-      if (i != 0 && i != grid.nx) free[x_of(v)] = unknowns++;
-      if (j != 0 && j != grid.ny) free[y_of(v)] = unknowns++;
-    }
-  std::vector<Eigen::Triplet<double>> triplets;
-  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(unknowns);
-  for (const Residual& r : rs) {
-    double c0 = r.per_w + r.per_h;
-    for (const auto& [u, c] : r.terms)
-      if (free[u] < 0) c0 += c * fixed[u];
-    for (const auto& [u, c] : r.terms) {
-      if (free[u] < 0) continue;
-      rhs[free[u]] -= r.weight * c * c0;
-      for (const auto& [u2, c2] : r.terms)
-        if (free[u2] >= 0) triplets.emplace_back(free[u], free[u2], r.weight * c * c2);
-    }
-  }
-  std::vector<double> value(fixed);
-  if (unknowns > 0) {
-    Eigen::SparseMatrix<double> a(unknowns, unknowns);
-    a.setFromTriplets(triplets.begin(), triplets.end());
-    const Eigen::SparseLU<Eigen::SparseMatrix<double>> solver(a);
+  // The same normal equations with this one target's right-hand side, solved by another
+  // factorization (LU): what the basis must reproduce.
+  const Unknowns u = unknowns_of(grid);
+  const NormalEquations e = normal_equations(u, residuals(grid, lines, options));
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(u.count);
+  if (u.count > 0) {
+    const Eigen::SparseLU<Eigen::SparseMatrix<double>> solver(e.matrix);
     if (solver.info() != Eigen::Success) throw std::runtime_error("patch energy: the system could not be factored");
-    const Eigen::VectorXd x = solver.solve(rhs);
-    for (int u = 0; u < n; ++u)
-      if (free[u] >= 0) value[u] = x[free[u]];
+    x = solver.solve(target_w * e.per_w + target_h * e.per_h);
   }
-  std::vector<Point> out;
-  for (int v = 0; v < n / 2; ++v) out.push_back({value[2 * v], value[2 * v + 1]});
-  return out;
+  return positions_of(u, x, target_w, target_h);
 }
 
 }  // namespace zoomwarp::warp
