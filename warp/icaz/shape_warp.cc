@@ -7,6 +7,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "warp/core/fold_blend.h"
+
 namespace zoomwarp::warp {
 
 namespace {
@@ -215,14 +217,7 @@ struct ShapeWarp::Impl {
     return e;
   }
 
-  std::vector<int> inverted(const std::vector<Point>& p) const {
-    std::vector<int> out;
-    for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
-      const auto& t = mesh.triangles[f];
-      if (signed_area2(p[t[0]], p[t[1]], p[t[2]]) <= 0) out.push_back(int(f));
-    }
-    return out;
-  }
+  std::vector<int> inverted(const std::vector<Point>& p) const { return folded_triangles(mesh, p); }
 
   std::vector<Point> fixed_positions(const std::vector<Point>& start, double tw, double th) const {
     std::vector<Point> p = start;
@@ -543,20 +538,7 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
     if (!m.has_pinned)
       for (std::size_t i = 0; i < affine.size(); ++i)
         affine[i] = {m.mesh.vertices[i].x * tw / m.width, m.mesh.vertices[i].y * th / m.height};
-    auto blend = [&](double t) {
-      std::vector<Point> p(r.positions.size());
-      for (std::size_t i = 0; i < p.size(); ++i)
-        p[i] = {(1 - t) * r.positions[i].x + t * affine[i].x, (1 - t) * r.positions[i].y + t * affine[i].y};
-      return p;
-    };
-    double lo = 0, hi = 1;
-    for (int step = 0; step < 20; ++step) {
-      check_stop(options.stop);
-      const double mid = (lo + hi) / 2;
-      (m.inverted(blend(mid)).empty() ? hi : lo) = mid;
-    }
-    r.positions = blend(hi);
-    r.affine_blend = hi;
+    r.affine_blend = blend_out_folds(m.mesh, r.positions, affine, options.stop);
     bad = m.inverted(r.positions);
   }
   r.inverted = int(bad.size());

@@ -3,13 +3,14 @@
 #include "warp/methods/retargeting_method.h"
 
 #include "warp/methods/mp/mp_retargeter.h"
+#include "warp/methods/patch/patch_retargeter.h"
 #include "warp/methods/retarget_zoom/retarget_zoom.h"
 #include "warp/methods/seam/seam_carving.h"
 
 namespace zoomwarp::warp {
 
 std::span<const RetargetingMethod* const> retargeting_methods() {
-  static const RetargetingMethod* const kAll[] = {&retarget_zoom_method(), &seam_carving_method(), &mp_method()};
+  static const RetargetingMethod* const kAll[] = {&retarget_zoom_method(), &seam_carving_method(), &mp_method(), &patch_method()};
   return kAll;
 }
 

@@ -2,10 +2,8 @@
 
 #include <algorithm>
 #include <array>
-#include <bit>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <numeric>
 #include <optional>
 #include <stdexcept>
@@ -14,6 +12,7 @@
 
 #include "warp/lines/line_detection.h"
 #include "warp/meshing/constrained_mesh.h"
+#include "warp/methods/model_bytes.h"
 #include "warp/saliency/attention.h"
 
 namespace zoomwarp::warp {
@@ -264,49 +263,6 @@ void add_objects(MpModel& model, const std::vector<bool>& salient, const MpPreco
       }
 }
 
-// Serialisation: little-endian fixed-width fields (x86 and arm64 alike).
-static_assert(std::endian::native == std::endian::little, "mp.bin is written little-endian");
-
-template <class T>
-void put(std::string& out, T v) {
-  out.append(reinterpret_cast<const char*>(&v), sizeof v);
-}
-
-void put_count(std::string& out, std::size_t n) { put(out, std::uint32_t(n)); }
-
-class Reader {
- public:
-  explicit Reader(std::string_view bytes) : bytes_(bytes) {}
-  template <class T>
-  T get() {
-    if (bytes_.size() < sizeof(T)) throw std::runtime_error("mp model: truncated");
-    T v;
-    std::memcpy(&v, bytes_.data(), sizeof v);
-    bytes_.remove_prefix(sizeof v);
-    return v;
-  }
-  double number() {
-    const double v = get<double>();
-    if (!std::isfinite(v)) throw std::runtime_error("mp model: a number is not finite");
-    return v;
-  }
-  // A count of items at least `item_bytes` each: never more than the bytes left could hold.
-  std::size_t count(std::size_t item_bytes) {
-    const std::size_t n = get<std::uint32_t>();
-    if (n * item_bytes > bytes_.size()) throw std::runtime_error("mp model: a count exceeds the bytes left");
-    return n;
-  }
-  int index(std::size_t size) {
-    const std::int32_t i = get<std::int32_t>();
-    if (i < 0 || std::size_t(i) >= size) throw std::runtime_error("mp model: a vertex index is out of range");
-    return i;
-  }
-  bool done() const { return bytes_.empty(); }
-
- private:
-  std::string_view bytes_;
-};
-
 }  // namespace
 
 MpModel build_mp_model(const MethodInput& input, const MpPrecomputeOptions& options) {
@@ -332,38 +288,38 @@ MpModel build_mp_model(const MethodInput& input, const MpPrecomputeOptions& opti
 }
 
 std::string mp_model_bytes(const MpModel& model) {
-  std::string out;
-  put(out, model.width);
-  put(out, model.height);
-  put_count(out, model.mesh.vertices.size());
-  for (const Point& p : model.mesh.vertices) put(out, p.x), put(out, p.y);
-  put_count(out, model.mesh.triangles.size());
+  ModelBytesWriter out;
+  out.put(model.width);
+  out.put(model.height);
+  out.put_count(model.mesh.vertices.size());
+  for (const Point& p : model.mesh.vertices) out.put(p.x), out.put(p.y);
+  out.put_count(model.mesh.triangles.size());
   for (const Triangle& t : model.mesh.triangles)
-    for (int v : t) put(out, std::int32_t(v));
-  put_count(out, model.objects.size());
+    for (int v : t) out.put(std::int32_t(v));
+  out.put_count(model.objects.size());
   for (const MpObject& o : model.objects) {
-    put_count(out, o.vertices.size());
-    for (int v : o.vertices) put(out, std::int32_t(v));
-    put(out, o.pole.x), put(out, o.pole.y), put(out, o.area);
+    out.put_count(o.vertices.size());
+    for (int v : o.vertices) out.put(std::int32_t(v));
+    out.put(o.pole.x), out.put(o.pole.y), out.put(o.area);
   }
-  put_count(out, model.lines.size());
+  out.put_count(model.lines.size());
   for (const MpLine& l : model.lines) {
-    put_count(out, l.vertices.size());
-    for (int v : l.vertices) put(out, std::int32_t(v));
+    out.put_count(l.vertices.size());
+    for (int v : l.vertices) out.put(std::int32_t(v));
   }
-  put_count(out, model.row_object_length.size());
-  for (double v : model.row_object_length) put(out, v);
-  put_count(out, model.column_object_length.size());
-  for (double v : model.column_object_length) put(out, v);
-  return out;
+  out.put_count(model.row_object_length.size());
+  for (double v : model.row_object_length) out.put(v);
+  out.put_count(model.column_object_length.size());
+  for (double v : model.column_object_length) out.put(v);
+  return out.take();
 }
 
 MpModel parse_mp_model(std::string_view bytes) {
-  Reader in(bytes);
+  ModelBytesReader in(bytes, "mp model");
   MpModel m;
   m.width = in.number();
   m.height = in.number();
-  if (m.width < 0 || m.height < 0) throw std::runtime_error("mp model: negative size");
+  if (m.width < 0 || m.height < 0) in.fail("negative size");
   m.mesh.vertices.resize(in.count(16));
   for (Point& p : m.mesh.vertices) p.x = in.number(), p.y = in.number();
   const std::size_t nv = m.mesh.vertices.size();
@@ -385,10 +341,10 @@ MpModel parse_mp_model(std::string_view bytes) {
   for (double& v : m.row_object_length) v = in.number();
   m.column_object_length.resize(in.count(8));
   for (double& v : m.column_object_length) v = in.number();
-  if (!in.done()) throw std::runtime_error("mp model: trailing bytes");
+  in.expect_done();
   if (m.row_object_length.size() != std::size_t(std::lround(m.height)) ||
       m.column_object_length.size() != std::size_t(std::lround(m.width)))
-    throw std::runtime_error("mp model: the object-length tables do not match the size");
+    in.fail("the object-length tables do not match the size");
   return m;
 }
 

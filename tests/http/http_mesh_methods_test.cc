@@ -1,9 +1,10 @@
-// method=mp over the wire: ingest precomputes mp.default.bin and mp.gbvs.bin; /viewport?method=mp
-// is exactly w×h at every zoom and, on a screen of the image's aspect, zoom 1 is the IIIF crop;
-// /mesh?method=mp has ICAZ's shape and at zoom 0 spans the whole screen without a fold-over; a
-// curator's line becomes a chain of mesh vertices that stays straight on the screen; a
-// significance edit marking a region as important makes it one rigid object (a similarity, no
-// rotation), which it was not before.
+// The precomputed mesh methods over the wire, method=mp [Guo09] and method=patch [Lin13]: ingest
+// precomputes <method>.default.bin and <method>.gbvs.bin; /viewport is exactly w×h at every zoom
+// and, on a screen of the image's aspect, zoom 1 is the IIIF crop; /mesh has ICAZ's shape and at
+// zoom 0 spans the whole screen without a fold-over. mp: a curator's line becomes a chain of mesh
+// vertices that stays straight on the screen; a significance edit marking a region as important
+// makes it one rigid object (a similarity, no rotation), which it was not before. patch: a
+// significance edit writes the new version's patch files and changes its warp.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -59,7 +60,17 @@ SimilarityFit similarity_fit(const std::vector<MeshVertex>& vs) {
   return {std::sqrt(r2 / den) / std::abs(a), std::arg(a)};
 }
 
-class Mp : public ::testing::Test {
+// The methods every test below runs for.
+const char* const kMethods[] = {"mp", "patch"};
+
+// The largest screen-position difference between two meshes of the same vertices.
+double max_screen_shift(const std::vector<MeshVertex>& a, const std::vector<MeshVertex>& b) {
+  double d = 0;
+  for (std::size_t i = 0; i < std::min(a.size(), b.size()); ++i) d = std::max(d, std::hypot(a[i].x - b[i].x, a[i].y - b[i].y));
+  return a.size() == b.size() ? d : 1e9;
+}
+
+class MeshMethods : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new testing::TempDir;
@@ -86,8 +97,8 @@ class Mp : public ::testing::Test {
     ASSERT_EQ(r.status, 201) << r.body;
   }
 
-  json mesh(const std::string& id, const std::string& query) {
-    auto r = http.get("/v1/images/" + id + "/mesh?method=mp&" + query);
+  json mesh(const std::string& id, const std::string& query, const std::string& method = "mp") {
+    auto r = http.get("/v1/images/" + id + "/mesh?method=" + method + "&" + query);
     EXPECT_EQ(r.status, 200) << query << ": " << r.body;
     return r.status == 200 ? json::parse(r.body) : json();
   }
@@ -104,68 +115,76 @@ class Mp : public ::testing::Test {
   static std::string* file_;
   static std::string* ingest_output_;
 };
-testing::TempDir* Mp::dir_ = nullptr;
-testing::ServerProcess* Mp::server_ = nullptr;
-std::string* Mp::file_ = nullptr;
-std::string* Mp::ingest_output_ = nullptr;
+testing::TempDir* MeshMethods::dir_ = nullptr;
+testing::ServerProcess* MeshMethods::server_ = nullptr;
+std::string* MeshMethods::file_ = nullptr;
+std::string* MeshMethods::ingest_output_ = nullptr;
 
-TEST_F(Mp, IngestPrecomputesBothSaliencyKindsAndSaysHowLong) {
+TEST_F(MeshMethods, IngestPrecomputesBothSaliencyKindsAndSaysHowLong) {
   const std::string dir = fs::canonical(store() + "/images/boats").string();
-  for (const char* file : {"mp.default.bin", "mp.gbvs.bin"}) {
-    EXPECT_TRUE(fs::exists(dir + "/" + file)) << file;
-    EXPECT_NE(ingest_output_->find(std::string(file) + " "), std::string::npos) << *ingest_output_;
-  }
+  for (const char* method : kMethods)
+    for (const char* kind : {"default", "gbvs"}) {
+      const std::string file = std::string(method) + "." + kind + ".bin";
+      EXPECT_TRUE(fs::exists(dir + "/" + file)) << file;
+      EXPECT_NE(ingest_output_->find(file + " "), std::string::npos) << *ingest_output_;
+    }
 }
 
-TEST_F(Mp, ViewportIsExactlyTheScreenAtEveryZoomAndTheCropAtZoomOne) {
-  for (const char* saliency : {"default", "gbvs"})
-    for (auto [w, h] : {std::pair{360, 640}, {640, 360}, {400, 400}, {960, 320}})
-      for (const char* zoom : {"0", "0.5", "1"}) {
-        const std::string q = "/v1/images/boats/viewport?method=mp&format=png&saliency=" + std::string(saliency) +
-                              "&zoom=" + zoom + "&w=" + std::to_string(w) + "&h=" + std::to_string(h);
-        const tiles::Raster v = image(q);
-        EXPECT_EQ(v.width, w) << q;
-        EXPECT_EQ(v.height, h) << q;
-      }
-  // 480 × 300 is the image's 16:10: the warp is the identity, zoom 1 the plain crop around (640, 400).
-  const tiles::Raster crop = image("/v1/images/boats/viewport?method=mp&zoom=1&cx=640&cy=400&w=480&h=300&format=png");
-  const tiles::Raster iiif = image("/iiif/3/boats/400,250,480,300/max/0/default.png");
-  EXPECT_EQ(testing::psnr(crop, iiif), std::numeric_limits<double>::infinity());
+TEST_F(MeshMethods, ViewportIsExactlyTheScreenAtEveryZoomAndTheCropAtZoomOne) {
+  for (const std::string method : kMethods) {
+    for (const char* saliency : {"default", "gbvs"})
+      for (auto [w, h] : {std::pair{360, 640}, {640, 360}, {400, 400}, {960, 320}})
+        for (const char* zoom : {"0", "0.5", "1"}) {
+          const std::string q = "/v1/images/boats/viewport?method=" + method + "&format=png&saliency=" + saliency +
+                                "&zoom=" + zoom + "&w=" + std::to_string(w) + "&h=" + std::to_string(h);
+          const tiles::Raster v = image(q);
+          EXPECT_EQ(v.width, w) << q;
+          EXPECT_EQ(v.height, h) << q;
+        }
+    // 480 × 300 is the image's 16:10: the warp is the identity, zoom 1 the plain crop around (640, 400).
+    const tiles::Raster crop =
+        image("/v1/images/boats/viewport?method=" + method + "&zoom=1&cx=640&cy=400&w=480&h=300&format=png");
+    const tiles::Raster iiif = image("/iiif/3/boats/400,250,480,300/max/0/default.png");
+    EXPECT_EQ(testing::psnr(crop, iiif), std::numeric_limits<double>::infinity()) << method;
+  }
 }
 
 // The JSON a thin client texture-maps: ICAZ's keys, every triangle at zoom 0, the screen exactly
 // covered (the boundary on the target rectangle, scaled to the screen), counter-clockwise.
-TEST_F(Mp, MeshHasIcazsShapeAndCoversTheScreenWithoutFoldOvers) {
+TEST_F(MeshMethods, MeshHasIcazsShapeAndCoversTheScreenWithoutFoldOvers) {
   const json icaz = json::parse(http.get("/v1/images/boats/mesh?method=icaz&zoom=0&w=360&h=640").body);
-  for (auto [w, h] : {std::pair{360, 640}, {640, 360}, {960, 320}}) {
-    const json m = mesh("boats", "zoom=0&w=" + std::to_string(w) + "&h=" + std::to_string(h));
-    std::set<std::string> keys, icaz_keys;
-    for (const auto& [k, v] : m.items()) keys.insert(k);
-    for (const auto& [k, v] : icaz.items()) icaz_keys.insert(k);
-    EXPECT_EQ(keys, icaz_keys);
-    EXPECT_EQ(m["view"]["method"], "mp");
-    const std::vector<MeshVertex> vs = vertices_of(m);
-    ASSERT_GT(vs.size(), 100u) << "a few hundred feature points [Guo09 §3.2]";
-    double x0 = 1e9, x1 = -1e9, y0 = 1e9, y1 = -1e9;
-    for (const MeshVertex& v : vs) x0 = std::min(x0, v.x), x1 = std::max(x1, v.x), y0 = std::min(y0, v.y), y1 = std::max(y1, v.y);
-    EXPECT_NEAR(x0, 0, 0.002);
-    EXPECT_NEAR(y0, 0, 0.002);
-    EXPECT_NEAR(x1, w, 0.002);
-    EXPECT_NEAR(y1, h, 0.002);
-    double area = 0;
-    for (const json& t : m["triangles"]) {
-      const MeshVertex &a = vs[t[0]], &b = vs[t[1]], &c = vs[t[2]];
-      const double a2 = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
-      EXPECT_GT(a2, 0) << "fold-over at (" << a.u << ", " << a.v << ")";
-      area += a2 / 2;
+  std::set<std::string> icaz_keys;
+  for (const auto& [k, v] : icaz.items()) icaz_keys.insert(k);
+  for (const std::string method : kMethods)
+    for (auto [w, h] : {std::pair{360, 640}, {640, 360}, {960, 320}}) {
+      SCOPED_TRACE(method + " " + std::to_string(w) + "x" + std::to_string(h));
+      const json m = mesh("boats", "zoom=0&w=" + std::to_string(w) + "&h=" + std::to_string(h), method);
+      std::set<std::string> keys;
+      for (const auto& [k, v] : m.items()) keys.insert(k);
+      EXPECT_EQ(keys, icaz_keys);
+      EXPECT_EQ(m["view"]["method"], method);
+      const std::vector<MeshVertex> vs = vertices_of(m);
+      ASSERT_GT(vs.size(), 100u) << "a few hundred feature points [Guo09 §3.2], a 20-px grid [Lin13 §IV]";
+      double x0 = 1e9, x1 = -1e9, y0 = 1e9, y1 = -1e9;
+      for (const MeshVertex& v : vs) x0 = std::min(x0, v.x), x1 = std::max(x1, v.x), y0 = std::min(y0, v.y), y1 = std::max(y1, v.y);
+      EXPECT_NEAR(x0, 0, 0.002);
+      EXPECT_NEAR(y0, 0, 0.002);
+      EXPECT_NEAR(x1, w, 0.002);
+      EXPECT_NEAR(y1, h, 0.002);
+      double area = 0;
+      for (const json& t : m["triangles"]) {
+        const MeshVertex &a = vs[t[0]], &b = vs[t[1]], &c = vs[t[2]];
+        const double a2 = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+        EXPECT_GT(a2, 0) << "fold-over at (" << a.u << ", " << a.v << ")";
+        area += a2 / 2;
+      }
+      EXPECT_NEAR(area, double(w) * h, 1) << "every triangle listed, the screen covered once";
     }
-    EXPECT_NEAR(area, double(w) * h, 1) << "every triangle listed, the screen covered once";
-  }
 }
 
 // A curator's line from (150, 560) to (1130, 700): after the PUT it is a chain of mesh vertices
 // (every ~d/2 [Guo09 §3.3.3]) whose screen positions lie on one line within 1 px.
-TEST_F(Mp, ACuratorLineIsAChainOfVerticesKeptStraight) {
+TEST_F(MeshMethods, MpMakesACuratorLineAChainOfVerticesKeptStraight) {
   upload("lined");
   const double ax = 150, ay = 560, bx = 1130, by = 700;
   const auto on_line = [&](const std::vector<MeshVertex>& vs) {
@@ -203,7 +222,7 @@ TEST_F(Mp, ACuratorLineIsAChainOfVerticesKeptStraight) {
 // The sky from (120, 60) to (520, 300), marked as important (weight 1): its vertices then move
 // by one similarity without rotation — a rigid object [Guo09 eq. 3] — where before the edit the
 // stretch distorted them.
-TEST_F(Mp, ARegionMarkedImportantBecomesARigidObject) {
+TEST_F(MeshMethods, MpMakesARegionMarkedImportantARigidObject) {
   upload("marked");
   const auto inside = [](const std::vector<MeshVertex>& vs) {
     std::vector<MeshVertex> out;
@@ -226,6 +245,32 @@ TEST_F(Mp, ARegionMarkedImportantBecomesARigidObject) {
   // The JSON's 0.001 px rounding over a region of ~100 screen px.
   EXPECT_LT(fit_after.residual, 1e-4);
   EXPECT_NEAR(fit_after.rotation, 0, 1e-4);
+}
+
+// A region marked important, then a curator's line, each write the new version's patch files
+// (the edited map; the line term), and the warp follows them: the mesh of the same view changes.
+TEST_F(MeshMethods, PatchFollowsSignificanceAndLineEdits) {
+  upload("patched");
+  const std::string dir = fs::canonical(store() + "/images/patched").string();
+  const std::string file_before = testing::read_file(dir + "/patch.default.bin");
+  const json before = mesh("patched", "zoom=0&w=360&h=640", "patch");
+  const json regions = {{"regions", {{{"rect", {0, 500, 900, 225}}, {"weight", 1}}}}};
+  auto r = http.request("PATCH", "/v1/images/patched/significance", regions.dump());
+  ASSERT_EQ(r.status, 200) << r.body;
+  const std::string after_dir = fs::canonical(store() + "/images/patched").string();
+  EXPECT_NE(testing::read_file(after_dir + "/patch.default.bin"), file_before);
+  const json after = mesh("patched", "zoom=0&w=360&h=640", "patch");
+  EXPECT_NE(after["image"]["version"], before["image"]["version"]);
+  EXPECT_GT(max_screen_shift(vertices_of(before), vertices_of(after)), 1) << "the warp follows the edit";
+
+  const std::string file_marked = testing::read_file(after_dir + "/patch.default.bin");
+  const json lines = {{"lines", {{150, 560, 1130, 700}}}};
+  r = http.request("PUT", "/v1/images/patched/lines", lines.dump());
+  ASSERT_EQ(r.status, 200) << r.body;
+  const std::string lined_dir = fs::canonical(store() + "/images/patched").string();
+  EXPECT_NE(testing::read_file(lined_dir + "/patch.default.bin"), file_marked) << "lines are in patch's energy";
+  const json lined = mesh("patched", "zoom=0&w=360&h=640", "patch");
+  EXPECT_GT(max_screen_shift(vertices_of(after), vertices_of(lined)), 0.1) << "the warp follows the line";
 }
 
 }  // namespace
