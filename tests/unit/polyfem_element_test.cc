@@ -170,6 +170,22 @@ TEST(PolyfemElement, PartitionOfUnity) {
   }
 }
 
+// Per diagonal c^{ii} + c^{jj} + 2·(c^{i,i−1} + c^{i,i+1} + c^{j,j−1} + c^{j,j+1}) = 2 — what Σψ = 1
+// needs (serendipity.h) — over all n(n − 3)/2 diagonals, all edge coefficients positive.
+TEST(PolyfemElement, DiagonalCoefficientsSumToTwo) {
+  for (const Polygon& poly : polygons()) {
+    SCOPED_TRACE(describe(poly, centroid(poly)));
+    const std::size_t n = poly.size();
+    const auto diagonals = warp::serendipity_coefficients(poly);
+    EXPECT_EQ(diagonals.size(), n * (n - 3) / 2);
+    for (const warp::SerendipityDiagonal& d : diagonals) {
+      EXPECT_NEAR(d.c_ii + d.c_jj + 2 * (d.c_i_prev + d.c_i_next + d.c_j_prev + d.c_j_next), 2, 1e-12)
+          << "diagonal (" << d.i << ", " << d.j << ")";
+      EXPECT_GT(std::min({d.c_i_prev, d.c_i_next, d.c_j_prev, d.c_j_next}), 0);
+    }
+  }
+}
+
 // Σ_k ψ_k·f(node_k) = f(p) and Σ_k ∇ψ_k·f(node_k) = ∇f(p) for f = 1, x, y, x², xy, y².
 TEST(PolyfemElement, ReproducesQuadratics) {
   struct Quadratic {
