@@ -15,7 +15,8 @@
 //            reproduction once I_i passes v_ij, e.g. on a kite):
 //              s      = L / (L − (I_j − I_i)·û)
 //              c^{ii} = −s·(1 + 2·(v_ij − I_i)·û / L),   c^{jj} = −s·(1 + 2·(I_j − v_ij)·û / L)
-//              c^{i,i−1} = s·|I_i − v_{i+1}| / |v_{i−1} − v_{i+1}|,  c^{i,i+1} = s·|I_i − v_{i−1}| / |v_{i−1} − v_{i+1}|
+//              c^{i,i−1} = s·|I_i − v_{i+1}| / |v_{i−1} − v_{i+1}|,
+//              c^{i,i+1} = s·|I_i − v_{i−1}| / |v_{i−1} − v_{i+1}|,
 //              c^{j,j−1}, c^{j,j+1} likewise at j
 //            so that c^{ii} + c^{jj} + 2·(c^{i,i−1} + c^{i,i+1} + c^{j,j−1} + c^{j,j+1}) = 2: with
 //            Σ_i μ_ii + 2·Σ_edges μ + 2·Σ_diagonals μ = (Σλ)² = 1 this is Σ ψ = 1. In a convex
