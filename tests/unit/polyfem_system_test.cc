@@ -1,0 +1,152 @@
+// method=polyfem's global system (warp/methods/polyfem/polyfem_system.h) on a hand-made polygon
+// mesh — a jittered quad grid with some quads split into triangles, so both element kinds meet:
+// the nodes (vertices and edge midpoints), the patch test (constant saliency: the exact linear
+// stretch, g_x = x/W and g_y = y/H at every node), the two precomputed solves combining into the
+// direct solve of any target, the identity at the source size bit for bit, and a salient region
+// squeezed less than the rest.
+#include "warp/methods/polyfem/polyfem_system.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <random>
+#include <set>
+
+namespace zoomwarp {
+namespace {
+
+using warp::Point;
+
+constexpr double kW = 200, kH = 120;
+
+// 10 × 6 quads of 20 px, interior vertices jittered by up to 3 px, every third quad split along
+// a diagonal: CCW cells (y down) as polygon_mesh.h requires.
+warp::PolygonMesh jittered_mesh() {
+  warp::PolygonMesh m;
+  m.width = kW;
+  m.height = kH;
+  std::mt19937 rng(15);
+  std::uniform_real_distribution<double> jitter(-3, 3);
+  const int nx = 10, ny = 6;
+  for (int j = 0; j <= ny; ++j)
+    for (int i = 0; i <= nx; ++i) {
+      Point p{kW * i / nx, kH * j / ny};
+      if (i > 0 && i < nx) p.x += jitter(rng);
+      if (j > 0 && j < ny) p.y += jitter(rng);
+      m.vertices.push_back(p);
+    }
+  const auto id = [&](int i, int j) { return j * (nx + 1) + i; };
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const int a = id(i, j), b = id(i + 1, j), c = id(i + 1, j + 1), d = id(i, j + 1);
+      if ((i + j) % 3 == 0) {
+        m.cells.push_back({a, b, c});
+        m.cells.push_back({a, c, d});
+      } else {
+        m.cells.push_back({a, b, c, d});
+      }
+    }
+  return m;
+}
+
+// A bright disc of radius 25 at (100, 60) on a dark field.
+warp::ScalarMap disc_saliency() {
+  warp::ScalarMap s{100, 60, kW, kH, {}};
+  for (int y = 0; y < 60; ++y)
+    for (int x = 0; x < 100; ++x)
+      s.values.push_back(std::hypot(2 * x + 1 - 100.0, 2 * y + 1 - 60.0) < 25 ? 1.f : 0.f);
+  return s;
+}
+
+TEST(PolyfemSystem, NodesAreTheVerticesThenOneMidpointPerEdge) {
+  const warp::PolygonMesh m = jittered_mesh();
+  const warp::PolyfemNodes n = warp::polyfem_nodes(m);
+  std::set<std::pair<int, int>> edges;
+  for (const auto& cell : m.cells)
+    for (std::size_t i = 0; i < cell.size(); ++i) edges.insert(std::minmax(cell[i], cell[(i + 1) % cell.size()]));
+  EXPECT_EQ(n.vertex_count, int(m.vertices.size()));
+  EXPECT_EQ(n.positions.size(), m.vertices.size() + edges.size());
+  for (std::size_t c = 0; c < m.cells.size(); ++c) {
+    ASSERT_EQ(n.cell_nodes[c].size(), 2 * m.cells[c].size());
+    for (std::size_t i = 0; i < m.cells[c].size(); ++i) {
+      const Point a = m.vertices[m.cells[c][i]], b = m.vertices[m.cells[c][(i + 1) % m.cells[c].size()]];
+      const Point mid = n.positions[n.cell_nodes[c][m.cells[c].size() + i]];
+      EXPECT_NEAR(mid.x, (a.x + b.x) / 2, 1e-12);
+      EXPECT_NEAR(mid.y, (a.y + b.y) / 2, 1e-12);
+    }
+  }
+}
+
+// The patch test: with constant saliency the minimiser is the linear stretch, which the
+// quadratic elements contain. The basis is rational (mean value coordinates), so quadrature is
+// not exact and the stretch is met to the quadrature's accuracy: the error must fall as the
+// quadrature triangles shrink (16 px², the default, then 1 px²: about ×15, second order — the
+// basis' higher derivatives grow near the polygons' vertices).
+TEST(PolyfemSystem, ConstantSaliencyGivesTheLinearStretchToQuadratureAccuracy) {
+  const auto worst = [](double area) {
+    warp::PolyfemOptions o;
+    o.max_triangle_area = area;
+    const warp::PolyfemSolution s = warp::solve_polyfem(jittered_mesh(), warp::ScalarMap{}, o);
+    double e = 0;
+    for (std::size_t i = 0; i < s.nodes.positions.size(); ++i)
+      e = std::max({e, std::abs(s.g_x[i] - s.nodes.positions[i].x / kW), std::abs(s.g_y[i] - s.nodes.positions[i].y / kH)});
+    return e;
+  };
+  const double coarse = worst(16), fine = worst(1);
+  std::printf("[ polyfem  ] patch test: |g - linear| %.2e at 16 px² quadrature triangles, %.2e at 1 px²\n", coarse, fine);
+  EXPECT_LT(fine, coarse / 8);
+  EXPECT_LT(fine, 1e-6);
+  EXPECT_LT(coarse, 1e-5);
+}
+
+TEST(PolyfemSystem, TheTwoSolvesCombineIntoTheDirectSolve) {
+  const warp::PolygonMesh m = jittered_mesh();
+  const warp::ScalarMap sal = disc_saliency();
+  const warp::PolyfemSolution s = warp::solve_polyfem(m, sal);
+  for (auto [tw, th] : {std::pair{100.0, 120.0}, {300.0, 84.0}, {150.0, 160.0}}) {
+    const std::vector<Point> axpy = warp::polyfem_positions(s, kW, kH, tw, th);
+    const std::vector<Point> direct = warp::solve_polyfem_direct(m, sal, tw, th);
+    ASSERT_EQ(axpy.size(), direct.size());
+    double worst = 0;
+    for (std::size_t i = 0; i < axpy.size(); ++i)
+      worst = std::max(worst, std::hypot(axpy[i].x - direct[i].x, axpy[i].y - direct[i].y));
+    EXPECT_LT(worst, 1e-9 * (tw + th)) << tw << " x " << th;
+  }
+}
+
+TEST(PolyfemSystem, TheSourceSizeIsTheIdentityBitForBit) {
+  const warp::PolyfemSolution s = warp::solve_polyfem(jittered_mesh(), disc_saliency());
+  const std::vector<Point> q = warp::polyfem_positions(s, kW, kH, kW, kH);
+  for (std::size_t i = 0; i < q.size(); ++i) {
+    EXPECT_EQ(q[i].x, s.nodes.positions[i].x);
+    EXPECT_EQ(q[i].y, s.nodes.positions[i].y);
+  }
+}
+
+// Halving the width: across the salient disc, nodes keep more than half their distance (the
+// background takes more of the squeeze), and the boundary nodes sit on the target rectangle.
+TEST(PolyfemSystem, TheSalientRegionIsSqueezedLessThanTheRest) {
+  const warp::PolyfemSolution s = warp::solve_polyfem(jittered_mesh(), disc_saliency());
+  const std::vector<Point> q = warp::polyfem_positions(s, kW, kH, kW / 2, kH);
+  int left = -1, right = -1;  // the nodes nearest (85, 60) and (115, 60)
+  double dl = 1e9, dr = 1e9;
+  for (std::size_t i = 0; i < q.size(); ++i) {
+    const Point p = s.nodes.positions[i];
+    if (std::hypot(p.x - 85, p.y - 60) < dl) dl = std::hypot(p.x - 85, p.y - 60), left = int(i);
+    if (std::hypot(p.x - 115, p.y - 60) < dr) dr = std::hypot(p.x - 115, p.y - 60), right = int(i);
+    if (p.x == 0) {
+      EXPECT_EQ(q[i].x, 0);
+    }
+    if (p.x == kW) {
+      EXPECT_NEAR(q[i].x, kW / 2, 1e-12);
+    }
+  }
+  const double before = s.nodes.positions[right].x - s.nodes.positions[left].x, after = q[right].x - q[left].x;
+  std::printf("[ polyfem  ] width halved: across the disc %.2f px -> %.2f px (x%.3f; the uniform stretch: x0.5)\n",
+              before, after, after / before);
+  EXPECT_GT(after / before, 0.6);
+}
+
+}  // namespace
+}  // namespace zoomwarp

@@ -1,0 +1,67 @@
+// method=polyfem's global system [PolyFEM §3.2 eq. 3, §4.4 eqs 11–12] on a PolygonMesh
+// (meshing/polygon_mesh.h), with the serendipity element (serendipity.h):
+//
+//   nodes    the mesh's vertices, then one node per edge at its midpoint; B_k is the sum of the
+//            cells' local ψ at node k [eq. 3], continuous across cells (an edge's restriction is
+//            the 1-D P2 basis of its three nodes from either side);
+//   energy   E_T(f) = ∫ s·|J(f) − I|²_F [eq. 11], f = Σ_k B_k·c_k: quadratic in c and separate
+//            per axis, E_T = Σ_a ∫ s·|∇f_a − e_a|²; s = 0.1 + 0.9·saliency (ours: a cell of
+//            zero saliency would make K singular);
+//   boundary [eq. 12] x fixed on the left/right nodes (0, W'), y on the top/bottom ones (0, H');
+//            the other coordinate slides;
+//   solve    by linear precision the identity is stationary at W' = W, H' = H, so
+//            c_x(W') = v_x + (W' − W)·g_x with K_ff·g_f = −K_fb·g_b, g_b = 0 on the left, 1 on the
+//            right (and g_y likewise): two factorizations (different free sets), two solves, and
+//            every target size is an axpy;
+//   K        K_kl = ∫ s·∇B_k·∇B_l by quadrature: each cell fanned from its vertex centroid, the fan
+//            triangles split in four until ≤ max_triangle_area px², Dunavant's 6-point rule of
+//            degree 4 on each (never at a polygon vertex).
+//
+// Thread safety: pure functions.
+#pragma once
+
+#include <vector>
+
+#include "warp/core/mesh.h"
+#include "warp/meshing/polygon_mesh.h"
+
+namespace zoomwarp::warp {
+
+// A scalar map covering the rectangle width × height (row-major, map_w × map_h samples at pixel
+// centres), read bilinearly (clamped at the border).
+struct ScalarMap {
+  int map_w = 0, map_h = 0;
+  double width = 0, height = 0;
+  std::vector<float> values;
+  double at(const Point& p) const;
+};
+
+struct PolyfemNodes {
+  std::vector<Point> positions;             // vertices first, then edge midpoints
+  std::vector<std::vector<int>> cell_nodes;  // per cell: its n vertex nodes, then its n edge nodes (v_i, v_i+1)
+  int vertex_count = 0;
+};
+PolyfemNodes polyfem_nodes(const PolygonMesh& mesh);
+
+struct PolyfemOptions {
+  double saliency_floor = 0.1;     // s = floor + (1 − floor)·saliency (ours)
+  double max_triangle_area = 16;   // quadrature triangles, px² (METHODS §3 step 6)
+};
+
+// g_x, g_y per node: c(W', H') = v + ((W' − W)·g_x, (H' − H)·g_y).
+struct PolyfemSolution {
+  PolyfemNodes nodes;
+  std::vector<double> g_x, g_y;
+};
+PolyfemSolution solve_polyfem(const PolygonMesh& mesh, const ScalarMap& saliency, const PolyfemOptions& options = {});
+
+// The node positions for a target W' × H': the axpy above.
+std::vector<Point> polyfem_positions(const PolyfemSolution& solution, double width, double height, double target_w,
+                                     double target_h);
+
+// For tests: the same energy solved directly for one target (both axes, their boundary values
+// W', H'), by another factorization — what the axpy must reproduce.
+std::vector<Point> solve_polyfem_direct(const PolygonMesh& mesh, const ScalarMap& saliency, double target_w,
+                                        double target_h, const PolyfemOptions& options = {});
+
+}  // namespace zoomwarp::warp
