@@ -68,18 +68,52 @@ Assembled assemble(const PolygonMesh& mesh, const PolyfemNodes& nodes, const Sca
     std::vector<double> k(m * m, 0.0);
     Point centroid{0, 0};
     for (const Point& p : polygon) centroid = {centroid.x + p.x / polygon.size(), centroid.y + p.y / polygon.size()};
+    // The quadrature points with their weights (area × s) and the basis' gradients there.
+    struct Sample {
+      double area_weight, s;
+      std::vector<Point> grad;
+    };
+    std::vector<Sample> samples;
+    std::vector<Point> quadrature_sum(m, Point{0, 0});
+    double cell_area = 0;
     for (std::size_t i = 0; i < polygon.size(); ++i)
       integrate_triangle(centroid, polygon[i], polygon[(i + 1) % polygon.size()], options.max_triangle_area,
                          [&](const Point& p, double w) {
                            serendipity_basis(polygon, diagonals, p, psi, grad);
-                           const double s = w * (options.saliency_floor + (1 - options.saliency_floor) * saliency.at(p));
-                           for (std::size_t a = 0; a < m; ++a) {
-                             out.load_x[local[a]] += s * grad[a].x;
-                             out.load_y[local[a]] += s * grad[a].y;
-                             for (std::size_t b = 0; b < m; ++b)
-                               k[a * m + b] += s * (grad[a].x * grad[b].x + grad[a].y * grad[b].y);
-                           }
+                           for (std::size_t a = 0; a < m; ++a)
+                             quadrature_sum[a] = {quadrature_sum[a].x + w * grad[a].x, quadrature_sum[a].y + w * grad[a].y};
+                           cell_area += w;
+                           samples.push_back({w, options.saliency_floor + (1 - options.saliency_floor) * saliency.at(p), grad});
                          });
+    // Polynomial consistency (ours, after Talischi et al.'s corrected quadrature for polygonal
+    // elements): the basis is rational, so quadrature misses ∫ ∇B_a = ∮ B_a·n, which the patch
+    // test needs exactly. On the boundary B_a is the 1-D P2 basis of each edge's three nodes
+    // (∫ = L/6 at either end, 2L/3 at the midpoint), so ∮ B_a·n is exact; each gradient is
+    // shifted by one constant per cell so that the quadrature sum equals it.
+    std::vector<Point> boundary_sum(m, Point{0, 0});
+    const std::size_t n = polygon.size();
+    for (std::size_t i = 0; i < n; ++i) {
+      const Point a = polygon[i], b = polygon[(i + 1) % n];
+      Point normal{b.y - a.y, a.x - b.x};  // |normal| = edge length; pointed away from the centroid
+      if (normal.x * ((a.x + b.x) / 2 - centroid.x) + normal.y * ((a.y + b.y) / 2 - centroid.y) < 0)
+        normal = {-normal.x, -normal.y};
+      const auto add = [&](std::size_t node, double share) {
+        boundary_sum[node] = {boundary_sum[node].x + share * normal.x, boundary_sum[node].y + share * normal.y};
+      };
+      add(i, 1.0 / 6), add((i + 1) % n, 1.0 / 6), add(n + i, 2.0 / 3);
+    }
+    std::vector<Point> shift(m);
+    for (std::size_t a = 0; a < m; ++a)
+      shift[a] = {(boundary_sum[a].x - quadrature_sum[a].x) / cell_area, (boundary_sum[a].y - quadrature_sum[a].y) / cell_area};
+    for (Sample& q : samples) {
+      const double w = q.area_weight * q.s;
+      for (std::size_t a = 0; a < m; ++a) q.grad[a] = {q.grad[a].x + shift[a].x, q.grad[a].y + shift[a].y};
+      for (std::size_t a = 0; a < m; ++a) {
+        out.load_x[local[a]] += w * q.grad[a].x;
+        out.load_y[local[a]] += w * q.grad[a].y;
+        for (std::size_t b = 0; b < m; ++b) k[a * m + b] += w * (q.grad[a].x * q.grad[b].x + q.grad[a].y * q.grad[b].y);
+      }
+    }
     for (std::size_t a = 0; a < m; ++a)
       for (std::size_t b = 0; b < m; ++b) triplets.emplace_back(local[a], local[b], k[a * m + b]);
   }

@@ -15,7 +15,10 @@
 //            every target size is an axpy;
 //   K        K_kl = ∫ s·∇B_k·∇B_l by quadrature: each cell fanned from its vertex centroid, the fan
 //            triangles split in four until ≤ max_triangle_area px², Dunavant's 6-point rule of
-//            degree 4 on each (never at a polygon vertex).
+//            degree 4 on each (never at a polygon vertex); the gradients shifted by one constant
+//            per basis function and cell so that their quadrature sum is ∮ B·n exactly (ours,
+//            after Talischi et al.'s polynomially consistent quadrature: the basis is rational,
+//            and without it the patch test fails by the quadrature error, 2e-6).
 //
 // Thread safety: pure functions.
 #pragma once
