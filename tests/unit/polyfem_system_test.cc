@@ -3,8 +3,11 @@
 // the nodes (vertices and edge midpoints), the patch test (constant saliency: the exact linear
 // stretch, g_x = x/W and g_y = y/H at every node), the two precomputed solves combining into the
 // direct solve of any target, the identity at the source size bit for bit, and a salient region
-// squeezed less than the rest.
+// squeezed less than the rest; and its export (polyfem_export.h): the sampled triangles tile the
+// rectangle and its warp without a crack or a fold, and their chords stay within 0.5 px of the
+// deformation from a small subdivision level on.
 #include "warp/methods/polyfem/polyfem_system.h"
+#include "warp/methods/polyfem/polyfem_export.h"
 
 #include <gtest/gtest.h>
 
@@ -140,6 +143,80 @@ TEST(PolyfemSystem, TheSalientRegionIsSqueezedLessThanTheRest) {
   std::printf("[ polyfem  ] width halved: across the disc %.2f px -> %.2f px (x%.3f; the uniform stretch: x0.5)\n",
               before, after, after / before);
   EXPECT_GT(after / before, 0.6);
+}
+
+double area_sum(const warp::Mesh& m, const std::vector<Point>& q) {
+  double a = 0;
+  for (const auto& t : m.triangles) a += warp::signed_area2(q[t[0]], q[t[1]], q[t[2]]) / 2;
+  return a;
+}
+
+// The samples tile the rectangle (each interior edge in two triangles, the area W·H, all CCW),
+// and their warp tiles the target rectangle without a fold at a moderate squeeze (width × 0.8).
+// (Halving the width folds the linear solution beside the stiff disc: the case [PolyFEM §4.5]'s
+// L-BFGS with per-cell rollback is for, not built yet.)
+TEST(PolyfemExport, SampledTrianglesTileTheSourceAndTheTarget) {
+  const warp::PolygonMesh m = jittered_mesh();
+  const warp::PolyfemSolution s = warp::solve_polyfem(m, disc_saliency());
+  for (int level : {0, 1, 3}) {
+    const warp::PolyfemSampling sampling = warp::sample_polyfem_cells(m, s.nodes, level);
+    std::map<std::pair<int, int>, int> uses;
+    for (const auto& t : sampling.mesh.triangles) {
+      EXPECT_GT(warp::signed_area2(sampling.mesh.vertices[t[0]], sampling.mesh.vertices[t[1]], sampling.mesh.vertices[t[2]]), 0);
+      for (int k = 0; k < 3; ++k) ++uses[std::minmax(t[k], t[(k + 1) % 3])];
+    }
+    for (const auto& [edge, n] : uses) {
+      const Point a = sampling.mesh.vertices[edge.first], b = sampling.mesh.vertices[edge.second];
+      const bool border = (a.x == 0 && b.x == 0) || (a.y == 0 && b.y == 0) || (a.x == kW && b.x == kW) || (a.y == kH && b.y == kH);
+      EXPECT_EQ(n, border ? 1 : 2) << "level " << level << ": a crack or an overlap at (" << a.x << ", " << a.y << ")";
+    }
+    EXPECT_NEAR(area_sum(sampling.mesh, sampling.mesh.vertices), kW * kH, 1e-9 * kW * kH) << level;
+    const warp::SampledField field = warp::sample_polyfem_field(m, s, sampling);
+    const std::vector<Point> q = warp::warp_polyfem_samples(sampling, field, -0.2 * kW, 0);
+    EXPECT_NEAR(area_sum(sampling.mesh, q), 0.8 * kW * kH, 1e-9 * kW * kH) << level;
+    for (const auto& t : sampling.mesh.triangles) EXPECT_GT(warp::signed_area2(q[t[0]], q[t[1]], q[t[2]]), 0) << level;
+  }
+}
+
+// The chord error: the midpoint of every level-k edge is a sample of level k + 1, so the
+// deformation there is known; the straight chord between the warped ends misses it by at most
+// this much (px, width halved). It must shrink about fourfold per level (the field is smooth
+// inside cells) and be below 0.5 px by level 2.
+TEST(PolyfemExport, ChordErrorShrinksWithTheLevel) {
+  const warp::PolygonMesh m = jittered_mesh();
+  const warp::PolyfemSolution s = warp::solve_polyfem(m, disc_saliency());
+  const auto chord_error = [&](int level) {
+    const warp::PolyfemSampling coarse = warp::sample_polyfem_cells(m, s.nodes, level);
+    const warp::PolyfemSampling fine = warp::sample_polyfem_cells(m, s.nodes, level + 1);
+    const std::vector<Point> qc = warp::warp_polyfem_samples(coarse, warp::sample_polyfem_field(m, s, coarse), -kW / 2, 0);
+    const std::vector<Point> qf = warp::warp_polyfem_samples(fine, warp::sample_polyfem_field(m, s, fine), -kW / 2, 0);
+    std::map<std::pair<double, double>, int> at;
+    for (std::size_t i = 0; i < fine.mesh.vertices.size(); ++i) at[{fine.mesh.vertices[i].x, fine.mesh.vertices[i].y}] = int(i);
+    double worst = 0;
+    for (const auto& t : coarse.mesh.triangles)
+      for (int k = 0; k < 3; ++k) {
+        const int a = t[k], b = t[(k + 1) % 3];
+        const Point pa = coarse.mesh.vertices[a], pb = coarse.mesh.vertices[b];
+        // Find the fine sample nearest the source midpoint (rounding may differ in the last bit).
+        const Point mid{(pa.x + pb.x) / 2, (pa.y + pb.y) / 2};
+        auto it = at.lower_bound({mid.x - 1e-9, -1e300});
+        double best = 1e300;
+        int found = -1;
+        for (; it != at.end() && it->first.first <= mid.x + 1e-9; ++it) {
+          const double d = std::hypot(it->first.first - mid.x, it->first.second - mid.y);
+          if (d < best) best = d, found = it->second;
+        }
+        EXPECT_LT(best, 1e-9);
+        if (found < 0) continue;
+        worst = std::max(worst, std::hypot((qc[a].x + qc[b].x) / 2 - qf[found].x, (qc[a].y + qc[b].y) / 2 - qf[found].y));
+      }
+    return worst;
+  };
+  const double e0 = chord_error(0), e1 = chord_error(1), e2 = chord_error(2);
+  std::printf("[ polyfem  ] chord error, width halved: %.3f px at level 0, %.3f at 1, %.3f at 2\n", e0, e1, e2);
+  EXPECT_LT(e1, e0 / 2.5);
+  EXPECT_LT(e2, e1 / 2.5);
+  EXPECT_LT(e2, 0.5);
 }
 
 }  // namespace
