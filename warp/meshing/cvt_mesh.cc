@@ -67,37 +67,6 @@ std::vector<Point> sample_seeds(const cv::Mat& rho, int n, double w, double h, u
   return seeds;
 }
 
-// Weighted Lloyd [PolyFEM eq. 9] on `rho` (already ≤ lloyd_side), in place.
-void lloyd(std::vector<Point>& seeds, const cv::Mat& rho, double w, double h, const CvtMeshOptions& options) {
-  const int n = int(seeds.size());
-  for (int iteration = 0; iteration < options.lloyd_iterations; ++iteration) {
-    Delaunay dt;
-    std::vector<std::pair<K::Point_2, int>> points;
-    for (int i = 0; i < n; ++i) points.emplace_back(K::Point_2(seeds[i].x, seeds[i].y), i);
-    dt.insert(points.begin(), points.end());
-    std::vector<double> mass(n), mx(n), my(n);
-    Delaunay::Vertex_handle hint;
-    for (int y = 0; y < rho.rows; ++y)
-      for (int x = 0; x < rho.cols; ++x) {
-        const double px = (x + 0.5) * w / rho.cols, py = (y + 0.5) * h / rho.rows, m = rho.at<float>(y, x);
-        hint = dt.nearest_vertex(K::Point_2(px, py), hint == Delaunay::Vertex_handle() ? Delaunay::Face_handle()
-                                                                                         : hint->face());
-        const int i = hint->info();
-        mass[i] += m;
-        mx[i] += m * px;
-        my[i] += m * py;
-      }
-    double max_move = 0;
-    for (int i = 0; i < n; ++i) {
-      if (mass[i] <= 0) continue;
-      const Point c{mx[i] / mass[i], my[i] / mass[i]};
-      max_move = std::max(max_move, std::hypot(c.x - seeds[i].x, c.y - seeds[i].y));
-      seeds[i] = c;
-    }
-    if (max_move < 0.01) return;
-  }
-}
-
 // The seeds (info = index) and their images in the four sides (info = −1 − index).
 Delaunay mirrored_triangulation(const std::vector<Point>& seeds, double w, double h) {
   std::vector<std::pair<K::Point_2, int>> points;
@@ -147,6 +116,54 @@ PolygonMesh voronoi_cells(const std::vector<Point>& seeds, double w, double h) {
     } while (++face != end);
   }
   return mesh;
+}
+
+// Weighted Lloyd [PolyFEM eq. 9] on `rho` (already ≤ lloyd_side), in place. A pixel's label is
+// the seed nearest its centre, i.e. the clipped Voronoi cell holding the centre: each cell is
+// scan-converted, a centre on an edge going to the cell on its right (below, on a horizontal
+// edge), with the edge's x computed alike from both sides, so every centre counts exactly once.
+void lloyd(std::vector<Point>& seeds, const cv::Mat& rho, double w, double h, const CvtMeshOptions& options) {
+  const int n = int(seeds.size());
+  const double sx = w / rho.cols, sy = h / rho.rows;
+  for (int iteration = 0; iteration < options.lloyd_iterations; ++iteration) {
+    const PolygonMesh cells = voronoi_cells(seeds, w, h);
+    double max_move = 0;
+    for (int i = 0; i < n; ++i) {
+      const std::vector<int>& cell = cells.cells[i];
+      double top = h, bottom = 0;
+      for (int v : cell) {
+        top = std::min(top, cells.vertices[v].y);
+        bottom = std::max(bottom, cells.vertices[v].y);
+      }
+      double mass = 0, mx = 0, my = 0;
+      // Rows whose centre y = (row + 0.5)·sy lies in [top, bottom).
+      for (int row = std::max(0, int(std::ceil(top / sy - 0.5))); row < rho.rows && (row + 0.5) * sy < bottom; ++row) {
+        const double y = (row + 0.5) * sy;
+        double left = w, right = 0;
+        for (std::size_t k = 0; k < cell.size(); ++k) {
+          Point a = cells.vertices[cell[k]], b = cells.vertices[cell[(k + 1) % cell.size()]];
+          if (a.y > b.y) std::swap(a, b);
+          if (!(a.y <= y && y < b.y)) continue;
+          const double x = a.x + (y - a.y) * (b.x - a.x) / (b.y - a.y);
+          left = std::min(left, x);
+          right = std::max(right, x);
+        }
+        const int first = std::max(0, int(std::ceil(left / sx - 0.5)));
+        const int last = std::min(rho.cols, int(std::ceil(right / sx - 0.5)));  // exclusive
+        for (int col = first; col < last; ++col) {
+          const double m = rho.at<float>(row, col);
+          mass += m;
+          mx += m * (col + 0.5) * sx;
+          my += m * y;
+        }
+      }
+      if (mass <= 0) continue;
+      const Point c{mx / mass, my / mass};
+      max_move = std::max(max_move, std::hypot(c.x - seeds[i].x, c.y - seeds[i].y));
+      seeds[i] = c;
+    }
+    if (max_move < 0.01) return;
+  }
 }
 
 // Σ R(R − 2r) = Σ (abc)²/(16A²) − abc/(a + b + c) over the triangles with a seed among their
