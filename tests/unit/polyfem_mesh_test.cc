@@ -184,7 +184,8 @@ TEST_F(PolyfemMesh, Deterministic) {
   EXPECT_EQ(again.cells, mesh_->cells);
 }
 
-// ρ is largest on the saliency's edges, so cells whose centroid lies near an edge pixel are smaller.
+// ρ is largest on the saliency's edges, so cells whose centroid lies near an edge pixel are smaller:
+// on this sample by a factor of about 4 (with ρ = 1 both means are within 2 %).
 TEST_F(PolyfemMesh, SmallerCellsAlongSaliencyEdges) {
   const std::vector<bool> edge = saliency_edges(*map_);
   const double reach = 0.25 * std::sqrt(w() * h() / 200);
@@ -201,7 +202,7 @@ TEST_F(PolyfemMesh, SmallerCellsAlongSaliencyEdges) {
   }
   ASSERT_GT(near_count, 0);
   ASSERT_GT(far_count, 0);
-  EXPECT_LT(near_area / near_count, far_area / far_count);
+  EXPECT_LT(near_area / near_count, 0.5 * far_area / far_count);
 }
 
 TEST_F(PolyfemMesh, TooFewStepsFailLoudly) {
