@@ -35,7 +35,8 @@ struct CvtMeshOptions {
 // 2. N seeds drawn from ρ (piecewise constant per map pixel) with a fixed RNG seed — by inverse
 //    CDF, which draws from the same distribution as rejection sampling in bounded time.
 // 3. Weighted Lloyd on the density resized to ≤ lloyd_side px (labels: nearest seed of each pixel
-//    centre; seeds move to their cells' ρ-weighted centroids).
+//    centre, found by scan-converting the clipped Voronoi cells; seeds move to their cells'
+//    ρ-weighted centroids).
 // 4. Gradient descent of E_se = Σ_t R_t(R_t − 2r_t), R = abc/(4A), r = 2A/(a+b+c), over the
 //    Delaunay triangles of the seeds and of their mirror images in the four sides (the mirrors
 //    make the Voronoi cells of the seeds exactly their cells clipped to the rectangle, so the
@@ -50,9 +51,9 @@ struct CvtMeshOptions {
 // it, corners are exact. The edges are conforming (a Voronoi diagram: every vertex where cells
 // meet is a vertex of each of them).
 //
-// Throws std::invalid_argument for a non-finite or non-positive size, map_w or map_h < 1, or a
-// map whose size is not map_w·map_h or with a non-finite value; std::runtime_error when
-// max_optimisation_steps steps leave a short edge.
+// Throws std::invalid_argument for a non-finite or non-positive size, map_w or map_h < 1, a map
+// whose size is not map_w·map_h or with a non-finite value, or options.cells < 1;
+// std::runtime_error when max_optimisation_steps steps leave a short edge.
 PolygonMesh build_cvt_mesh(const std::vector<float>& saliency, int map_w, int map_h, double width, double height,
                            const CvtMeshOptions& options = {});
 
