@@ -232,6 +232,19 @@ bool has_short_edge(const PolygonMesh& mesh, double ratio) {
   return std::any_of(lengths.begin(), lengths.end(), [&](double l) { return l < ratio * mean; });
 }
 
+// Fails loudly on what a Voronoi diagram should never give but rounding could: a cell with fewer
+// than three vertices (two seeds clamped onto one point) or a corner that does not turn left.
+void check_cells(const PolygonMesh& mesh) {
+  for (std::size_t c = 0; c < mesh.cells.size(); ++c) {
+    const std::vector<int>& cell = mesh.cells[c];
+    bool convex = cell.size() >= 3;
+    for (std::size_t k = 0; convex && k < cell.size(); ++k)
+      convex = signed_area2(mesh.vertices[cell[k]], mesh.vertices[cell[(k + 1) % cell.size()]],
+                            mesh.vertices[cell[(k + 2) % cell.size()]]) > 0;
+    if (!convex) throw std::runtime_error("cvt mesh: cell " + std::to_string(c) + " is degenerate or not convex");
+  }
+}
+
 }  // namespace
 
 PolygonMesh build_cvt_mesh(const std::vector<float>& saliency, int map_w, int map_h, double width, double height,
@@ -263,7 +276,10 @@ PolygonMesh build_cvt_mesh(const std::vector<float>& saliency, int map_w, int ma
   double energy = edge_energy(seeds, width, height, &gradient);
   for (int iteration = 0;; ++iteration) {
     PolygonMesh mesh = voronoi_cells(seeds, width, height);
-    if (!has_short_edge(mesh, options.min_edge_ratio)) return mesh;
+    if (!has_short_edge(mesh, options.min_edge_ratio)) {
+      check_cells(mesh);
+      return mesh;
+    }
     if (iteration == options.max_optimisation_steps)
       throw std::runtime_error("cvt mesh: " + std::to_string(options.max_optimisation_steps) +
                                " steps of [PolyFEM eq. 10] left an edge shorter than " +

@@ -53,7 +53,8 @@ struct CvtMeshOptions {
 //
 // Throws std::invalid_argument for a non-finite or non-positive size, map_w or map_h < 1, a map
 // whose size is not map_w·map_h or with a non-finite value, or options.cells < 1;
-// std::runtime_error when max_optimisation_steps steps leave a short edge.
+// std::runtime_error when max_optimisation_steps steps leave a short edge, or when a cell comes
+// out degenerate or not strictly convex (rounding; never seen).
 PolygonMesh build_cvt_mesh(const std::vector<float>& saliency, int map_w, int map_h, double width, double height,
                            const CvtMeshOptions& options = {});
 
