@@ -167,11 +167,19 @@ TEST_F(PolyfemMesh, NoEdgeShorterThanFivePercentOfTheMean) {
   EXPECT_GE(*std::min_element(lengths.begin(), lengths.end()), 0.05 * mean);
 }
 
-// [PolyFEM Fig. 6]: 200 elements, 1,900 DOFs (two per vertex and per edge midpoint).
-TEST_F(PolyfemMesh, DofsNear003sFigure) {
+// Two DOFs per vertex and per edge midpoint: [PolyFEM Fig. 6] has 200 elements and 1,900 DOFs,
+// [Fig. 9] 50 elements and about 460.
+TEST_F(PolyfemMesh, DofsNear003sFigures) {
   const int dofs = 2 * int(mesh_->vertices.size() + edges(*mesh_).size());
   RecordProperty("dofs", dofs);
   EXPECT_NEAR(dofs, 1900, 0.15 * 1900);
+
+  warp::CvtMeshOptions fifty;
+  fifty.cells = 50;
+  const PolygonMesh coarse = warp::build_cvt_mesh(map_->values, map_->width, map_->height, w(), h(), fifty);
+  const int coarse_dofs = 2 * int(coarse.vertices.size() + edges(coarse).size());
+  RecordProperty("dofs_50", coarse_dofs);
+  EXPECT_NEAR(coarse_dofs, 460, 0.15 * 460);
 }
 
 TEST_F(PolyfemMesh, Deterministic) {
