@@ -227,6 +227,17 @@ TEST(PolyfemMeshShapes, UniformSaliency) {
   expect_valid(mesh, 640, 480);
 }
 
+// Four cells on a uniform 16×16 square: Lloyd puts the seeds on a 2×2 grid, exactly co-circular.
+// Their Delaunay triangles' equal circumcentres become one vertex shared by the four cells, not a
+// zero-length edge.
+TEST(PolyfemMeshShapes, CoCircularSeedsShareOneVertex) {
+  const std::vector<float> flat(16 * 16, 0.5f);
+  const PolygonMesh mesh = warp::build_cvt_mesh(flat, 16, 16, 16, 16);
+  ASSERT_EQ(mesh.cells.size(), 4u);
+  EXPECT_EQ(mesh.vertices.size(), 9u);
+  expect_valid(mesh, 16, 16);
+}
+
 // N is capped at area/64 px², at least one cell: a 1×1 rectangle is one cell, the rectangle.
 TEST(PolyfemMeshShapes, TinyRectangleIsOneCell) {
   const PolygonMesh mesh = warp::build_cvt_mesh({0.3f}, 1, 1, 1, 1);
