@@ -229,7 +229,11 @@ bool has_short_edge(const PolygonMesh& mesh, double ratio) {
     }
   double mean = 0;
   for (double l : lengths) mean += l / lengths.size();
-  return std::any_of(lengths.begin(), lengths.end(), [&](double l) { return l < ratio * mean; });
+  // In a rectangle thinner than the cells are long (a 2×10000 image: 1 px of analysis width) the
+  // cells' short edges span the rectangle's width: that is the shortest any edge can be, so the
+  // bound never asks for more than half of it (ours).
+  const double bound = std::min(ratio * mean, 0.5 * std::min(mesh.width, mesh.height));
+  return std::any_of(lengths.begin(), lengths.end(), [&](double l) { return l < bound; });
 }
 
 // Fails loudly on what a Voronoi diagram should never give but rounding could: a cell with fewer

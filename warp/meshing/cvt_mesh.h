@@ -41,7 +41,7 @@ struct CvtMeshOptions {
 //    Delaunay triangles of the seeds and of their mirror images in the four sides (the mirrors
 //    make the Voronoi cells of the seeds exactly their cells clipped to the rectangle, so the
 //    clipped edges are optimised too), until no mesh edge is shorter than min_edge_ratio of the
-//    mean edge.
+//    mean edge (or than half the rectangle's short side, in a rectangle thinner than that).
 //
 // Output: one cell per seed (possibly fewer than N, see min_cell_area), each the seed's Voronoi
 // cell clipped to the rectangle, counter-clockwise in mesh.h's sense. Vertices are shared: Voronoi
