@@ -11,13 +11,19 @@ namespace zoomwarp::warp {
 
 namespace {
 
-// The precomputation of `method` from the version's pixels (the reduced copy every map is made from).
-std::string precompute(const tiles::ImageEntry& image, tiles::PyramidReader& reader, const ImageModel& model,
-                       const RetargetingMethod& method, Saliency kind) {
-  const tiles::Raster analysis = read_reduced_image(image, reader);
-  const SignificanceMap saliency = saliency_map(image, reader, model, kind);
-  const std::vector<Segment> detected = suggested_lines(image, reader, model);
-  return method.precompute(MethodInput{model, kind, saliency, analysis, detected});
+// What the precomputations read of a version, made once and shared by every method and kind:
+// the reduced copy every map is made from and the kept line suggestions.
+struct SharedInput {
+  tiles::Raster analysis;
+  std::vector<Segment> detected;
+};
+SharedInput shared_input(const tiles::ImageEntry& image, tiles::PyramidReader& reader, const ImageModel& model) {
+  return {read_reduced_image(image, reader), suggested_lines(image, reader, model)};
+}
+
+std::string precompute(const RetargetingMethod& method, const ImageModel& model, Saliency kind,
+                       const SignificanceMap& saliency, const SharedInput& shared) {
+  return method.precompute(MethodInput{model, kind, saliency, shared.analysis, shared.detected});
 }
 
 std::string sealed(const RetargetingMethod& method, const std::string& payload) {
@@ -33,13 +39,18 @@ std::string method_file_name(const RetargetingMethod& method, Saliency saliency)
 std::vector<MethodFileTiming> write_method_files(const std::string& dir, const tiles::ImageEntry& image,
                                                  tiles::PyramidReader& reader, const ImageModel& model,
                                                  std::span<const Saliency> kinds, MethodSelection which) {
+  std::vector<const RetargetingMethod*> methods;
+  for (const RetargetingMethod* method : retargeting_methods())
+    if (method->precompute && (which == MethodSelection::kAll || method->reads_lines)) methods.push_back(method);
   std::vector<MethodFileTiming> out;
-  for (const RetargetingMethod* method : retargeting_methods()) {
-    if (!method->precompute || (which == MethodSelection::kReadingLines && !method->reads_lines)) continue;
-    for (Saliency kind : kinds) {
+  if (methods.empty() || kinds.empty()) return out;
+  const SharedInput shared = shared_input(image, reader, model);
+  for (Saliency kind : kinds) {
+    const SignificanceMap saliency = saliency_map(image, reader, model, kind);
+    for (const RetargetingMethod* method : methods) {
       const auto start = std::chrono::steady_clock::now();
       const std::string file = method_file_name(*method, kind);
-      replace_file(dir, file, sealed(*method, precompute(image, reader, model, *method, kind)));
+      replace_file(dir, file, sealed(*method, precompute(*method, model, kind, saliency, shared)));
       out.push_back({file, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()});
     }
   }
@@ -52,7 +63,8 @@ LoadedRetargeter load_retargeter(const tiles::ImageEntry& image, tiles::PyramidR
   if (!method.precompute) return {method.load(model, map, ""), MethodSource::kNoFile, ""};
   const std::string file = method_file_name(method, saliency);
   if (!exists(image, file.c_str()))
-    return {method.load(model, map, precompute(image, reader, model, method, saliency)), MethodSource::kBuiltInMemory, ""};
+    return {method.load(model, map, precompute(method, model, saliency, map, shared_input(image, reader, model))),
+            MethodSource::kBuiltInMemory, ""};
   try {
     // The same magic twice: these files have always had the trailer.
     auto [payload, format] = checked_payload(file.c_str(), read_whole(image, file.c_str()), method.magic, method.magic);
@@ -62,8 +74,8 @@ LoadedRetargeter load_retargeter(const tiles::ImageEntry& image, tiles::PyramidR
       throw ModelFileError(file, e.what());
     }
   } catch (const ModelFileError& damaged) {
-    return {method.load(model, map, precompute(image, reader, model, method, saliency)), MethodSource::kRebuiltDamaged,
-            damaged.what()};
+    return {method.load(model, map, precompute(method, model, saliency, map, shared_input(image, reader, model))),
+            MethodSource::kRebuiltDamaged, damaged.what()};
   }
 }
 

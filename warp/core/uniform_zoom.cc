@@ -89,4 +89,10 @@ View uniform_zoom(const Mesh& source, const std::vector<Point>& warped, double t
   return out;
 }
 
+View uniform_zoom_of_warp(const Mesh& source, const std::vector<Point>& warped, double tw, double th,
+                          const ViewRequest& r, double width, double height) {
+  const Point centre{std::clamp(r.cx, 0.0, width), std::clamp(r.cy, 0.0, height)};
+  return uniform_zoom(source, warped, tw, th, r, locate(source, warped, centre));
+}
+
 }  // namespace zoomwarp::warp

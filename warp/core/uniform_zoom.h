@@ -36,4 +36,9 @@ std::vector<int> visible_triangles(const Mesh& mesh, const std::vector<Point>& s
 View uniform_zoom(const Mesh& source, const std::vector<Point>& warped, double tw, double th, const ViewRequest& r,
                   const Point& centre_warped);
 
+// The same for a whole-image warp of a width × height image (every Retargeter's view): centred on
+// where the request's centre, clamped to the image, lands in the warp.
+View uniform_zoom_of_warp(const Mesh& source, const std::vector<Point>& warped, double tw, double th,
+                          const ViewRequest& r, double width, double height);
+
 }  // namespace zoomwarp::warp

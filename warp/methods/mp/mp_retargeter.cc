@@ -66,8 +66,7 @@ View MpRetargeting::view(const ViewRequest& r) {
   Solved s = warped(g.target_width, g.target_height, r.stop);
   const double sx = g.target_width / s.target_width, sy = g.target_height / s.target_height;
   for (Point& p : s.positions) p = {p.x * sx, p.y * sy};
-  const Point centre{std::clamp(r.cx, 0.0, width_), std::clamp(r.cy, 0.0, height_)};
-  View v = uniform_zoom(mesh_, s.positions, g.target_width, g.target_height, r, locate(mesh_, s.positions, centre));
+  View v = uniform_zoom_of_warp(mesh_, s.positions, g.target_width, g.target_height, r, width_, height_);
   v.coarse_stats = std::move(s.stats);
   return v;
 }

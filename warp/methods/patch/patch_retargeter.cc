@@ -48,8 +48,7 @@ View PatchRetargeting::view(const ViewRequest& r) {
   WarpResult stats;
   const std::vector<Point> q = warped(g.target_width, g.target_height, &stats.affine_blend, r.stop);
   stats.converged = true;
-  const Point centre{std::clamp(r.cx, 0.0, width_), std::clamp(r.cy, 0.0, height_)};
-  View v = uniform_zoom(mesh_, q, g.target_width, g.target_height, r, locate(mesh_, q, centre));
+  View v = uniform_zoom_of_warp(mesh_, q, g.target_width, g.target_height, r, width_, height_);
   v.coarse_stats = std::move(stats);
   return v;
 }

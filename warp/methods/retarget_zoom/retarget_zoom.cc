@@ -58,8 +58,7 @@ View RetargetZoom::view(const ViewRequest& r) {
   const ZoomGeometry g = zoom_geometry(width_, height_, r.screen_width, r.screen_height, 0, r.curve);
   WarpResult stats;
   const std::vector<Point> positions = warped(g.target_width, g.target_height, &stats, r.stop);
-  const Point centre{std::clamp(r.cx, 0.0, width_), std::clamp(r.cy, 0.0, height_)};
-  View v = uniform_zoom(mesh(), positions, g.target_width, g.target_height, r, locate(mesh(), positions, centre));
+  View v = uniform_zoom_of_warp(mesh(), positions, g.target_width, g.target_height, r, width_, height_);
   stats.positions.clear();  // `warped` has them
   v.coarse_stats = std::move(stats);
   return v;
