@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <map>
 #include <stdexcept>
 
@@ -11,130 +12,180 @@ namespace zoomwarp::warp {
 
 namespace {
 
-// A sample's identity, so that cells sharing an edge (and fan triangles sharing a spoke) share
-// the sample: {kind, …} with kinds 0 vertex (id), 1 cell edge (lower id, higher id, lattice
-// index from the lower), 2 centroid (cell), 3 spoke (cell, local vertex, lattice index), 4 inside
-// (cell, fan triangle, r, s).
-using Key = std::array<long long, 5>;
+// The element of one cell, built once per sampling.
+struct Element {
+  std::vector<Point> polygon;
+  std::vector<SerendipityDiagonal> diagonals;
+  Point centroid{0, 0};
+
+  Element(const PolygonMesh& mesh, int cell) {
+    for (int v : mesh.cells.at(cell)) polygon.push_back(mesh.vertices[v]);
+    diagonals = serendipity_coefficients(polygon);
+    for (const Point& p : polygon) centroid = {centroid.x + p.x / polygon.size(), centroid.y + p.y / polygon.size()};
+  }
+};
+
+// The 1-D P2 weights of the point at parameter t along the edge from node lo to node hi (lower
+// vertex id first) with midpoint node m: the restriction of every B_k to the edge.
+void edge_weights(int lo, int hi, int m, double t, std::vector<int>& node, std::vector<double>& weight) {
+  node.insert(node.end(), {lo, hi, m});
+  weight.insert(weight.end(), {(1 - t) * (1 - 2 * t), t * (2 * t - 1), 4 * t * (1 - t)});
+}
+
+void inside_weights(const Element& e, const std::vector<int>& local, const Point& p, std::vector<int>& node,
+                    std::vector<double>& weight) {
+  static thread_local std::vector<double> psi;
+  static thread_local std::vector<Point> gradient;
+  serendipity_basis(e.polygon, e.diagonals, p, psi, gradient);
+  node.insert(node.end(), local.begin(), local.end());
+  weight.insert(weight.end(), psi.begin(), psi.end());
+}
+
+// A sample's identity within the cell, so that fan triangles share their spokes' and edges'
+// samples: {kind, a, b, c} with kinds 0 vertex (local index), 1 cell edge (local edge, lattice
+// index), 2 centroid, 3 spoke (local vertex, lattice index), 4 inside (fan triangle, r, s).
+using Key = std::array<int, 4>;
 
 }  // namespace
 
-PolyfemSampling sample_polyfem_cells(const PolygonMesh& mesh, const PolyfemNodes& nodes, int level) {
-  if (level < 0 || level > 8) throw std::invalid_argument("polyfem export: subdivision level out of 0…8");
-  const int n_lattice = 1 << level;
-  PolyfemSampling out;
+std::size_t CellSampling::memory_bytes() const {
+  return source.capacity() * sizeof(Point) + triangles.capacity() * sizeof(Triangle) +
+         (offset.capacity() + node.capacity()) * sizeof(int) + weight.capacity() * sizeof(double);
+}
+
+long polyfem_cell_triangles(const PolygonMesh& mesh, int cell, int level) {
+  return long(mesh.cells.at(cell).size()) << (2 * level);
+}
+
+CellSampling sample_polyfem_cell(const PolygonMesh& mesh, const PolyfemNodes& nodes, int cell, int level) {
+  if (level < 0 || level > kMaxPolyfemLevel) throw std::invalid_argument("polyfem export: subdivision level out of range");
+  const Element e(mesh, cell);
+  const std::vector<int>& ids = mesh.cells[cell];
+  const std::vector<int>& local = nodes.cell_nodes.at(cell);
+  const std::size_t n = ids.size();
+  const int lattice = 1 << level;
+  CellSampling out;
+  out.offset.push_back(0);
   std::map<Key, int> index;
-  const auto add = [&](const Key& key, const PolyfemSample& sample) {
-    auto [it, inserted] = index.emplace(key, int(out.samples.size()));
+  const auto add = [&](const Key& key, const Point& p, auto&& weights) {
+    auto [it, inserted] = index.emplace(key, int(out.source.size()));
     if (inserted) {
-      out.samples.push_back(sample);
-      out.mesh.vertices.push_back(sample.source);
+      out.source.push_back(p);
+      weights();
+      out.offset.push_back(int(out.node.size()));
     }
     return it->second;
   };
-  for (std::size_t c = 0; c < mesh.cells.size(); ++c) {
-    const std::vector<int>& cell = mesh.cells[c];
-    const std::size_t n = cell.size();
-    Point centroid{0, 0};
-    for (int v : cell) centroid = {centroid.x + mesh.vertices[v].x / n, centroid.y + mesh.vertices[v].y / n};
-    for (std::size_t i = 0; i < n; ++i) {
-      const int vi = cell[i], vj = cell[(i + 1) % n];
-      const Point &pi = mesh.vertices[vi], &pj = mesh.vertices[vj];
-      // The lattice point r steps toward v_i and s toward v_j from the centroid.
-      const auto point = [&](int r, int s) -> int {
-        if (r + s == n_lattice) {
-          if (r == n_lattice) return add({0, vi, 0, 0, 0}, {PolyfemSample::kAtVertex, pi, -1, vi});
-          if (s == n_lattice) return add({0, vj, 0, 0, 0}, {PolyfemSample::kAtVertex, pj, -1, vj});
-          // On the cell edge: computed from its lower-id end, so the neighbour gets the same point.
-          const int lo = std::min(vi, vj), hi = std::max(vi, vj);
-          const int k = vi == lo ? s : r;  // lattice steps from the lower end
-          const double t = double(k) / n_lattice;
-          const Point &a = mesh.vertices[lo], &b = mesh.vertices[hi];
-          PolyfemSample sample{PolyfemSample::kOnEdge, {a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)}, -1, lo, hi,
-                               nodes.cell_nodes[c][n + i], t};
-          return add({1, lo, hi, k, 0}, sample);
-        }
-        if (r == 0 && s == 0) return add({2, long(c), 0, 0, 0}, {PolyfemSample::kInside, centroid, int(c)});
-        if (s == 0 || r == 0) {  // on a spoke, shared by the two fan triangles beside it
-          const std::size_t local = s == 0 ? i : (i + 1) % n;
-          const int k = s == 0 ? r : s;
-          const Point& v = mesh.vertices[cell[local]];
-          const double t = double(k) / n_lattice;
-          return add({3, long(c), long(local), k, 0},
-                     {PolyfemSample::kInside, {centroid.x + t * (v.x - centroid.x), centroid.y + t * (v.y - centroid.y)}, int(c)});
-        }
-        const double u = double(r) / n_lattice, w = double(s) / n_lattice;
-        return add({4, long(c), long(i), r, s},
-                   {PolyfemSample::kInside,
-                    {centroid.x + u * (pi.x - centroid.x) + w * (pj.x - centroid.x),
-                     centroid.y + u * (pi.y - centroid.y) + w * (pj.y - centroid.y)},
-                    int(c)});
-      };
-      const auto triangle = [&](int a, int b, int d) {
-        Triangle t{a, b, d};
-        if (signed_area2(out.mesh.vertices[a], out.mesh.vertices[b], out.mesh.vertices[d]) < 0) std::swap(t[1], t[2]);
-        out.mesh.triangles.push_back(t);
-      };
-      for (int r = 0; r < n_lattice; ++r)
-        for (int s = 0; r + s < n_lattice; ++s) {
-          triangle(point(r, s), point(r + 1, s), point(r, s + 1));
-          if (r + s + 1 < n_lattice) triangle(point(r + 1, s), point(r + 1, s + 1), point(r, s + 1));
-        }
-    }
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t j = (i + 1) % n;
+    const Point &pi = e.polygon[i], &pj = e.polygon[j];
+    // Lattice point (r, s): r steps toward v_i and s toward v_j from the centroid.
+    const auto point = [&](int r, int s) -> int {
+      if (r == lattice || s == lattice) {
+        const std::size_t v = r == lattice ? i : j;
+        return add({0, int(v), 0, 0}, e.polygon[v], [&] {
+          out.node.push_back(ids[v]);
+          out.weight.push_back(1);
+        });
+      }
+      if (r + s == lattice) {
+        // On the cell edge, parametrised from its lower-id end as the neighbour does it.
+        const bool i_low = ids[i] < ids[j];
+        const int k = i_low ? s : r;
+        const double t = double(k) / lattice;
+        const Point &a = i_low ? pi : pj, &b = i_low ? pj : pi;
+        return add({1, int(i), k, 0}, Point{a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)}, [&] {
+          edge_weights(std::min(ids[i], ids[j]), std::max(ids[i], ids[j]), local[n + i], t, out.node, out.weight);
+        });
+      }
+      Point p;
+      Key key;
+      if (r == 0 && s == 0) {
+        p = e.centroid, key = {2, 0, 0, 0};
+      } else if (r == 0 || s == 0) {  // on a spoke, shared by the two fan triangles beside it
+        const std::size_t v = s == 0 ? i : j;
+        const double t = double(s == 0 ? r : s) / lattice;
+        p = {e.centroid.x + t * (e.polygon[v].x - e.centroid.x), e.centroid.y + t * (e.polygon[v].y - e.centroid.y)};
+        key = {3, int(v), s == 0 ? r : s, 0};
+      } else {
+        const double u = double(r) / lattice, w = double(s) / lattice;
+        p = {e.centroid.x + u * (pi.x - e.centroid.x) + w * (pj.x - e.centroid.x),
+             e.centroid.y + u * (pi.y - e.centroid.y) + w * (pj.y - e.centroid.y)};
+        key = {4, int(i), r, s};
+      }
+      return add(key, p, [&] { inside_weights(e, local, p, out.node, out.weight); });
+    };
+    const auto triangle = [&](int a, int b, int c) {
+      Triangle t{a, b, c};
+      if (signed_area2(out.source[a], out.source[b], out.source[c]) < 0) std::swap(t[1], t[2]);
+      out.triangles.push_back(t);
+    };
+    for (int r = 0; r < lattice; ++r)
+      for (int s = 0; r + s < lattice; ++s) {
+        triangle(point(r, s), point(r + 1, s), point(r, s + 1));
+        if (r + s + 1 < lattice) triangle(point(r + 1, s), point(r + 1, s + 1), point(r, s + 1));
+      }
   }
   return out;
 }
 
-SampledField sample_polyfem_field(const PolygonMesh& mesh, const PolyfemSolution& solution,
-                                  const PolyfemSampling& sampling) {
-  SampledField f;
-  f.g_x.resize(sampling.samples.size());
-  f.g_y.resize(sampling.samples.size());
-  std::map<int, std::pair<std::vector<Point>, std::vector<SerendipityDiagonal>>> elements;  // per cell, built once
-  std::vector<double> psi;
-  std::vector<Point> grad;
-  for (std::size_t k = 0; k < sampling.samples.size(); ++k) {
-    const PolyfemSample& s = sampling.samples[k];
-    double gx = 0, gy = 0;
-    switch (s.kind) {
-      case PolyfemSample::kAtVertex:
-        gx = solution.g_x[s.a], gy = solution.g_y[s.a];
-        break;
-      case PolyfemSample::kOnEdge: {
-        // The edge's restriction of the basis: 1-D P2 through its end and midpoint nodes.
-        const double na = (1 - s.t) * (1 - 2 * s.t), nb = s.t * (2 * s.t - 1), nm = 4 * s.t * (1 - s.t);
-        gx = na * solution.g_x[s.a] + nb * solution.g_x[s.b] + nm * solution.g_x[s.m];
-        gy = na * solution.g_y[s.a] + nb * solution.g_y[s.b] + nm * solution.g_y[s.m];
-        break;
-      }
-      case PolyfemSample::kInside: {
-        auto it = elements.find(s.cell);
-        if (it == elements.end()) {
-          std::vector<Point> polygon;
-          for (int v : mesh.cells[s.cell]) polygon.push_back(mesh.vertices[v]);
-          auto diagonals = serendipity_coefficients(polygon);
-          it = elements.emplace(s.cell, std::make_pair(std::move(polygon), std::move(diagonals))).first;
-        }
-        serendipity_basis(it->second.first, it->second.second, s.source, psi, grad);
-        const std::vector<int>& local = solution.nodes.cell_nodes[s.cell];
-        for (std::size_t a = 0; a < local.size(); ++a) gx += psi[a] * solution.g_x[local[a]], gy += psi[a] * solution.g_y[local[a]];
-        break;
-      }
+void displace_cell_samples(const CellSampling& sampling, const std::vector<Point>& displacement,
+                           std::vector<Point>& out) {
+  for (std::size_t i = 0; i < sampling.source.size(); ++i) {
+    double dx = 0, dy = 0;
+    for (int j = sampling.offset[i]; j < sampling.offset[i + 1]; ++j) {
+      const Point& d = displacement[sampling.node[j]];
+      dx += sampling.weight[j] * d.x, dy += sampling.weight[j] * d.y;
     }
-    f.g_x[k] = gx;
-    f.g_y[k] = gy;
+    out.push_back({sampling.source[i].x + dx, sampling.source[i].y + dy});
   }
-  return f;
 }
 
-std::vector<Point> warp_polyfem_samples(const PolyfemSampling& sampling, const SampledField& field, double delta_w,
-                                        double delta_h) {
-  std::vector<Point> out(sampling.samples.size());
-  for (std::size_t k = 0; k < out.size(); ++k) {
-    const Point& p = sampling.samples[k].source;
-    out[k] = {p.x + delta_w * field.g_x[k], p.y + delta_h * field.g_y[k]};
+void polyfem_point_weights(const PolygonMesh& mesh, const PolyfemNodes& nodes, int cell, const Point& p,
+                           std::vector<int>& node, std::vector<double>& weight) {
+  const std::vector<int>& ids = mesh.cells.at(cell);
+  const std::size_t n = ids.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const Point &a = mesh.vertices[ids[i]], &b = mesh.vertices[ids[(i + 1) % n]];
+    const double length2 = (b.x - a.x) * (b.x - a.x) + (b.y - a.y) * (b.y - a.y);
+    const double t = ((p.x - a.x) * (b.x - a.x) + (p.y - a.y) * (b.y - a.y)) / length2;
+    // On the edge up to rounding: the interior formula is undefined there (serendipity.h).
+    if (std::abs(signed_area2(a, b, p)) <= 1e-9 * length2 && t >= -1e-9 && t <= 1 + 1e-9) {
+      const bool a_low = ids[i] < ids[(i + 1) % n];
+      edge_weights(std::min(ids[i], ids[(i + 1) % n]), std::max(ids[i], ids[(i + 1) % n]),
+                   nodes.cell_nodes[cell][n + i], std::clamp(a_low ? t : 1 - t, 0.0, 1.0), node, weight);
+      return;
+    }
   }
-  return out;
+  inside_weights(Element(mesh, cell), nodes.cell_nodes[cell], p, node, weight);
+}
+
+Point polyfem_chord_deviation(const PolygonMesh& mesh, const PolyfemSolution& solution, int cell, int level) {
+  const CellSampling sampling = sample_polyfem_cell(mesh, solution.nodes, cell, level);
+  std::vector<int> node;
+  std::vector<double> weight;
+  const auto field = [&](auto begin_node, auto end_node, auto begin_weight) {
+    Point g{0, 0};
+    for (auto k = begin_node; k != end_node; ++k, ++begin_weight)
+      g = {g.x + *begin_weight * solution.g_x[*k], g.y + *begin_weight * solution.g_y[*k]};
+    return g;
+  };
+  const auto at_sample = [&](int i) {
+    return field(sampling.node.begin() + sampling.offset[i], sampling.node.begin() + sampling.offset[i + 1],
+                 sampling.weight.begin() + sampling.offset[i]);
+  };
+  Point worst{0, 0};
+  for (const Triangle& t : sampling.triangles)
+    for (int k = 0; k < 3; ++k) {
+      const int a = t[k], b = t[(k + 1) % 3];
+      const Point &pa = sampling.source[a], &pb = sampling.source[b];
+      node.clear(), weight.clear();
+      polyfem_point_weights(mesh, solution.nodes, cell, {(pa.x + pb.x) / 2, (pa.y + pb.y) / 2}, node, weight);
+      const Point mid = field(node.begin(), node.end(), weight.begin());
+      const Point ga = at_sample(a), gb = at_sample(b);
+      worst = {std::max(worst.x, std::abs(mid.x - (ga.x + gb.x) / 2)), std::max(worst.y, std::abs(mid.y - (ga.y + gb.y) / 2))};
+    }
+  return worst;
 }
 
 }  // namespace zoomwarp::warp

@@ -1,13 +1,17 @@
-// method=polyfem for thin clients (METHODS §3, "Export"): the curved elements sampled into a
-// triangle mesh that the bundled viewer and every renderer texture-map like ICAZ's. Each cell is
-// fanned from its vertex centroid and every fan triangle cut into 4^level by a regular lattice;
-// points on a cell edge (and on a spoke) are computed from the edge's ends alone, so neighbouring
-// cells share them exactly (no cracks). A sample's warped position:
+// method=polyfem for thin clients (METHODS §3, "Export"): the curved elements sampled into
+// triangles that the bundled viewer and every renderer texture-map like ICAZ's. A cell at level k
+// is fanned from its vertex centroid and every fan triangle cut into 4^k by a regular lattice.
+// Every sample carries its weights over the global nodes, so that with node displacements d
+// (the axpy (ΔW·g_x, ΔH·g_y), or the fallback's) its warped position is
 //
-//   f(p) = p + ΔW·G_x(p)·e_x + ΔH·G_y(p)·e_y,   G = Σ_k B_k·g_k   (polyfem_system.h)
+//   f(p) = p + Σ_k w_k(p)·d_k,   w_k = B_k(p)   (polyfem_system.h)
 //
-// inside a cell from the serendipity basis, on a cell edge from the 1-D P2 of its three nodes, at
-// a vertex its node value — the same function, evaluated where each formula is defined.
+// with w from the serendipity basis inside a cell, from the 1-D P2 of the edge's three nodes on a
+// cell edge (ordered from the lower vertex id, t measured from it), 1 at a vertex — the same
+// function, evaluated where each formula is defined. Two cells compute a shared edge's samples
+// from the same numbers in the same order, so their warped positions are bitwise equal and the
+// cells can be sampled, cached and emitted one at a time without cracks. With d = 0 every sample
+// is exactly its source point.
 //
 // Thread safety: pure functions.
 #pragma once
@@ -20,33 +24,37 @@
 
 namespace zoomwarp::warp {
 
-// Where a sample lies: inside cell `cell`, on the edge between nodes (a, b) with midpoint node m
-// at parameter t from a, or at vertex node a.
-struct PolyfemSample {
-  enum Kind { kInside, kOnEdge, kAtVertex } kind = kInside;
-  Point source;
-  int cell = -1;        // kInside
-  int a = -1, b = -1, m = -1;  // kOnEdge: the edge's end nodes and midpoint node; kAtVertex: a
-  double t = 0;
+constexpr int kMaxPolyfemLevel = 6;
+
+// One cell sampled at one level.
+struct CellSampling {
+  std::vector<Point> source;        // analysis px
+  std::vector<Triangle> triangles;  // CCW, indices into source
+  // Sample i: weights weight[j] on nodes node[j] for j in [offset[i], offset[i + 1]).
+  std::vector<int> offset, node;
+  std::vector<double> weight;
+  std::size_t memory_bytes() const;
 };
 
-struct PolyfemSampling {
-  Mesh mesh;                            // source positions, CCW triangles
-  std::vector<PolyfemSample> samples;   // per mesh vertex
-};
+// Throws std::invalid_argument for a level outside 0 … kMaxPolyfemLevel.
+CellSampling sample_polyfem_cell(const PolygonMesh& mesh, const PolyfemNodes& nodes, int cell, int level);
 
-// The cells sampled at subdivision `level` (0: the fans themselves).
-PolyfemSampling sample_polyfem_cells(const PolygonMesh& mesh, const PolyfemNodes& nodes, int level);
+// The number of triangles sample_polyfem_cell emits: fan triangles × 4^level.
+long polyfem_cell_triangles(const PolygonMesh& mesh, int cell, int level);
 
-// G_x and G_y at every sample (dimensionless; cached per level by the caller).
-struct SampledField {
-  std::vector<double> g_x, g_y;
-};
-SampledField sample_polyfem_field(const PolygonMesh& mesh, const PolyfemSolution& solution,
-                                  const PolyfemSampling& sampling);
+// Appends the samples' warped positions p + Σ w·d to `out`; `displacement` per node.
+void displace_cell_samples(const CellSampling& sampling, const std::vector<Point>& displacement,
+                           std::vector<Point>& out);
 
-// The samples' warped positions for a target: p + (ΔW·G_x, ΔH·G_y).
-std::vector<Point> warp_polyfem_samples(const PolyfemSampling& sampling, const SampledField& field, double delta_w,
-                                        double delta_h);
+// The node weights of point p of cell `cell` (on its boundary: the edge's 1-D P2), appended to
+// node/weight. For evaluation at arbitrary points (chord errors, tests).
+void polyfem_point_weights(const PolygonMesh& mesh, const PolyfemNodes& nodes, int cell, const Point& p,
+                           std::vector<int>& node, std::vector<double>& weight);
+
+// δ_c at `level`: per axis, the largest distance of G (= Σ B_k·g_k, g from `solution`) at the
+// midpoint of a level-`level` lattice edge of the cell from the mean of G at its ends. The chord
+// of that edge under displacement (ΔW·g_x, ΔH·g_y) misses the curve by (|ΔW|·δ.x, |ΔH|·δ.y);
+// it shrinks about fourfold per level.
+Point polyfem_chord_deviation(const PolygonMesh& mesh, const PolyfemSolution& solution, int cell, int level);
 
 }  // namespace zoomwarp::warp

@@ -230,7 +230,60 @@ PolyfemSolution solve_polyfem(const PolygonMesh& mesh, const ScalarMap& saliency
   const Eigen::VectorXd none = Eigen::VectorXd::Zero(Eigen::Index(s.nodes.positions.size()));
   s.g_x = solve_axis(k.stiffness, none, boundary(s.nodes, true, mesh.width, 0, 1), false);
   s.g_y = solve_axis(k.stiffness, none, boundary(s.nodes, false, mesh.height, 0, 1), false);
+  s.stiffness.size = int(k.stiffness.rows());
+  for (int col = 0; col < k.stiffness.outerSize(); ++col)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(k.stiffness, col); it; ++it)
+      if (it.row() <= it.col()) {
+        s.stiffness.row.push_back(int(it.row()));
+        s.stiffness.col.push_back(int(it.col()));
+        s.stiffness.value.push_back(it.value());
+      }
   return s;
+}
+
+AspectRange polyfem_fold_free_range(const PolygonMesh& mesh, const PolyfemSolution& solution,
+                                    const PolyfemOptions& options) {
+  check_mesh(mesh);
+  const double W = mesh.width, H = mesh.height;
+  double u_low = -1, u_high = AspectRange::kUnboundedAspect - 1;
+  // Narrows (u_low, u_high) to the roots of 1 + B·u + C·u² nearest 0.
+  const auto bound = [&](double B, double C) {
+    if (C == 0) {
+      if (B > 0) u_low = std::max(u_low, -1 / B);
+      if (B < 0) u_high = std::min(u_high, -1 / B);
+      return;
+    }
+    const double disc = B * B - 4 * C;
+    if (disc < 0) return;  // no real root: positive for every u
+    // Roots by the stable form; their product is 1/C.
+    const double q = -0.5 * (B + std::copysign(std::sqrt(disc), B));
+    for (const double root : {q / C, q != 0 ? 1 / q : std::nan("")}) {
+      if (root > 0) u_high = std::min(u_high, root);
+      if (root < 0) u_low = std::max(u_low, root);
+    }
+  };
+  std::vector<double> psi;
+  std::vector<Point> grad;
+  for (std::size_t c = 0; c < mesh.cells.size(); ++c) {
+    std::vector<Point> polygon;
+    for (int v : mesh.cells[c]) polygon.push_back(mesh.vertices[v]);
+    const std::vector<SerendipityDiagonal> diagonals = serendipity_coefficients(polygon);
+    const std::vector<int>& local = solution.nodes.cell_nodes[c];
+    Point centroid{0, 0};
+    for (const Point& p : polygon) centroid = {centroid.x + p.x / polygon.size(), centroid.y + p.y / polygon.size()};
+    for (std::size_t i = 0; i < polygon.size(); ++i)
+      integrate_triangle(centroid, polygon[i], polygon[(i + 1) % polygon.size()], options.max_triangle_area,
+                         [&](const Point& p, double) {
+                           serendipity_basis(polygon, diagonals, p, psi, grad);
+                           Point gx{0, 0}, gy{0, 0};  // ∇G_x, ∇G_y
+                           for (std::size_t a = 0; a < local.size(); ++a) {
+                             gx = {gx.x + solution.g_x[local[a]] * grad[a].x, gx.y + solution.g_x[local[a]] * grad[a].y};
+                             gy = {gy.x + solution.g_y[local[a]] * grad[a].x, gy.y + solution.g_y[local[a]] * grad[a].y};
+                           }
+                           bound(1 + W * gx.x - H * gy.y, W * gx.x * (1 - H * gy.y) + W * H * gx.y * gy.x);
+                         });
+  }
+  return {1 + u_low, 1 + u_high};
 }
 
 std::vector<Point> polyfem_positions(const PolyfemSolution& s, double width, double height, double target_w,

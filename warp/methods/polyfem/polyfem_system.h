@@ -51,16 +51,43 @@ struct PolyfemOptions {
   double max_triangle_area = 16;   // quadrature triangles, px² (METHODS §3 step 6)
 };
 
-// g_x, g_y per node: c(W', H') = v + ((W' − W)·g_x, (H' − H)·g_y).
+// A symmetric sparse matrix by its upper triangle (row ≤ col), plain data.
+struct SymmetricMatrix {
+  int size = 0;
+  std::vector<int> row, col;
+  std::vector<double> value;
+};
+
+// g_x, g_y per node: c(W', H') = v + ((W' − W)·g_x, (H' − H)·g_y). K too, for the fallback's
+// energy: with c = v + d, E_T = d_xᵀK·d_x + d_yᵀK·d_y (the identity is stationary, so no linear
+// term is left on the free nodes).
 struct PolyfemSolution {
   PolyfemNodes nodes;
   std::vector<double> g_x, g_y;
+  SymmetricMatrix stiffness;
 };
 PolyfemSolution solve_polyfem(const PolygonMesh& mesh, const ScalarMap& saliency, const PolyfemOptions& options = {});
 
 // The node positions for a target W' × H': the axpy above.
 std::vector<Point> polyfem_positions(const PolyfemSolution& solution, double width, double height, double target_w,
                                      double target_h);
+
+// The targets of the image's area, W·s × H/s (every aspect a view asks for), on which the axpy
+// folds nowhere: det J > 0 at every quadrature point for low < s < high (METHODS §3, "Per
+// request"). With u = s − 1, ΔW = W·u, ΔH = −H·u/s and a = ∂xG_x, b = ∂yG_x, c = ∂xG_y, d = ∂yG_y,
+//
+//   s·det J = (1 + ΔW·a)·s·(1 + ΔH·d) − s·ΔW·ΔH·b·c = 1 + (1 + W·a − H·d)·u + (W·a·(1 − H·d) + W·H·b·c)·u²
+//
+// a quadratic in u with value 1 at u = 0; each point contributes its roots nearest 0, so the
+// range is exact for the quadrature points, computed once and stored with the model. low ≥ 0;
+// high ≤ kUnboundedAspect where no point bounds it.
+struct AspectRange {
+  static constexpr double kUnboundedAspect = 1e6;
+  double low = 0, high = kUnboundedAspect;
+  bool contains(double s) const { return s > low && s < high; }
+};
+AspectRange polyfem_fold_free_range(const PolygonMesh& mesh, const PolyfemSolution& solution,
+                                    const PolyfemOptions& options = {});
 
 // For tests: the same energy solved directly for one target (both axes, their boundary values
 // W', H'), by another factorization — what the axpy must reproduce.
