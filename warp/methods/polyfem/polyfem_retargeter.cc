@@ -1,9 +1,9 @@
 #include "warp/methods/polyfem/polyfem_retargeter.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
-#include "warp/core/fold_blend.h"
 #include "warp/core/uniform_zoom.h"
 #include "warp/core/zoom_curve.h"
 #include "warp/meshing/cvt_mesh.h"
@@ -13,26 +13,8 @@ namespace zoomwarp::warp {
 
 namespace {
 
-PolyfemSolution solution_of(const PolyfemModel& m) {
-  PolyfemSolution s;
-  s.nodes = polyfem_nodes(m.mesh);
-  if (m.g_x.size() != s.nodes.positions.size() || m.g_y.size() != s.nodes.positions.size())
-    throw std::invalid_argument("polyfem: the solves do not match the mesh's nodes");
-  s.g_x = m.g_x;
-  s.g_y = m.g_y;
-  return s;
-}
-
-PolyfemSampling sampling_of(const PolyfemModel& m) {
-  return sample_polyfem_cells(m.mesh, polyfem_nodes(m.mesh), PolyfemRetargeting::kExportLevel);
-}
-
-Mesh in_image_pixels(const PolyfemSampling& sampling, const PolyfemModel& m, double width, double height) {
+void check_image_size(double width, double height) {
   if (!(width > 0 && height > 0)) throw std::invalid_argument("polyfem: the image size must be positive");
-  Mesh out = sampling.mesh;
-  const double sx = width / m.mesh.width, sy = height / m.mesh.height;
-  for (Point& p : out.vertices) p = {p.x * sx, p.y * sy};
-  return out;
 }
 
 }  // namespace
@@ -43,10 +25,10 @@ PolyfemModel build_polyfem_model(const MethodInput& input) {
   const SignificanceMap& s = input.saliency;
   PolyfemModel m;
   m.mesh = build_cvt_mesh(s.values, s.width, s.height, image.width, image.height);
-  const PolyfemSolution solution = solve_polyfem(m.mesh, ScalarMap{s.width, s.height, double(image.width),
-                                                                    double(image.height), s.values});
-  m.g_x = solution.g_x;
-  m.g_y = solution.g_y;
+  m.solution = solve_polyfem(m.mesh, ScalarMap{s.width, s.height, double(image.width), double(image.height), s.values});
+  m.fold_free = polyfem_fold_free_range(m.mesh, m.solution);
+  for (int c = 0; c < int(m.mesh.cells.size()); ++c)
+    m.chord.push_back(polyfem_chord_deviation(m.mesh, m.solution, c, PolyfemModel::kChordLevel));
   return m;
 }
 
@@ -56,12 +38,18 @@ std::string polyfem_model_bytes(const PolyfemModel& m) {
   out.put_count(m.mesh.vertices.size());
   for (const Point& p : m.mesh.vertices) out.put(p.x), out.put(p.y);
   out.put_count(m.mesh.cells.size());
-  for (const auto& cell : m.mesh.cells) {
-    out.put_count(cell.size());
-    for (int v : cell) out.put(std::int32_t(v));
+  for (std::size_t c = 0; c < m.mesh.cells.size(); ++c) {
+    out.put_count(m.mesh.cells[c].size());
+    for (int v : m.mesh.cells[c]) out.put(std::int32_t(v));
+    out.put(m.chord[c].x), out.put(m.chord[c].y);
   }
-  out.put_count(m.g_x.size());
-  for (std::size_t i = 0; i < m.g_x.size(); ++i) out.put(m.g_x[i]), out.put(m.g_y[i]);
+  const PolyfemSolution& s = m.solution;
+  out.put_count(s.g_x.size());
+  for (std::size_t i = 0; i < s.g_x.size(); ++i) out.put(s.g_x[i]), out.put(s.g_y[i]);
+  out.put_count(s.stiffness.value.size());
+  for (std::size_t e = 0; e < s.stiffness.value.size(); ++e)
+    out.put(std::int32_t(s.stiffness.row[e])), out.put(std::int32_t(s.stiffness.col[e])), out.put(s.stiffness.value[e]);
+  out.put(m.fold_free.low), out.put(m.fold_free.high);
   return out.take();
 }
 
@@ -72,59 +60,216 @@ PolyfemModel parse_polyfem_model(std::string_view bytes) {
   if (!(m.mesh.width > 0 && m.mesh.height > 0)) in.fail("bad size");
   m.mesh.vertices.resize(in.count(16));
   for (Point& p : m.mesh.vertices) p.x = in.number(), p.y = in.number();
-  m.mesh.cells.resize(in.count(4));
+  m.mesh.cells.resize(in.count(4 * 3 + 16));
   for (auto& cell : m.mesh.cells) {
     cell.resize(in.count(4));
     if (cell.size() < 3) in.fail("a cell with fewer than 3 vertices");
     for (int& v : cell) v = in.index(m.mesh.vertices.size());
+    m.chord.push_back({in.number(), in.number()});
+  }
+  try {
+    m.solution.nodes = polyfem_nodes(m.mesh);
+  } catch (const std::invalid_argument& e) {
+    in.fail(e.what());
   }
   const std::size_t nodes = in.count(16);
-  m.g_x.resize(nodes), m.g_y.resize(nodes);
-  for (std::size_t i = 0; i < nodes; ++i) m.g_x[i] = in.number(), m.g_y[i] = in.number();
+  if (nodes != m.solution.nodes.positions.size()) in.fail("the solves do not match the mesh's nodes");
+  m.solution.g_x.resize(nodes), m.solution.g_y.resize(nodes);
+  for (std::size_t i = 0; i < nodes; ++i) m.solution.g_x[i] = in.number(), m.solution.g_y[i] = in.number();
+  SymmetricMatrix& k = m.solution.stiffness;
+  k.size = int(nodes);
+  const std::size_t entries = in.count(16);
+  for (std::size_t e = 0; e < entries; ++e) {
+    k.row.push_back(in.index(nodes)), k.col.push_back(in.index(nodes)), k.value.push_back(in.number());
+    if (k.row.back() > k.col.back()) in.fail("a stiffness entry below the diagonal");
+  }
+  m.fold_free.low = in.number(), m.fold_free.high = in.number();
+  if (!(m.fold_free.low < 1 && m.fold_free.high > 1)) in.fail("a fold-free range without the identity");
   in.expect_done();
   return m;
 }
 
 PolyfemRetargeting::PolyfemRetargeting(double width, double height, PolyfemModel model)
-    : width_(width),
-      height_(height),
-      model_(std::move(model)),
-      sampling_(sampling_of(model_)),
-      field_(sample_polyfem_field(model_.mesh, solution_of(model_), sampling_)),
-      source_(in_image_pixels(sampling_, model_, width, height)) {}
-
-std::vector<Point> PolyfemRetargeting::warped(double tw, double th, double* blend, const StopToken* stop) const {
-  // In analysis px (where g lives), scaled back per axis: the boundary lands on the rectangle.
-  const double aw = model_.mesh.width, ah = model_.mesh.height;
-  const double ta_w = tw * aw / width_, ta_h = th * ah / height_;
-  std::vector<Point> q = warp_polyfem_samples(sampling_, field_, ta_w - aw, ta_h - ah);
-  const double sx = tw / ta_w, sy = th / ta_h;
-  for (Point& p : q) p = {p.x * sx, p.y * sy};
-  std::vector<Point> stretch(source_.vertices.size());
-  for (std::size_t i = 0; i < stretch.size(); ++i)
-    stretch[i] = {source_.vertices[i].x * tw / width_, source_.vertices[i].y * th / height_};
-  *blend = blend_out_folds(source_, q, stretch, stop);
-  return q;
+    : width_((check_image_size(width, height), width)), height_(height), model_(std::move(model)) {
+  for (int level = 0; level < kPreparedLevels; ++level) {
+    std::vector<CellSampling> cells;
+    for (int c = 0; c < int(model_.mesh.cells.size()); ++c)
+      cells.push_back(sample_polyfem_cell(model_.mesh, model_.solution.nodes, c, level));
+    prepared_.push_back(std::move(cells));
+  }
+  // One sampling per cell holding both check levels' triangles (level 2's samples are level 3's).
+  for (int c = 0; c < int(model_.mesh.cells.size()); ++c) {
+    CellSampling both = prepared_[kCheckLevels[1]][c];
+    const CellSampling& coarse = prepared_[kCheckLevels[0]][c];
+    const int base = int(both.source.size());
+    both.source.insert(both.source.end(), coarse.source.begin(), coarse.source.end());
+    for (std::size_t i = 0; i + 1 < coarse.offset.size(); ++i) {
+      both.node.insert(both.node.end(), coarse.node.begin() + coarse.offset[i], coarse.node.begin() + coarse.offset[i + 1]);
+      both.weight.insert(both.weight.end(), coarse.weight.begin() + coarse.offset[i], coarse.weight.begin() + coarse.offset[i + 1]);
+      both.offset.push_back(int(both.node.size()));
+    }
+    for (const Triangle& t : coarse.triangles) both.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
+    check_.push_back(std::move(both));
+  }
 }
 
-View PolyfemRetargeting::view(const ViewRequest& r) {
+std::shared_ptr<const CellSampling> PolyfemRetargeting::sampling(int cell, int level) {
+  if (level < kPreparedLevels) return {std::shared_ptr<void>(), &prepared_[level][cell]};  // not owned: lives with *this
+  {
+    std::lock_guard lock(deep_mutex_);
+    if (auto it = deep_.find({level, cell}); it != deep_.end()) return it->second;
+  }
+  auto made = std::make_shared<const CellSampling>(sample_polyfem_cell(model_.mesh, model_.solution.nodes, cell, level));
+  std::lock_guard lock(deep_mutex_);
+  // Bounded: when full, start over (views in flight keep their shared_ptrs).
+  if (deep_bytes_ + made->memory_bytes() > kDeepCacheBytes) deep_.clear(), deep_bytes_ = 0;
+  auto [it, inserted] = deep_.emplace(std::make_pair(level, cell), made);
+  if (inserted) deep_bytes_ += made->memory_bytes();
+  return it->second;
+}
+
+std::shared_ptr<const PolyfemRetargeting::Target> PolyfemRetargeting::target(double tw, double th, const StopToken* stop) {
+  if (!(tw > 0 && th > 0 && std::isfinite(tw) && std::isfinite(th)))
+    throw std::invalid_argument("polyfem: the target size must be positive");
+  // In analysis px, where g lives.
+  const double aw = model_.mesh.width, ah = model_.mesh.height;
+  const double dw = tw * aw / width_ - aw, dh = th * ah / height_ - ah;
+  const PolyfemSolution& s = model_.solution;
+  const auto axpy = [&] {
+    auto t = std::make_shared<Target>();
+    t->displacement.resize(s.g_x.size());
+    for (std::size_t k = 0; k < s.g_x.size(); ++k) t->displacement[k] = {dw * s.g_x[k], dh * s.g_y[k]};
+    return t;
+  };
+  // A view's target has the image's area: the quadrature points' range decides (exact, O(1)).
+  // Any other target: the check level's triangles.
+  const bool image_area = std::abs(tw * th / (width_ * height_) - 1) < 1e-9;
+  if ((dw == 0 && dh == 0) || (image_area && model_.fold_free.contains(tw / width_))) return axpy();
+  std::lock_guard lock(targets_mutex_);  // single flight: a second request for it waits
+  if (auto found = targets_.find({tw, th})) return *found;
+  std::shared_ptr<Target> t = axpy();
+  bool folds = image_area;
+  for (std::size_t c = 0; !folds && c < check_.size(); ++c) folds = polyfem_cell_folds(check_[c], t->displacement);
+  if (folds) {
+    t->stats = polyfem_fallback(model_.mesh, s, check_, dw, dh, stop);
+    t->displacement = std::move(t->stats.displacement);
+    t->fallback = true;
+    ++fallback_runs_;
+  }
+  return targets_.put({tw, th}, std::move(t));
+}
+
+void PolyfemRetargeting::append_cells(const std::vector<int>& cells, int level, const Target& target, double tw,
+                                      double th, Mesh& source, std::vector<Point>& warped) {
+  const double aw = model_.mesh.width, ah = model_.mesh.height;
+  const double to_image_x = width_ / aw, to_image_y = height_ / ah;
+  // Analysis px of the target → its image px, per axis (the border lands on the rectangle).
+  const double warp_x = tw / (tw * aw / width_), warp_y = th / (th * ah / height_);
+  for (int c : cells) {
+    const std::shared_ptr<const CellSampling> cell = sampling(c, level);
+    const int base = int(source.vertices.size());
+    for (const Point& p : cell->source) source.vertices.push_back({p.x * to_image_x, p.y * to_image_y});
+    const std::size_t first = warped.size();
+    displace_cell_samples(*cell, target.displacement, warped);
+    for (std::size_t i = first; i < warped.size(); ++i) warped[i] = {warped[i].x * warp_x, warped[i].y * warp_y};
+    for (const Triangle& t : cell->triangles) source.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
+  }
+}
+
+std::pair<Mesh, std::vector<Point>> PolyfemRetargeting::warped_samples(double tw, double th, int level,
+                                                                       const StopToken* stop) {
+  const std::shared_ptr<const Target> t = target(tw, th, stop);
+  std::vector<int> all(model_.mesh.cells.size());
+  for (int c = 0; c < int(all.size()); ++c) all[c] = c;
+  std::pair<Mesh, std::vector<Point>> out;
+  append_cells(all, level, *t, tw, th, out.first, out.second);
+  return out;
+}
+
+View PolyfemRetargeting::view(const ViewRequest& r) { return view(r, nullptr); }
+
+View PolyfemRetargeting::view(const ViewRequest& r, PolyfemViewStats* stats) {
   check_view_request(r);
   check_stop(r.stop);
   // The z = 0 target of ICAZ: the screen's aspect ratio, the image's area [ICAZ §5.1].
   const ZoomGeometry g = zoom_geometry(width_, height_, r.screen_width, r.screen_height, 0, r.curve);
-  WarpResult stats;
-  const std::vector<Point> q = warped(g.target_width, g.target_height, &stats.affine_blend, r.stop);
-  stats.converged = true;
+  const double tw = g.target_width, th = g.target_height;
+  const std::shared_ptr<const Target> t = target(tw, th, r.stop);
+  check_stop(r.stop);
+  const int n_cells = int(model_.mesh.cells.size());
+
+  // The coarse view (level 0, every cell): where the centre lands, and which cells show.
+  Mesh coarse;
+  std::vector<Point> coarse_warped;
+  std::vector<int> all(n_cells);
+  for (int c = 0; c < n_cells; ++c) all[c] = c;
+  append_cells(all, 0, *t, tw, th, coarse, coarse_warped);
   const Point centre{std::clamp(r.cx, 0.0, width_), std::clamp(r.cy, 0.0, height_)};
-  View v = uniform_zoom(source_, q, g.target_width, g.target_height, r, locate(source_, q, centre));
-  v.coarse_stats = std::move(stats);
-  return v;
+  const Point centre_warped = locate(coarse, coarse_warped, centre);
+  const View coarse_view = uniform_zoom(coarse, coarse_warped, tw, th, r, centre_warped);
+
+  // Screen px per analysis px of displacement, per axis.
+  const double aw = model_.mesh.width, ah = model_.mesh.height;
+  const auto [lo, hi] = std::minmax_element(coarse_warped.begin(), coarse_warped.end(),
+                                            [](const Point& a, const Point& b) { return a.x < b.x; });
+  const std::size_t i_lo = lo - coarse_warped.begin(), i_hi = hi - coarse_warped.begin();
+  const double screen_scale = (coarse_view.screen[i_hi].x - coarse_view.screen[i_lo].x) / (hi->x - lo->x);
+  const double px_x = screen_scale * width_ / aw, px_y = screen_scale * height_ / ah;
+  const double dw = tw * aw / width_ - aw, dh = th * ah / height_ - ah;
+  const auto chord_at_level_2 = [&](int c) {
+    return std::max(std::abs(dw) * model_.chord[c].x * px_x, std::abs(dh) * model_.chord[c].y * px_y);
+  };
+
+  // Visible cells: their level-0 fan on screen, grown by the level-0 chord error (16× level 2's).
+  std::vector<int> visible;
+  double worst_chord = 0;
+  long fan_triangles = 0;
+  {
+    int v = 0;
+    for (int c = 0; c < n_cells; ++c) {
+      const int n = int(model_.mesh.cells[c].size());
+      double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+      for (int k = 0; k < n + 1; ++k) {
+        const Point& p = coarse_view.screen[v + k];
+        x0 = std::min(x0, p.x), x1 = std::max(x1, p.x), y0 = std::min(y0, p.y), y1 = std::max(y1, p.y);
+      }
+      v += n + 1;  // a level-0 cell: its centroid and its n vertices
+      const double margin = 16 * chord_at_level_2(c) + 1;
+      if (x1 + margin > 0 && x0 - margin < r.screen_width && y1 + margin > 0 && y0 - margin < r.screen_height) {
+        visible.push_back(c);
+        worst_chord = std::max(worst_chord, chord_at_level_2(c));
+        fan_triangles += n;
+      }
+    }
+  }
+  // The level: the smallest within kMaxChordErrorPx, the largest within the triangle budget.
+  int level = 0;
+  while (level < kMaxPolyfemLevel && worst_chord * std::pow(4.0, PolyfemModel::kChordLevel - level) > kMaxChordErrorPx)
+    ++level;
+  // The fallback kept the check levels' triangles from turning over, not others.
+  if (t->fallback) level = std::clamp(level, kCheckLevels[0], kCheckLevels[1]);
+  bool budget_limited = false;
+  while (level > 0 && (fan_triangles << (2 * level)) > kMaxExportTriangles) --level, budget_limited = true;
+
+  Mesh source;
+  std::vector<Point> warped;
+  append_cells(visible, level, *t, tw, th, source, warped);
+  check_stop(r.stop);
+  View out = uniform_zoom(source, warped, tw, th, r, centre_warped);
+  out.coarse_stats.converged = !t->fallback || t->stats.converged;
+  out.coarse_stats.iterations = t->stats.iterations;
+  if (stats)
+    *stats = {level, worst_chord * std::pow(4.0, PolyfemModel::kChordLevel - level), long(source.triangles.size()),
+              int(visible.size()), budget_limited, t->fallback};
+  return out;
 }
 
 std::size_t PolyfemRetargeting::memory_bytes() {
-  return 2 * source_.vertices.capacity() * sizeof(Point) + 2 * source_.triangles.capacity() * sizeof(Triangle) +
-         sampling_.samples.capacity() * sizeof(PolyfemSample) +
-         (field_.g_x.capacity() + field_.g_y.capacity() + model_.g_x.capacity() + model_.g_y.capacity()) * sizeof(double);
+  std::size_t bytes = 0;
+  for (const auto& level : prepared_)
+    for (const CellSampling& cell : level) bytes += cell.memory_bytes();
+  std::lock_guard lock(deep_mutex_);
+  return bytes + deep_bytes_ + model_.solution.stiffness.value.size() * 16 + model_.solution.g_x.size() * 16;
 }
 
 const RetargetingMethod& polyfem_method() {

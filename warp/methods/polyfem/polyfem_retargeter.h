@@ -1,58 +1,110 @@
 // method=polyfem [PolyFEM] as a Retargeter, and its precomputation (polyfem.<saliency>.bin):
 //
 //   precompute  the saliency-adaptive polygon mesh of the analysis image (meshing/cvt_mesh.h),
-//               the global system and its two decoupled solves g_x, g_y (polyfem_system.h);
-//               stored: the mesh and g per node;
-//   load        the nodes again, the cells sampled at kExportLevel (polyfem_export.h) and G at
-//               every sample, once per version;
-//   view        the samples warped by one axpy to the screen's aspect (the image's area), any
-//               fold blended out toward the uniform stretch (core/fold_blend.h — interim: the
-//               paper's L-BFGS with per-cell rollback [PolyFEM §4.5] is not built yet), then
-//               traditional zoom as every method does.
+//               the global system and its two decoupled solves g_x, g_y (polyfem_system.h), the
+//               aspect range on which their axpy folds nowhere, and per cell δ_c, G's chord
+//               deviation at export level 2; stored with K for the fallback;
+//   load        the cells sampled at levels 0–3 (polyfem_export.h), once per version; deeper
+//               levels per cell when a view needs them, in a bounded cache;
+//   view        the z = 0 target (the screen's aspect, the image's area) as node displacements —
+//               one axpy when the aspect is in the fold-free range, else [PolyFEM §4.5]'s L-BFGS
+//               with per-cell rollback (polyfem_fallback.h) checked at kCheckLevels, cached per
+//               target —, then
+//               traditional zoom as every method does. Only the visible cells are exported, at
+//               one level k for all (shared edges stay identical): the smallest with a chord
+//               error max_c max(|ΔW|·δ_c.x, |ΔH|·δ_c.y)·4^(2−k)·(screen px per analysis px) of at
+//               most 0.5 screen px, coarser if it would exceed kMaxExportTriangles.
 //
-// Thread safety: read-only after construction; view() may run concurrently.
+// Thread safety: view() may run concurrently (the caches lock).
 #pragma once
 
+#include <atomic>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <string>
 #include <string_view>
+#include <utility>
 
 #include "warp/meshing/polygon_mesh.h"
 #include "warp/methods/polyfem/polyfem_export.h"
+#include "warp/methods/polyfem/polyfem_fallback.h"
 #include "warp/methods/polyfem/polyfem_system.h"
+#include "warp/methods/recent_cache.h"
 #include "warp/methods/retargeter.h"
 #include "warp/methods/retargeting_method.h"
 
 namespace zoomwarp::warp {
 
 struct PolyfemModel {
+  PolyfemSolution solution;        // nodes (rebuilt from the mesh on parse), g_x, g_y, K
   PolygonMesh mesh;                // analysis px
-  std::vector<double> g_x, g_y;    // per node (polyfem_nodes(mesh) order)
+  AspectRange fold_free;           // of the axpy
+  std::vector<Point> chord;        // δ_c per cell at kChordLevel
+  static constexpr int kChordLevel = 2;
 };
 
 PolyfemModel build_polyfem_model(const MethodInput& input);
 std::string polyfem_model_bytes(const PolyfemModel& model);
 PolyfemModel parse_polyfem_model(std::string_view bytes);  // throws std::runtime_error
 
+// How a view was exported.
+struct PolyfemViewStats {
+  int level = 0;                 // the subdivision level of every exported cell
+  double chord_error_px = 0;     // its bound, screen px
+  long triangles = 0;
+  int visible_cells = 0;
+  bool budget_limited = false;   // the level was lowered to stay within kMaxExportTriangles
+  bool fallback = false;         // the target needed [PolyFEM §4.5]'s fallback
+};
+
 class PolyfemRetargeting final : public Retargeter {
  public:
-  // Export level: chord error ≤ 0.21 analysis px with the width halved on the test mesh (4× less
-  // per level), ~18 500 triangles for 200 cells.
-  static constexpr int kExportLevel = 2;
+  static constexpr long kMaxExportTriangles = 60000;   // METHODS §3, "Export"
+  static constexpr double kMaxChordErrorPx = 0.5;
+  static constexpr int kPreparedLevels = 4;            // levels 0–3 sampled at load
+  // The fallback's rollback looks at these levels' triangles (a coarse triangle may turn over
+  // while its four children do not); a fallback target is exported at one of them.
+  static constexpr int kCheckLevels[2] = {2, 3};
+  static constexpr std::size_t kDeepCacheBytes = 64u << 20;
+  static constexpr std::size_t kCachedTargets = 16;
 
   PolyfemRetargeting(double width, double height, PolyfemModel model);
   View view(const ViewRequest& request) override;
+  View view(const ViewRequest& request, PolyfemViewStats* stats);
   std::size_t memory_bytes() override;
 
-  const Mesh& mesh() const { return source_; }  // the samples in image pixels
-  // The samples' warp onto tw × th image pixels and the blend the fold guard needed.
-  std::vector<Point> warped(double tw, double th, double* blend, const StopToken* stop = nullptr) const;
+  // The node displacements (analysis px) for a target of tw × th image pixels, and whether the
+  // fallback made them.
+  struct Target {
+    std::vector<Point> displacement;
+    bool fallback = false;
+    PolyfemFallback stats;  // when it did
+  };
+  std::shared_ptr<const Target> target(double tw, double th, const StopToken* stop = nullptr);
+  // The whole image sampled at `level`, warped onto tw × th image pixels: source and warped
+  // positions in image pixels (tests, compare, benchmarks).
+  std::pair<Mesh, std::vector<Point>> warped_samples(double tw, double th, int level, const StopToken* stop = nullptr);
+  int fallback_runs() const { return fallback_runs_.load(); }
+  const PolyfemModel& model() const { return model_; }
 
  private:
+  // Cell `cell` sampled at `level` (prepared, or from the deep cache).
+  std::shared_ptr<const CellSampling> sampling(int cell, int level);
+  // Appends the cells' samples at `level`, warped by `target`, to source/warped (image pixels).
+  void append_cells(const std::vector<int>& cells, int level, const Target& target, double tw, double th, Mesh& source,
+                    std::vector<Point>& warped);
+
   const double width_, height_;
   const PolyfemModel model_;
-  const PolyfemSampling sampling_;
-  const SampledField field_;
-  const Mesh source_;
+  std::vector<std::vector<CellSampling>> prepared_;  // [level][cell]
+  std::vector<CellSampling> check_;                  // per cell, kCheckLevels' triangles
+  std::mutex deep_mutex_;
+  std::map<std::pair<int, int>, std::shared_ptr<const CellSampling>> deep_;  // (level, cell)
+  std::size_t deep_bytes_ = 0;
+  std::mutex targets_mutex_;
+  RecentCache<std::pair<double, double>, std::shared_ptr<const Target>> targets_{kCachedTargets};
+  std::atomic<int> fallback_runs_{0};
 };
 
 const RetargetingMethod& polyfem_method();
