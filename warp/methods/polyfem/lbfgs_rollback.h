@@ -40,7 +40,7 @@ using LbfgsRollback = std::function<int(const Eigen::VectorXd& previous, Eigen::
 
 struct LbfgsResult {
   int iterations = 0;
-  int rollbacks = 0;          // parts rolled back over all iterations
+  int rollbacks = 0;          // parts rolled back in the accepted steps, over all iterations
   double energy = 0;          // at the returned x
   bool converged = false;     // a tolerance was met (not the iteration limit or a stalled search)
 };
