@@ -46,7 +46,7 @@ struct LbfgsResult {
 };
 
 // Minimises from x (which the rollback must accept as it is), x overwritten by the result.
-// Checks `stop` once per iteration (throws Stopped).
+// Checks `stop` once per iteration (throws Stopped, x then left as given).
 LbfgsResult minimize_lbfgs_with_rollback(Eigen::VectorXd& x, const LbfgsObjective& objective,
                                          const LbfgsRollback& rollback, const LbfgsOptions& options = {},
                                          const StopToken* stop = nullptr);
