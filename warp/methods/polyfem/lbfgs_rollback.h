@@ -40,13 +40,13 @@ using LbfgsRollback = std::function<int(const Eigen::VectorXd& previous, Eigen::
 
 struct LbfgsResult {
   int iterations = 0;
-  int rollbacks = 0;          // parts rolled back over all iterations
+  int rollbacks = 0;          // parts rolled back in the accepted steps, over all iterations
   double energy = 0;          // at the returned x
   bool converged = false;     // a tolerance was met (not the iteration limit or a stalled search)
 };
 
 // Minimises from x (which the rollback must accept as it is), x overwritten by the result.
-// Checks `stop` once per iteration (throws Stopped).
+// Checks `stop` once per iteration (throws Stopped, x then left as given).
 LbfgsResult minimize_lbfgs_with_rollback(Eigen::VectorXd& x, const LbfgsObjective& objective,
                                          const LbfgsRollback& rollback, const LbfgsOptions& options = {},
                                          const StopToken* stop = nullptr);
