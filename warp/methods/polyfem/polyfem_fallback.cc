@@ -109,7 +109,11 @@ PolyfemFallback polyfem_fallback(const PolygonMesh& mesh, const PolyfemSolution&
   PolyfemFallback out;
   Eigen::VectorXd unused;
   out.start_energy = energy(x, unused);
-  const LbfgsResult result = minimize_lbfgs_with_rollback(x, energy, rollback, {}, stop);
+  // 100 steps and 10 halvings: rollbacks stall the descent well before a tolerance is met (on the
+  // samples' extreme aspects the energy after 100 steps is within 1 % of the one after 200, in
+  // half the time: 80–360 ms, once per target).
+  const LbfgsResult result =
+      minimize_lbfgs_with_rollback(x, energy, rollback, {.max_iterations = 100, .max_halvings = 10}, stop);
   out.energy = result.energy, out.iterations = result.iterations, out.rollbacks = result.rollbacks;
   out.converged = result.converged;
   scatter(x);
