@@ -17,6 +17,19 @@ void check_image_size(double width, double height) {
   if (!(width > 0 && height > 0)) throw std::invalid_argument("polyfem: the image size must be positive");
 }
 
+// The saliency-adaptive mesh [PolyFEM §4.3.2]; where its E_se descent [eq. 10] cannot remove the
+// short edges (a density with edges everywhere, e.g. a fine checkerboard: ρ = 1/d³ changes at
+// every pixel), the unweighted CVT (ρ = 1), whose cells are well shaped — ours: the paper has no
+// answer, and one method must not refuse an image the others take. The saliency still weighs
+// the energy through s.
+PolygonMesh polyfem_mesh(const SignificanceMap& s, double width, double height) {
+  try {
+    return build_cvt_mesh(s.values, s.width, s.height, width, height);
+  } catch (const std::runtime_error&) {
+    return build_cvt_mesh(std::vector<float>(s.values.size(), 0.0f), s.width, s.height, width, height);
+  }
+}
+
 }  // namespace
 
 PolyfemModel build_polyfem_model(const MethodInput& input) {
@@ -24,7 +37,7 @@ PolyfemModel build_polyfem_model(const MethodInput& input) {
   if (image.empty()) throw std::invalid_argument("polyfem precompute: no analysis image");
   const SignificanceMap& s = input.saliency;
   PolyfemModel m;
-  m.mesh = build_cvt_mesh(s.values, s.width, s.height, image.width, image.height);
+  m.mesh = polyfem_mesh(s, image.width, image.height);
   m.solution = solve_polyfem(m.mesh, ScalarMap{s.width, s.height, double(image.width), double(image.height), s.values});
   m.fold_free = polyfem_fold_free_range(m.mesh, m.solution);
   for (int c = 0; c < int(m.mesh.cells.size()); ++c)
