@@ -235,8 +235,7 @@ Prepared& prepare(const Source& source, const std::string& path) {
 }
 
 // The size in a benchmark's name: the analysis image's (the image's own when it is ≤ 1024 px).
-void register_source(const Prepared& prepared) {
-  const Prepared* p = &prepared;
+void register_benchmarks(const Prepared* p) {
   const std::string size = size_name(p->image.analysis.width, p->image.analysis.height);
   const auto add = [](const std::string& name, auto&&... args) {
     return benchmark::RegisterBenchmark(name.c_str(), args...);
@@ -332,7 +331,7 @@ int main(int argc, char** argv) {
                   path.c_str());
       continue;
     }
-    register_source(prepare(source, path));
+    register_benchmarks(&prepare(source, path));
     ++registered;
   }
   if (registered == 0) return 0;
