@@ -129,9 +129,11 @@ class Samplings {
   std::map<int, CellSampling> cells_;
 };
 
-// Analysis px → image px, as the retargeter scales its samples.
+// Analysis px → image px, as the retargeter scales its source samples: those on the right and
+// bottom border exactly on the image's.
 Point to_image(const Subject& s, const Point& p) {
-  return {p.x * (s.width / s.model().mesh.width), p.y * (s.height / s.model().mesh.height)};
+  const double aw = s.model().mesh.width, ah = s.model().mesh.height;
+  return {p.x == aw ? s.width : p.x * (s.width / aw), p.y == ah ? s.height : p.y * (s.height / ah)};
 }
 
 // The cell holding p (analysis px) most deeply.
@@ -373,7 +375,7 @@ double measured_chord_error(const Subject& s, const View& v, int level) {
         warp::polyfem_point_weights(m.mesh, m.solution.nodes, run.cell, mid, node, weight);
         Point f = mid;
         for (std::size_t j = 0; j < node.size(); ++j) f = {f.x + weight[j] * d[node[j]].x, f.y + weight[j] * d[node[j]].y};
-        const Point on_screen = to_image(s, f);
+        const Point on_screen{f.x * s.width / m.mesh.width, f.y * s.height / m.mesh.height};  // warped image px
         const Point &pa = v.screen[run.first_vertex + a], &pb = v.screen[run.first_vertex + b];
         worst = std::max(worst, std::hypot((pa.x + pb.x) / 2 - (on_screen.x * scale + offset.x),
                                            (pa.y + pb.y) / 2 - (on_screen.y * scale + offset.y)));
