@@ -222,8 +222,9 @@ View PolyfemRetargeting::view(const ViewRequest& r, PolyfemViewStats* stats) {
   const double screen_scale = (coarse_view.screen[i_hi].x - coarse_view.screen[i_lo].x) / (hi->x - lo->x);
   const double px_x = screen_scale * width_ / aw, px_y = screen_scale * height_ / ah;
   const double dw = tw * aw / width_ - aw, dh = th * ah / height_ - ah;
+  // The length of the miss: each axis's bound holds per edge, so the vector's is their hypot.
   const auto chord_at_level_2 = [&](int c) {
-    return std::max(std::abs(dw) * model_.chord[c].x * px_x, std::abs(dh) * model_.chord[c].y * px_y);
+    return std::hypot(std::abs(dw) * model_.chord[c].x * px_x, std::abs(dh) * model_.chord[c].y * px_y);
   };
 
   // Visible cells: their level-0 fan on screen, grown by the level-0 chord error (16× level 2's).
