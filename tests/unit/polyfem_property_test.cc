@@ -15,7 +15,9 @@
 //     fold-free range runs the fallback;
 //   - the chord error as a client sees it: every emitted triangle edge's screen midpoint lies
 //     within 0.5 px (PolyfemRetargeting::kMaxChordErrorPx) of the deformation evaluated exactly at
-//     its source midpoint, or within the reported bound where the triangle budget lowered the level.
+//     its source midpoint, or within the reported bound where the triangle budget lowered the level;
+//     a fallback target's views, exported at a check level and so possibly above 0.5 px, within
+//     their reported bound.
 // And [PolyFEM §4.5]'s fallback end to end (METHODS §3: "energy non-increasing, no overlap after a
 // step"; the per-step property is lbfgs_rollback.h's, tested with it): from the uniform stretch
 // to an energy below it and no lower than the axpy's unconstrained minimum, no triangle of its
