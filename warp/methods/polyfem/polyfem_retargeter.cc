@@ -176,15 +176,21 @@ void PolyfemRetargeting::append_cells(const std::vector<int>& cells, int level, 
                                       double th, Mesh& source, std::vector<Point>& warped) {
   const double aw = model_.mesh.width, ah = model_.mesh.height;
   const double to_image_x = width_ / aw, to_image_y = height_ / ah;
-  // Analysis px of the target → its image px, per axis (the border lands on the rectangle).
+  // Analysis px of the target → its image px, per axis. The right and bottom border samples are
+  // put on the image's and the target's sides exactly (x = W', y = H' there by [PolyFEM eq. 12];
+  // left and top: 0 by the product), which the scalings alone miss by an ulp.
   const double warp_x = tw / (tw * aw / width_), warp_y = th / (th * ah / height_);
   for (int c : cells) {
     const std::shared_ptr<const CellSampling> cell = sampling(c, level);
     const int base = int(source.vertices.size());
-    for (const Point& p : cell->source) source.vertices.push_back({p.x * to_image_x, p.y * to_image_y});
+    for (const Point& p : cell->source)
+      source.vertices.push_back({p.x == aw ? width_ : p.x * to_image_x, p.y == ah ? height_ : p.y * to_image_y});
     const std::size_t first = warped.size();
     displace_cell_samples(*cell, target.displacement, warped);
-    for (std::size_t i = first; i < warped.size(); ++i) warped[i] = {warped[i].x * warp_x, warped[i].y * warp_y};
+    for (std::size_t i = first; i < warped.size(); ++i) {
+      const Point& p = cell->source[i - first];
+      warped[i] = {p.x == aw ? tw : warped[i].x * warp_x, p.y == ah ? th : warped[i].y * warp_y};
+    }
     for (const Triangle& t : cell->triangles) source.triangles.push_back({t[0] + base, t[1] + base, t[2] + base});
   }
 }
@@ -229,8 +235,9 @@ View PolyfemRetargeting::view(const ViewRequest& r, PolyfemViewStats* stats) {
   const double screen_scale = (coarse_view.screen[i_hi].x - coarse_view.screen[i_lo].x) / (hi->x - lo->x);
   const double px_x = screen_scale * width_ / aw, px_y = screen_scale * height_ / ah;
   const double dw = tw * aw / width_ - aw, dh = th * ah / height_ - ah;
+  // The length of the miss: each axis's bound holds per edge, so the vector's is their hypot.
   const auto chord_at_level_2 = [&](int c) {
-    return std::max(std::abs(dw) * model_.chord[c].x * px_x, std::abs(dh) * model_.chord[c].y * px_y);
+    return std::hypot(std::abs(dw) * model_.chord[c].x * px_x, std::abs(dh) * model_.chord[c].y * px_y);
   };
 
   // Visible cells: their level-0 fan on screen, grown by the level-0 chord error (16× level 2's).

@@ -12,7 +12,7 @@
 //               target —, then
 //               traditional zoom as every method does. Only the visible cells are exported, at
 //               one level k for all (shared edges stay identical): the smallest with a chord
-//               error max_c max(|ΔW|·δ_c.x, |ΔH|·δ_c.y)·4^(2−k)·(screen px per analysis px) of at
+//               error max_c |(ΔW·δ_c.x, ΔH·δ_c.y)|·4^(2−k)·(screen px per analysis px) of at
 //               most 0.5 screen px, coarser if it would exceed kMaxExportTriangles.
 //
 // Thread safety: view() may run concurrently (the caches lock).
