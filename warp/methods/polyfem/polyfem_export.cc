@@ -50,7 +50,8 @@ using Key = std::array<int, 4>;
 
 std::size_t CellSampling::memory_bytes() const {
   return source.capacity() * sizeof(Point) + triangles.capacity() * sizeof(Triangle) +
-         (offset.capacity() + node.capacity()) * sizeof(int) + weight.capacity() * sizeof(double);
+         (offset.capacity() + node.capacity()) * sizeof(int) + weight.capacity() * sizeof(double) +
+         chords.capacity() * sizeof(chords[0]);
 }
 
 long polyfem_cell_triangles(const PolygonMesh& mesh, int cell, int level) {
@@ -125,6 +126,14 @@ CellSampling sample_polyfem_cell(const PolygonMesh& mesh, const PolyfemNodes& no
         triangle(point(r, s), point(r + 1, s), point(r, s + 1));
         if (r + s + 1 < lattice) triangle(point(r + 1, s), point(r + 1, s + 1), point(r, s + 1));
       }
+    // The level below's lattice edges: (2r, 2s)–(2r + 2, 2s), (2r, 2s)–(2r, 2s + 2) and
+    // (2r + 2, 2s)–(2r, 2s + 2) with their midpoints (spokes twice: harmless for a maximum).
+    for (int r = 0; level > 0 && 2 * r < lattice; ++r)
+      for (int s = 0; 2 * (r + s) < lattice; ++s) {
+        out.chords.push_back({point(2 * r, 2 * s), point(2 * r + 1, 2 * s), point(2 * r + 2, 2 * s)});
+        out.chords.push_back({point(2 * r, 2 * s), point(2 * r, 2 * s + 1), point(2 * r, 2 * s + 2)});
+        out.chords.push_back({point(2 * r + 2, 2 * s), point(2 * r + 1, 2 * s + 1), point(2 * r, 2 * s + 2)});
+      }
   }
   return out;
 }
@@ -160,31 +169,18 @@ void polyfem_point_weights(const PolygonMesh& mesh, const PolyfemNodes& nodes, i
   inside_weights(Element(mesh, cell), nodes.cell_nodes[cell], p, node, weight);
 }
 
-Point polyfem_chord_deviation(const PolygonMesh& mesh, const PolyfemSolution& solution, int cell, int level) {
-  const CellSampling sampling = sample_polyfem_cell(mesh, solution.nodes, cell, level);
-  std::vector<int> node;
-  std::vector<double> weight;
-  const auto field = [&](auto begin_node, auto end_node, auto begin_weight) {
-    Point g{0, 0};
-    for (auto k = begin_node; k != end_node; ++k, ++begin_weight)
-      g = {g.x + *begin_weight * solution.g_x[*k], g.y + *begin_weight * solution.g_y[*k]};
-    return g;
-  };
-  const auto at_sample = [&](int i) {
-    return field(sampling.node.begin() + sampling.offset[i], sampling.node.begin() + sampling.offset[i + 1],
-                 sampling.weight.begin() + sampling.offset[i]);
+Point polyfem_chord_deviation(const CellSampling& finer, const std::vector<Point>& displacement) {
+  const auto moved = [&](int i) {
+    Point d{0, 0};
+    for (int j = finer.offset[i]; j < finer.offset[i + 1]; ++j)
+      d = {d.x + finer.weight[j] * displacement[finer.node[j]].x, d.y + finer.weight[j] * displacement[finer.node[j]].y};
+    return d;
   };
   Point worst{0, 0};
-  for (const Triangle& t : sampling.triangles)
-    for (int k = 0; k < 3; ++k) {
-      const int a = t[k], b = t[(k + 1) % 3];
-      const Point &pa = sampling.source[a], &pb = sampling.source[b];
-      node.clear(), weight.clear();
-      polyfem_point_weights(mesh, solution.nodes, cell, {(pa.x + pb.x) / 2, (pa.y + pb.y) / 2}, node, weight);
-      const Point mid = field(node.begin(), node.end(), weight.begin());
-      const Point ga = at_sample(a), gb = at_sample(b);
-      worst = {std::max(worst.x, std::abs(mid.x - (ga.x + gb.x) / 2)), std::max(worst.y, std::abs(mid.y - (ga.y + gb.y) / 2))};
-    }
+  for (const auto& [a, m, b] : finer.chords) {
+    const Point da = moved(a), dm = moved(m), db = moved(b);
+    worst = {std::max(worst.x, std::abs(dm.x - (da.x + db.x) / 2)), std::max(worst.y, std::abs(dm.y - (da.y + db.y) / 2))};
+  }
   return worst;
 }
 

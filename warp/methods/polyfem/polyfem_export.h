@@ -16,6 +16,7 @@
 // Thread safety: pure functions.
 #pragma once
 
+#include <array>
 #include <vector>
 
 #include "warp/core/mesh.h"
@@ -33,6 +34,9 @@ struct CellSampling {
   // Sample i: weights weight[j] on nodes node[j] for j in [offset[i], offset[i + 1]).
   std::vector<int> offset, node;
   std::vector<double> weight;
+  // Level ≥ 1: every lattice edge of the level below as (end, midpoint, end), indices into source
+  // — what its chord error is measured on (polyfem_chord_deviation).
+  std::vector<std::array<int, 3>> chords;
   std::size_t memory_bytes() const;
 };
 
@@ -51,10 +55,13 @@ void displace_cell_samples(const CellSampling& sampling, const std::vector<Point
 void polyfem_point_weights(const PolygonMesh& mesh, const PolyfemNodes& nodes, int cell, const Point& p,
                            std::vector<int>& node, std::vector<double>& weight);
 
-// δ_c at `level`: per axis, the largest distance of G (= Σ B_k·g_k, g from `solution`) at the
-// midpoint of a level-`level` lattice edge of the cell from the mean of G at its ends. The chord
-// of that edge under displacement (ΔW·g_x, ΔH·g_y) misses the curve by (|ΔW|·δ.x, |ΔH|·δ.y);
-// it shrinks about fourfold per level.
-Point polyfem_chord_deviation(const PolygonMesh& mesh, const PolyfemSolution& solution, int cell, int level);
+// The chord error of the cell one level below `finer` (finer.level ≥ 1) under a displacement
+// field: per axis, the largest distance of the displacement at a lattice edge's midpoint from the
+// mean of its ends — how far that edge's straight chord misses the deformed curve. With
+// `displacement` = (g_x, g_y) this is δ_c of G, and (ΔW·δ.x, ΔH·δ.y) bounds the axpy's miss
+// (polyfem_system.h); with a fallback's displacement, its own miss. Measured at the level, not
+// extrapolated: near a cell vertex the mean value coordinates bend faster, and δ shrinks only
+// about twofold per level there (fourfold elsewhere).
+Point polyfem_chord_deviation(const CellSampling& finer, const std::vector<Point>& displacement);
 
 }  // namespace zoomwarp::warp

@@ -40,8 +40,14 @@ PolyfemModel build_polyfem_model(const MethodInput& input) {
   m.mesh = polyfem_mesh(s, image.width, image.height);
   m.solution = solve_polyfem(m.mesh, ScalarMap{s.width, s.height, double(image.width), double(image.height), s.values});
   m.fold_free = polyfem_fold_free_range(m.mesh, m.solution);
-  for (int c = 0; c < int(m.mesh.cells.size()); ++c)
-    m.chord.push_back(polyfem_chord_deviation(m.mesh, m.solution, c, PolyfemModel::kChordLevel));
+  std::vector<Point> g(m.solution.g_x.size());
+  for (std::size_t k = 0; k < g.size(); ++k) g[k] = {m.solution.g_x[k], m.solution.g_y[k]};
+  for (int c = 0; c < int(m.mesh.cells.size()); ++c) {
+    std::array<Point, PolyfemModel::kChordLevels> delta;
+    for (int level = 0; level < PolyfemModel::kChordLevels; ++level)
+      delta[level] = polyfem_chord_deviation(sample_polyfem_cell(m.mesh, m.solution.nodes, c, level + 1), g);
+    m.chord.push_back(delta);
+  }
   return m;
 }
 
@@ -54,7 +60,7 @@ std::string polyfem_model_bytes(const PolyfemModel& m) {
   for (std::size_t c = 0; c < m.mesh.cells.size(); ++c) {
     out.put_count(m.mesh.cells[c].size());
     for (int v : m.mesh.cells[c]) out.put(std::int32_t(v));
-    out.put(m.chord[c].x), out.put(m.chord[c].y);
+    for (const Point& delta : m.chord[c]) out.put(delta.x), out.put(delta.y);
   }
   const PolyfemSolution& s = m.solution;
   out.put_count(s.g_x.size());
@@ -73,12 +79,14 @@ PolyfemModel parse_polyfem_model(std::string_view bytes) {
   if (!(m.mesh.width > 0 && m.mesh.height > 0)) in.fail("bad size");
   m.mesh.vertices.resize(in.count(16));
   for (Point& p : m.mesh.vertices) p.x = in.number(), p.y = in.number();
-  m.mesh.cells.resize(in.count(4 * 3 + 16));
+  m.mesh.cells.resize(in.count(4 * 3 + 16 * PolyfemModel::kChordLevels));
   for (auto& cell : m.mesh.cells) {
     cell.resize(in.count(4));
     if (cell.size() < 3) in.fail("a cell with fewer than 3 vertices");
     for (int& v : cell) v = in.index(m.mesh.vertices.size());
-    m.chord.push_back({in.number(), in.number()});
+    std::array<Point, PolyfemModel::kChordLevels> delta;
+    for (Point& d : delta) d = {in.number(), in.number()};
+    m.chord.push_back(delta);
   }
   try {
     m.solution.nodes = polyfem_nodes(m.mesh);
@@ -139,6 +147,40 @@ std::shared_ptr<const CellSampling> PolyfemRetargeting::sampling(int cell, int l
   auto [it, inserted] = deep_.emplace(std::make_pair(level, cell), made);
   if (inserted) deep_bytes_ += made->memory_bytes();
   return it->second;
+}
+
+Point PolyfemRetargeting::axpy_chord(int cell, int level) {
+  if (level < PolyfemModel::kChordLevels) return model_.chord[cell][level];
+  {
+    std::lock_guard lock(deep_mutex_);
+    if (auto it = deep_chord_.find({level, cell}); it != deep_chord_.end()) return it->second;
+  }
+  const PolyfemSolution& s = model_.solution;
+  std::vector<Point> g(s.g_x.size());
+  for (std::size_t k = 0; k < g.size(); ++k) g[k] = {s.g_x[k], s.g_y[k]};
+  const Point delta = polyfem_chord_deviation(*sampling(cell, level + 1), g);
+  std::lock_guard lock(deep_mutex_);
+  return deep_chord_.emplace(std::make_pair(level, cell), delta).first->second;
+}
+
+Point PolyfemRetargeting::target_chord(const Target& t, int cell, int level) {
+  {
+    std::lock_guard lock(t.mutex);
+    if (auto it = t.chord.find({level, cell}); it != t.chord.end()) return it->second;
+  }
+  const Point delta = polyfem_chord_deviation(*sampling(cell, level + 1), t.displacement);
+  std::lock_guard lock(t.mutex);
+  return t.chord.emplace(std::make_pair(level, cell), delta).first->second;
+}
+
+bool PolyfemRetargeting::target_folds(const Target& t, int cell, int level) {
+  {
+    std::lock_guard lock(t.mutex);
+    if (auto it = t.folds.find({level, cell}); it != t.folds.end()) return it->second;
+  }
+  const bool folds = polyfem_cell_folds(*sampling(cell, level), t.displacement);
+  std::lock_guard lock(t.mutex);
+  return t.folds.emplace(std::make_pair(level, cell), folds).first->second;
 }
 
 std::shared_ptr<const PolyfemRetargeting::Target> PolyfemRetargeting::target(double tw, double th, const StopToken* stop) {
@@ -235,14 +277,19 @@ View PolyfemRetargeting::view(const ViewRequest& r, PolyfemViewStats* stats) {
   const double screen_scale = (coarse_view.screen[i_hi].x - coarse_view.screen[i_lo].x) / (hi->x - lo->x);
   const double px_x = screen_scale * width_ / aw, px_y = screen_scale * height_ / ah;
   const double dw = tw * aw / width_ - aw, dh = th * ah / height_ - ah;
-  // The length of the miss: each axis's bound holds per edge, so the vector's is their hypot.
-  const auto chord_at_level_2 = [&](int c) {
-    return std::hypot(std::abs(dw) * model_.chord[c].x * px_x, std::abs(dh) * model_.chord[c].y * px_y);
+  // A cell's chord error at a level, screen px: each axis's bound holds per edge, so the miss
+  // vector's is their hypot.
+  const auto chord_px = [&](int c, int k) {
+    if (!t->fallback) {
+      const Point d = axpy_chord(c, k);
+      return std::hypot(std::abs(dw) * d.x * px_x, std::abs(dh) * d.y * px_y);
+    }
+    const Point d = target_chord(*t, c, k);
+    return std::hypot(d.x * px_x, d.y * px_y);
   };
 
-  // Visible cells: their level-0 fan on screen, grown by the level-0 chord error (16× level 2's).
+  // Visible cells: their level-0 fan on screen, grown by its chord error and a pixel.
   std::vector<int> visible;
-  double worst_chord = 0;
   long fan_triangles = 0;
   {
     int v = 0;
@@ -254,22 +301,41 @@ View PolyfemRetargeting::view(const ViewRequest& r, PolyfemViewStats* stats) {
         x0 = std::min(x0, p.x), x1 = std::max(x1, p.x), y0 = std::min(y0, p.y), y1 = std::max(y1, p.y);
       }
       v += n + 1;  // a level-0 cell: its centroid and its n vertices
-      const double margin = 16 * chord_at_level_2(c) + 1;
+      const double margin = chord_px(c, 0) + 1;
       if (x1 + margin > 0 && x0 - margin < r.screen_width && y1 + margin > 0 && y0 - margin < r.screen_height) {
         visible.push_back(c);
-        worst_chord = std::max(worst_chord, chord_at_level_2(c));
         fan_triangles += n;
       }
     }
   }
-  // The level: the smallest within kMaxChordErrorPx, the largest within the triangle budget.
-  int level = 0;
-  while (level < kMaxPolyfemLevel && worst_chord * std::pow(4.0, PolyfemModel::kChordLevel - level) > kMaxChordErrorPx)
-    ++level;
-  // The fallback kept the check levels' triangles from turning over, not others.
-  if (t->fallback) level = std::clamp(level, kCheckLevels[0], kCheckLevels[1]);
-  bool budget_limited = false;
-  while (level > 0 && (fan_triangles << (2 * level)) > kMaxExportTriangles) --level, budget_limited = true;
+  // The level: the smallest whose measured chord error is within kMaxChordErrorPx, no finer than
+  // the triangle budget allows; for a fallback target one of its check levels, or a finer one on
+  // which no visible cell folds (the fallback kept only the check levels from folding).
+  int max_level = kMaxPolyfemLevel;
+  while (max_level > 0 && (fan_triangles << (2 * max_level)) > kMaxExportTriangles) --max_level;
+  const auto allowed = [&](int k) {
+    if (!t->fallback || k == kCheckLevels[0] || k == kCheckLevels[1]) return true;
+    return std::none_of(visible.begin(), visible.end(), [&](int c) { return target_folds(*t, c, k); });
+  };
+  int level = t->fallback ? std::min(kCheckLevels[0], max_level) : 0;
+  const auto worst_chord = [&](int k) {
+    double worst = 0;
+    for (int c : visible) worst = std::max(worst, chord_px(c, k));
+    return worst;
+  };
+  double chord = -1;
+  bool skipped = false;
+  for (int k = level; k <= max_level; ++k) {
+    check_stop(r.stop);
+    if (!allowed(k)) {
+      skipped = true;
+      continue;
+    }
+    level = k, chord = worst_chord(k);
+    if (chord <= kMaxChordErrorPx) break;
+  }
+  if (chord < 0) chord = worst_chord(level);  // no level allowed (a budget below the check levels)
+  const bool limited = chord > kMaxChordErrorPx;
 
   Mesh source;
   std::vector<Point> warped;
@@ -279,8 +345,8 @@ View PolyfemRetargeting::view(const ViewRequest& r, PolyfemViewStats* stats) {
   out.coarse_stats.converged = !t->fallback || t->stats.converged;
   out.coarse_stats.iterations = t->stats.iterations;
   if (stats)
-    *stats = {level, worst_chord * std::pow(4.0, PolyfemModel::kChordLevel - level), long(source.triangles.size()),
-              int(visible.size()), budget_limited, t->fallback};
+    *stats = {level, chord, long(source.triangles.size()), int(visible.size()), limited && !skipped, limited && skipped,
+              t->fallback};
   return out;
 }
 

@@ -3,21 +3,24 @@
 //   precompute  the saliency-adaptive polygon mesh of the analysis image (meshing/cvt_mesh.h),
 //               the global system and its two decoupled solves g_x, g_y (polyfem_system.h), the
 //               aspect range on which their axpy folds nowhere, and per cell δ_c, G's chord
-//               deviation at export level 2; stored with K for the fallback;
+//               deviation at export levels 0–3; stored with K for the fallback;
 //   load        the cells sampled at levels 0–3 (polyfem_export.h), once per version; deeper
 //               levels per cell when a view needs them, in a bounded cache;
 //   view        the z = 0 target (the screen's aspect, the image's area) as node displacements —
 //               one axpy when the aspect is in the fold-free range, else [PolyFEM §4.5]'s L-BFGS
 //               with per-cell rollback (polyfem_fallback.h) checked at kCheckLevels, cached per
-//               target —, then
-//               traditional zoom as every method does. Only the visible cells are exported, at
-//               one level k for all (shared edges stay identical): the smallest with a chord
-//               error max_c |(ΔW·δ_c.x, ΔH·δ_c.y)|·4^(2−k)·(screen px per analysis px) of at
-//               most 0.5 screen px, coarser if it would exceed kMaxExportTriangles.
+//               target —, then traditional zoom as every method does. Only the visible cells are
+//               exported, at one level k for all (shared edges stay identical): the smallest whose
+//               chord error max_c |(ΔW·δ_c(k).x, ΔH·δ_c(k).y)|·(screen px per analysis px) is at
+//               most 0.5 screen px, δ_c(k) measured at level k (stored to level 3, deeper ones
+//               measured when first needed, kept); no finer than kMaxExportTriangles allows. A
+//               fallback target's chord error is measured on its own displacement, and it is
+//               exported at its check levels or at a finer one on which no visible cell folds.
 //
 // Thread safety: view() may run concurrently (the caches lock).
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <map>
 #include <memory>
@@ -37,11 +40,11 @@
 namespace zoomwarp::warp {
 
 struct PolyfemModel {
-  PolyfemSolution solution;        // nodes (rebuilt from the mesh on parse), g_x, g_y, K
-  PolygonMesh mesh;                // analysis px
-  AspectRange fold_free;           // of the axpy
-  std::vector<Point> chord;        // δ_c per cell at kChordLevel
-  static constexpr int kChordLevel = 2;
+  static constexpr int kChordLevels = 4;  // δ_c stored for levels 0–3
+  PolyfemSolution solution;               // nodes (rebuilt from the mesh on parse), g_x, g_y, K
+  PolygonMesh mesh;                       // analysis px
+  AspectRange fold_free;                  // of the axpy
+  std::vector<std::array<Point, kChordLevels>> chord;  // δ_c of G per cell and level
 };
 
 PolyfemModel build_polyfem_model(const MethodInput& input);
@@ -54,7 +57,8 @@ struct PolyfemViewStats {
   double chord_error_px = 0;     // its bound, screen px
   long triangles = 0;
   int visible_cells = 0;
-  bool budget_limited = false;   // the level was lowered to stay within kMaxExportTriangles
+  bool budget_limited = false;   // chord error > 0.5 px: kMaxExportTriangles (or kMaxPolyfemLevel) capped the level
+  bool fold_limited = false;     // chord error > 0.5 px: the fallback's displacement folds on the finer levels
   bool fallback = false;         // the target needed [PolyFEM §4.5]'s fallback
 };
 
@@ -80,6 +84,10 @@ class PolyfemRetargeting final : public Retargeter {
     std::vector<Point> displacement;
     bool fallback = false;
     PolyfemFallback stats;  // when it did
+    // A fallback target's chord deviations and fold checks per (level, cell), made as views need them.
+    mutable std::mutex mutex;
+    mutable std::map<std::pair<int, int>, Point> chord;
+    mutable std::map<std::pair<int, int>, bool> folds;
   };
   std::shared_ptr<const Target> target(double tw, double th, const StopToken* stop = nullptr);
   // The whole image sampled at `level`, warped onto tw × th image pixels: source and warped
@@ -91,6 +99,11 @@ class PolyfemRetargeting final : public Retargeter {
  private:
   // Cell `cell` sampled at `level` (prepared, or from the deep cache).
   std::shared_ptr<const CellSampling> sampling(int cell, int level);
+  // δ_c(level) of G (stored to level 3, deeper ones measured once and kept), and of a fallback
+  // target's displacement; whether that displacement folds cell `cell` at `level`.
+  Point axpy_chord(int cell, int level);
+  Point target_chord(const Target& target, int cell, int level);
+  bool target_folds(const Target& target, int cell, int level);
   // Appends the cells' samples at `level`, warped by `target`, to source/warped (image pixels).
   void append_cells(const std::vector<int>& cells, int level, const Target& target, double tw, double th, Mesh& source,
                     std::vector<Point>& warped);
@@ -102,6 +115,7 @@ class PolyfemRetargeting final : public Retargeter {
   std::mutex deep_mutex_;
   std::map<std::pair<int, int>, std::shared_ptr<const CellSampling>> deep_;  // (level, cell)
   std::size_t deep_bytes_ = 0;
+  std::map<std::pair<int, int>, Point> deep_chord_;  // (level, cell): δ_c of G beyond the model's levels
   std::mutex targets_mutex_;
   RecentCache<std::pair<double, double>, std::shared_ptr<const Target>> targets_{kCachedTargets};
   std::atomic<int> fallback_runs_{0};
