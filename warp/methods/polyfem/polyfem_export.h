@@ -51,7 +51,7 @@ void displace_cell_samples(const CellSampling& sampling, const std::vector<Point
                            std::vector<Point>& out);
 
 // The node weights of point p of cell `cell` (on its boundary: the edge's 1-D P2), appended to
-// node/weight. For evaluation at arbitrary points (chord errors, tests).
+// node/weight. For evaluation at arbitrary points (tests check the samplings against it).
 void polyfem_point_weights(const PolygonMesh& mesh, const PolyfemNodes& nodes, int cell, const Point& p,
                            std::vector<int>& node, std::vector<double>& weight);
 
