@@ -26,15 +26,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <initializer_list>
 #include <map>
 #include <memory>
 #include <numeric>
-#include <ostream>
 #include <string>
 #include <vector>
 
 #include "tests/support/analysed_image.h"
+#include "tests/support/sample_cases.h"
 #include "warp/compare/metrics.h"
 #include "warp/core/zoom_curve.h"
 #include "warp/methods/polyfem/polyfem_export.h"
@@ -212,15 +211,7 @@ warp::ViewRequest request(const Screen& screen, double zoom, Point centre) {
 }
 
 // One image (a file in samples/) and a saliency kind.
-struct Case {
-  const char* image;
-  Saliency kind;
-  friend std::ostream& operator<<(std::ostream& out, const Case& c) {
-    return out << c.image << ", saliency=" << warp::saliency_name(c.kind);
-  }
-};
-
-class PolyfemProperty : public ::testing::TestWithParam<Case> {
+class PolyfemProperty : public ::testing::TestWithParam<testing::SampleCase> {
  protected:
   Subject& tested() const { return subject(GetParam().image, GetParam().kind); }
   std::string label() const {
@@ -433,23 +424,11 @@ TEST_P(PolyfemProperty, ChordErrorOfFallbackViewsAsTheClientSeesIt) {
   expect_chord_errors(tested(), label(), true, chord_bound);
 }
 
-// Each image with both saliency kinds.
-std::vector<Case> cases(std::initializer_list<const char*> images) {
-  std::vector<Case> out;
-  for (const char* image : images)
-    for (Saliency kind : warp::kSaliencies) out.push_back({image, kind});
-  return out;
-}
-
-std::string name_of(const ::testing::TestParamInfo<Case>& info) {
-  const std::string image = info.param.image;
-  return image.substr(0, image.find('.')) + "_" + std::string(warp::saliency_name(info.param.kind));
-}
-
 INSTANTIATE_TEST_SUITE_P(PolyfemPropertySamples, PolyfemProperty,
-                         ::testing::ValuesIn(cases({"boats_lake_sunset.jpg", "astronaut_portrait.png",
-                                                    "interior_wine_djembe_tall.jpg", "pano_grossmugl_field_4to1.png"})),
-                         name_of);
+                         ::testing::ValuesIn(testing::sample_cases({"boats_lake_sunset.jpg", "astronaut_portrait.png",
+                                                                    "interior_wine_djembe_tall.jpg",
+                                                                    "pano_grossmugl_field_4to1.png"})),
+                         testing::sample_case_name);
 
 // E_T = d_xᵀK·d_x + d_yᵀK·d_y (polyfem_system.h), K by its upper triangle.
 double energy(const warp::SymmetricMatrix& k, const std::vector<Point>& d) {
