@@ -12,19 +12,6 @@ namespace zoomwarp::warp {
 
 namespace {
 
-// The element of one cell, built once per sampling.
-struct Element {
-  std::vector<Point> polygon;
-  std::vector<SerendipityDiagonal> diagonals;
-  Point centroid{0, 0};
-
-  Element(const PolygonMesh& mesh, int cell) {
-    for (int v : mesh.cells.at(cell)) polygon.push_back(mesh.vertices[v]);
-    diagonals = serendipity_coefficients(polygon);
-    for (const Point& p : polygon) centroid = {centroid.x + p.x / polygon.size(), centroid.y + p.y / polygon.size()};
-  }
-};
-
 // The 1-D P2 weights of the point at parameter t along the edge from node lo to node hi (lower
 // vertex id first) with midpoint node m: the restriction of every B_k to the edge.
 void edge_weights(int lo, int hi, int m, double t, std::vector<int>& node, std::vector<double>& weight) {
@@ -32,7 +19,7 @@ void edge_weights(int lo, int hi, int m, double t, std::vector<int>& node, std::
   weight.insert(weight.end(), {(1 - t) * (1 - 2 * t), t * (2 * t - 1), 4 * t * (1 - t)});
 }
 
-void inside_weights(const Element& e, const std::vector<int>& local, const Point& p, std::vector<int>& node,
+void inside_weights(const PolyfemElement& e, const std::vector<int>& local, const Point& p, std::vector<int>& node,
                     std::vector<double>& weight) {
   static thread_local std::vector<double> psi;
   static thread_local std::vector<Point> gradient;
@@ -60,7 +47,7 @@ long polyfem_cell_triangles(const PolygonMesh& mesh, int cell, int level) {
 
 CellSampling sample_polyfem_cell(const PolygonMesh& mesh, const PolyfemNodes& nodes, int cell, int level) {
   if (level < 0 || level > kMaxPolyfemLevel) throw std::invalid_argument("polyfem export: subdivision level out of range");
-  const Element e(mesh, cell);
+  const PolyfemElement e(mesh, cell);
   const std::vector<int>& ids = mesh.cells[cell];
   const std::vector<int>& local = nodes.cell_nodes.at(cell);
   const std::size_t n = ids.size();
@@ -166,7 +153,7 @@ void polyfem_point_weights(const PolygonMesh& mesh, const PolyfemNodes& nodes, i
       return;
     }
   }
-  inside_weights(Element(mesh, cell), nodes.cell_nodes[cell], p, node, weight);
+  inside_weights(PolyfemElement(mesh, cell), nodes.cell_nodes[cell], p, node, weight);
 }
 
 Point polyfem_chord_deviation(const CellSampling& finer, const std::vector<Point>& displacement) {

@@ -46,6 +46,13 @@ void integrate_triangle(const Point& a, const Point& b, const Point& c, double m
     f(Point{r.l[0] * a.x + r.l[1] * b.x + r.l[2] * c.x, r.l[0] * a.y + r.l[1] * b.y + r.l[2] * c.y}, r.w * A);
 }
 
+// Calls f(point, weight) for every quadrature point of the element's fan.
+template <class F>
+void integrate_cell(const PolyfemElement& e, double max_area, F&& f) {
+  const std::size_t n = e.polygon.size();
+  for (std::size_t i = 0; i < n; ++i) integrate_triangle(e.centroid, e.polygon[i], e.polygon[(i + 1) % n], max_area, f);
+}
+
 // K = ∫ s ∇B_k·∇B_l and the loads b_x = ∫ s ∂x B_k, b_y = ∫ s ∂y B_k.
 struct Assembled {
   Eigen::SparseMatrix<double> stiffness;
@@ -60,14 +67,12 @@ Assembled assemble(const PolygonMesh& mesh, const PolyfemNodes& nodes, const Sca
   std::vector<double> psi;
   std::vector<Point> grad;
   for (std::size_t c = 0; c < mesh.cells.size(); ++c) {
-    std::vector<Point> polygon;
-    for (int v : mesh.cells[c]) polygon.push_back(mesh.vertices[v]);
-    const std::vector<SerendipityDiagonal> diagonals = serendipity_coefficients(polygon);
+    const PolyfemElement e(mesh, int(c));
+    const std::vector<Point>& polygon = e.polygon;
+    const Point& centroid = e.centroid;
     const std::vector<int>& local = nodes.cell_nodes[c];
     const std::size_t m = local.size();
     std::vector<double> k(m * m, 0.0);
-    Point centroid{0, 0};
-    for (const Point& p : polygon) centroid = {centroid.x + p.x / polygon.size(), centroid.y + p.y / polygon.size()};
     // The quadrature points with their weights (area × s) and the basis' gradients there.
     struct Sample {
       double area_weight, s;
@@ -76,16 +81,14 @@ Assembled assemble(const PolygonMesh& mesh, const PolyfemNodes& nodes, const Sca
     std::vector<Sample> samples;
     std::vector<Point> quadrature_sum(m, Point{0, 0});
     double cell_area = 0;
-    for (std::size_t i = 0; i < polygon.size(); ++i)
-      integrate_triangle(centroid, polygon[i], polygon[(i + 1) % polygon.size()], options.max_triangle_area,
-                         [&](const Point& p, double w) {
-                           serendipity_basis(polygon, diagonals, p, psi, grad);
-                           for (std::size_t a = 0; a < m; ++a)
-                             quadrature_sum[a] = {quadrature_sum[a].x + w * grad[a].x, quadrature_sum[a].y + w * grad[a].y};
-                           cell_area += w;
-                           samples.push_back({w, options.saliency_floor + (1 - options.saliency_floor) * saliency.at(p), grad});
-                         });
-    // Polynomial consistency (ours, after Talischi et al.'s corrected quadrature for polygonal
+    integrate_cell(e, options.max_triangle_area, [&](const Point& p, double w) {
+      serendipity_basis(polygon, e.diagonals, p, psi, grad);
+      for (std::size_t a = 0; a < m; ++a)
+        quadrature_sum[a] = {quadrature_sum[a].x + w * grad[a].x, quadrature_sum[a].y + w * grad[a].y};
+      cell_area += w;
+      samples.push_back({w, options.saliency_floor + (1 - options.saliency_floor) * saliency.at(p), grad});
+    });
+    // Polynomial consistency (ours, after [Talischi]'s corrected quadrature for polygonal
     // elements): the basis is rational, so quadrature misses ∫ ∇B_a = ∮ B_a·n, which the patch
     // test needs exactly. On the boundary B_a is the 1-D P2 basis of each edge's three nodes
     // (∫ = L/6 at either end, 2L/3 at the midpoint), so ∮ B_a·n is exact; each gradient is
@@ -184,6 +187,12 @@ void check_mesh(const PolygonMesh& mesh) {
 
 }  // namespace
 
+PolyfemElement::PolyfemElement(const PolygonMesh& mesh, int cell) {
+  for (int v : mesh.cells.at(cell)) polygon.push_back(mesh.vertices[v]);
+  diagonals = serendipity_coefficients(polygon);
+  for (const Point& p : polygon) centroid = {centroid.x + p.x / polygon.size(), centroid.y + p.y / polygon.size()};
+}
+
 double ScalarMap::at(const Point& p) const {
   if (values.empty() || map_w <= 0 || map_h <= 0) return 0;
   const double fx = std::clamp(p.x / width * map_w - 0.5, 0.0, double(map_w - 1));
@@ -265,23 +274,17 @@ AspectRange polyfem_fold_free_range(const PolygonMesh& mesh, const PolyfemSoluti
   std::vector<double> psi;
   std::vector<Point> grad;
   for (std::size_t c = 0; c < mesh.cells.size(); ++c) {
-    std::vector<Point> polygon;
-    for (int v : mesh.cells[c]) polygon.push_back(mesh.vertices[v]);
-    const std::vector<SerendipityDiagonal> diagonals = serendipity_coefficients(polygon);
+    const PolyfemElement e(mesh, int(c));
     const std::vector<int>& local = solution.nodes.cell_nodes[c];
-    Point centroid{0, 0};
-    for (const Point& p : polygon) centroid = {centroid.x + p.x / polygon.size(), centroid.y + p.y / polygon.size()};
-    for (std::size_t i = 0; i < polygon.size(); ++i)
-      integrate_triangle(centroid, polygon[i], polygon[(i + 1) % polygon.size()], options.max_triangle_area,
-                         [&](const Point& p, double) {
-                           serendipity_basis(polygon, diagonals, p, psi, grad);
-                           Point gx{0, 0}, gy{0, 0};  // ∇G_x, ∇G_y
-                           for (std::size_t a = 0; a < local.size(); ++a) {
-                             gx = {gx.x + solution.g_x[local[a]] * grad[a].x, gx.y + solution.g_x[local[a]] * grad[a].y};
-                             gy = {gy.x + solution.g_y[local[a]] * grad[a].x, gy.y + solution.g_y[local[a]] * grad[a].y};
-                           }
-                           bound(1 + W * gx.x - H * gy.y, W * gx.x * (1 - H * gy.y) + W * H * gx.y * gy.x);
-                         });
+    integrate_cell(e, options.max_triangle_area, [&](const Point& p, double) {
+      serendipity_basis(e.polygon, e.diagonals, p, psi, grad);
+      Point gx{0, 0}, gy{0, 0};  // ∇G_x, ∇G_y
+      for (std::size_t a = 0; a < local.size(); ++a) {
+        gx = {gx.x + solution.g_x[local[a]] * grad[a].x, gx.y + solution.g_x[local[a]] * grad[a].y};
+        gy = {gy.x + solution.g_y[local[a]] * grad[a].x, gy.y + solution.g_y[local[a]] * grad[a].y};
+      }
+      bound(1 + W * gx.x - H * gy.y, W * gx.x * (1 - H * gy.y) + W * H * gx.y * gy.x);
+    });
   }
   return {1 + u_low, 1 + u_high};
 }

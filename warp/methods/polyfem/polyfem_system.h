@@ -17,7 +17,7 @@
 //            triangles split in four until ≤ max_triangle_area px², Dunavant's 6-point rule of
 //            degree 4 on each (never at a polygon vertex); the gradients shifted by one constant
 //            per basis function and cell so that their quadrature sum is ∮ B·n exactly (ours,
-//            after Talischi et al.'s polynomially consistent quadrature: the basis is rational,
+//            after [Talischi]'s polynomially consistent quadrature: the basis is rational,
 //            and without it the patch test fails by the quadrature error, 2e-6).
 //
 // Thread safety: pure functions.
@@ -27,6 +27,7 @@
 
 #include "warp/core/mesh.h"
 #include "warp/meshing/polygon_mesh.h"
+#include "warp/methods/polyfem/serendipity.h"
 
 namespace zoomwarp::warp {
 
@@ -37,6 +38,15 @@ struct ScalarMap {
   double width = 0, height = 0;
   std::vector<float> values;
   double at(const Point& p) const;
+};
+
+// One cell's element: its polygon, its serendipity coefficients (serendipity.h) and the vertex
+// centroid its fan starts from (the quadrature here, the export's samples).
+struct PolyfemElement {
+  std::vector<Point> polygon;
+  std::vector<SerendipityDiagonal> diagonals;
+  Point centroid{0, 0};
+  PolyfemElement(const PolygonMesh& mesh, int cell);
 };
 
 struct PolyfemNodes {
