@@ -1,9 +1,5 @@
-// method=polyfem [PolyFEM] as a Retargeter, and its precomputation (polyfem.<saliency>.bin):
+// method=polyfem [PolyFEM] as a Retargeter, from its model (polyfem_model.h):
 //
-//   precompute  the saliency-adaptive polygon mesh of the analysis image (meshing/cvt_mesh.h),
-//               the global system and its two decoupled solves g_x, g_y (polyfem_system.h), the
-//               aspect range on which their axpy folds nowhere, and per cell δ_c, G's chord
-//               deviation at export levels 0–3; stored with K for the fallback;
 //   load        the cells sampled at levels 0–3 (polyfem_export.h), once per version; deeper
 //               levels per cell when a view needs them, in a bounded cache;
 //   view        the z = 0 target (the screen's aspect, the image's area) as node displacements —
@@ -32,24 +28,13 @@
 #include "warp/meshing/polygon_mesh.h"
 #include "warp/methods/polyfem/polyfem_export.h"
 #include "warp/methods/polyfem/polyfem_fallback.h"
+#include "warp/methods/polyfem/polyfem_model.h"
 #include "warp/methods/polyfem/polyfem_system.h"
 #include "warp/methods/recent_cache.h"
 #include "warp/methods/retargeter.h"
 #include "warp/methods/retargeting_method.h"
 
 namespace zoomwarp::warp {
-
-struct PolyfemModel {
-  static constexpr int kChordLevels = 4;  // δ_c stored for levels 0–3
-  PolyfemSolution solution;               // nodes (rebuilt from the mesh on parse), g_x, g_y, K
-  PolygonMesh mesh;                       // analysis px
-  AspectRange fold_free;                  // of the axpy
-  std::vector<std::array<Point, kChordLevels>> chord;  // δ_c of G per cell and level
-};
-
-PolyfemModel build_polyfem_model(const MethodInput& input);
-std::string polyfem_model_bytes(const PolyfemModel& model);
-PolyfemModel parse_polyfem_model(std::string_view bytes);  // throws std::runtime_error
 
 // How a view was exported.
 struct PolyfemViewStats {

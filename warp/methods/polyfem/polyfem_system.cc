@@ -289,6 +289,12 @@ AspectRange polyfem_fold_free_range(const PolygonMesh& mesh, const PolyfemSoluti
   return {1 + u_low, 1 + u_high};
 }
 
+std::vector<Point> polyfem_g_field(const PolyfemSolution& s) {
+  std::vector<Point> g(s.g_x.size());
+  for (std::size_t k = 0; k < g.size(); ++k) g[k] = {s.g_x[k], s.g_y[k]};
+  return g;
+}
+
 std::vector<Point> polyfem_positions(const PolyfemSolution& s, double width, double height, double target_w,
                                      double target_h) {
   const double dw = target_w - width, dh = target_h - height;

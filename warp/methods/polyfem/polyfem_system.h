@@ -78,6 +78,9 @@ struct PolyfemSolution {
 };
 PolyfemSolution solve_polyfem(const PolygonMesh& mesh, const ScalarMap& saliency, const PolyfemOptions& options = {});
 
+// (g_x, g_y) per node as one field, what chord deviations of G are measured on (polyfem_export.h).
+std::vector<Point> polyfem_g_field(const PolyfemSolution& solution);
+
 // The node positions for a target W' × H': the axpy above.
 std::vector<Point> polyfem_positions(const PolyfemSolution& solution, double width, double height, double target_w,
                                      double target_h);
