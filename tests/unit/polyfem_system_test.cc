@@ -230,9 +230,8 @@ TEST(PolyfemExport, ChordErrorIsBoundedByTheCellDeviationAndShrinksWithTheLevel)
   std::vector<double> worst(4, 0), bound(4, 0);
   for (int level = 0; level < 4; ++level)
     for (int c = 0; c < int(m.cells.size()); ++c) {
-      std::vector<Point> g(s.g_x.size());
-      for (std::size_t k = 0; k < g.size(); ++k) g[k] = {s.g_x[k], s.g_y[k]};
-      const Point delta = warp::polyfem_chord_deviation(warp::sample_polyfem_cell(m, s.nodes, c, level + 1), g);
+      const Point delta =
+          warp::polyfem_chord_deviation(warp::sample_polyfem_cell(m, s.nodes, c, level + 1), warp::polyfem_g_field(s));
       bound[level] = std::max(bound[level], std::abs(dw) * delta.x);
       const warp::CellSampling cell = warp::sample_polyfem_cell(m, s.nodes, c, level);
       std::vector<Point> q;
