@@ -100,14 +100,16 @@ std::shared_ptr<const PolyfemRetargeting::Target> PolyfemRetargeting::target(dou
     for (std::size_t k = 0; k < s.g_x.size(); ++k) t->displacement[k] = {dw * s.g_x[k], dh * s.g_y[k]};
     return t;
   };
-  // A view's target has the image's area: the quadrature points' range decides (exact, O(1)).
-  // Any other target: the check level's triangles.
-  const bool image_area = std::abs(tw * th / (width_ * height_) - 1) < 1e-9;
-  if ((dw == 0 && dh == 0) || (image_area && model_.fold_free.contains(tw / width_))) return axpy();
+  if (dw == 0 && dh == 0) return axpy();  // the identity
   std::lock_guard lock(targets_mutex_);  // single flight: a second request for it waits
   if (auto found = targets_.find({tw, th})) return *found;
   std::shared_ptr<Target> t = axpy();
-  bool folds = image_area;
+  // A view's target has the image's area: outside the fold-free range det J ≤ 0 at a quadrature
+  // point, so the fallback runs at once. Inside it, and for any other target, the check levels'
+  // triangles decide: a chord triangle can turn over where the curved map does not (or between
+  // quadrature points) — the corpus's night bridge at 9:16 did, inside the range.
+  const bool image_area = std::abs(tw * th / (width_ * height_) - 1) < 1e-9;
+  bool folds = image_area && !model_.fold_free.contains(tw / width_);
   for (std::size_t c = 0; !folds && c < check_.size(); ++c) folds = polyfem_cell_folds(check_[c], t->displacement);
   if (folds) {
     t->stats = polyfem_fallback(model_.mesh, s, check_, dw, dh, stop);
@@ -213,15 +215,15 @@ View PolyfemRetargeting::view(const ViewRequest& r, PolyfemViewStats* stats) {
     }
   }
   // The level: the smallest whose measured chord error is within kMaxChordErrorPx, no finer than
-  // the triangle budget allows; for a fallback target one of its check levels, or a finer one on
-  // which no visible cell folds (the fallback kept only the check levels from folding).
+  // the triangle budget allows, and fold-free: a check level (checked with the target), or one
+  // on which no visible cell folds (checked as views need it, kept with the target).
   int max_level = kMaxPolyfemLevel;
   while (max_level > 0 && (fan_triangles << (2 * max_level)) > kMaxExportTriangles) --max_level;
   const auto allowed = [&](int k) {
-    if (!t->fallback || k == kCheckLevels[0] || k == kCheckLevels[1]) return true;
+    if (k == kCheckLevels[0] || k == kCheckLevels[1]) return true;
     return std::none_of(visible.begin(), visible.end(), [&](int c) { return target_folds(*t, c, k); });
   };
-  int level = t->fallback ? std::min(kCheckLevels[0], max_level) : 0;
+  int level = 0;
   const auto worst_chord = [&](int k) {
     double worst = 0;
     for (int c : visible) worst = std::max(worst, chord_px(c, k));

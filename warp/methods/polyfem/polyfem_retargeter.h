@@ -2,16 +2,18 @@
 //
 //   load        the cells sampled at levels 0–3 (polyfem_export.h), once per version; deeper
 //               levels per cell when a view needs them, in a bounded cache;
-//   view        the z = 0 target (the screen's aspect, the image's area) as node displacements —
-//               one axpy when the aspect is in the fold-free range, else [PolyFEM §4.5]'s L-BFGS
-//               with per-cell rollback (polyfem_fallback.h) checked at kCheckLevels, cached per
-//               target —, then traditional zoom as every method does. Only the visible cells are
-//               exported, at one level k for all (shared edges stay identical): the smallest whose
-//               chord error max_c |(ΔW·δ_c(k).x, ΔH·δ_c(k).y)|·(screen px per analysis px) is at
-//               most 0.5 screen px, δ_c(k) measured at level k (stored to level 3, deeper ones
-//               measured when first needed, kept); no finer than kMaxExportTriangles allows. A
-//               fallback target's chord error is measured on its own displacement, and it is
-//               exported at its check levels or at a finer one on which no visible cell folds.
+//   view        the z = 0 target (the screen's aspect, the image's area) as node displacements,
+//               made once per target and cached: one axpy, unless the aspect is outside the
+//               fold-free range or the axpy turns a triangle of the check levels (kCheckLevels)
+//               over — then [PolyFEM §4.5]'s L-BFGS with per-cell rollback (polyfem_fallback.h);
+//               then traditional zoom as every method does. Only the visible cells are exported,
+//               at one level k for all (shared edges stay identical): the smallest whose chord
+//               error max_c |(δ_c(k).x, δ_c(k).y)|·(screen px per analysis px) is at most 0.5
+//               screen px — δ_c(k) measured at level k on the target's displacement (for the
+//               axpy (ΔW·δ.x, ΔH·δ.y) with δ of G, stored to level 3, deeper ones measured once
+//               and kept) —, no finer than kMaxExportTriangles allows, and fold-free: a check
+//               level, or one on which no visible cell folds (checked when first needed, kept
+//               with the target); a cap is reported in PolyfemViewStats.
 //
 // Thread safety: view() may run concurrently (the caches lock).
 #pragma once
@@ -43,7 +45,7 @@ struct PolyfemViewStats {
   long triangles = 0;
   int visible_cells = 0;
   bool budget_limited = false;   // chord error > 0.5 px: kMaxExportTriangles (or kMaxPolyfemLevel) capped the level
-  bool fold_limited = false;     // chord error > 0.5 px: the fallback's displacement folds on the finer levels
+  bool fold_limited = false;     // chord error > 0.5 px: the target's displacement folds on the finer levels
   bool fallback = false;         // the target needed [PolyFEM §4.5]'s fallback
 };
 
@@ -64,12 +66,12 @@ class PolyfemRetargeting final : public Retargeter {
   std::size_t memory_bytes() override;
 
   // The node displacements (analysis px) for a target of tw × th image pixels, and whether the
-  // fallback made them.
+  // fallback made them; cached (kCachedTargets).
   struct Target {
     std::vector<Point> displacement;
     bool fallback = false;
     PolyfemFallback stats;  // when it did
-    // A fallback target's chord deviations and fold checks per (level, cell), made as views need them.
+    // Chord deviations (a fallback target's) and fold checks per (level, cell), made as views need them.
     mutable std::mutex mutex;
     mutable std::map<std::pair<int, int>, Point> chord;
     mutable std::map<std::pair<int, int>, bool> folds;
