@@ -1,10 +1,12 @@
-// The precomputed mesh methods over the wire, method=mp [Guo09] and method=patch [Lin13]: ingest
-// precomputes <method>.default.bin and <method>.gbvs.bin; /viewport is exactly w×h at every zoom
-// and, on a screen of the image's aspect, zoom 1 is the IIIF crop; /mesh has ICAZ's shape and at
-// zoom 0 spans the whole screen without a fold-over. mp: a curator's line becomes a chain of mesh
-// vertices that stays straight on the screen; a significance edit marking a region as important
-// makes it one rigid object (a similarity, no rotation), which it was not before. patch: a
-// significance edit writes the new version's patch files and changes its warp.
+// The precomputed mesh methods over the wire, method=mp [Guo09], method=patch [Lin13] and
+// method=polyfem [PolyFEM]: ingest precomputes <method>.default.bin and <method>.gbvs.bin;
+// /viewport is exactly w×h at every zoom and, on a screen of the image's aspect, zoom 1 is the
+// IIIF crop; /mesh has ICAZ's shape and at zoom 0 spans the whole screen without a fold-over.
+// mp: a curator's line becomes a chain of mesh vertices that stays straight on the screen; a
+// significance edit marking a region as important makes it one rigid object (a similarity, no
+// rotation), which it was not before. patch: a significance edit writes the new version's patch
+// files and changes its warp. polyfem: a significance edit writes its files, moves the warp and
+// distorts the marked region less.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -13,6 +15,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <utility>
 #include <vector>
 
 #include "tests/support/http_client.h"
@@ -61,13 +64,28 @@ SimilarityFit similarity_fit(const std::vector<MeshVertex>& vs) {
 }
 
 // The methods every test below runs for.
-const char* const kMethods[] = {"mp", "patch"};
+const char* const kMethods[] = {"mp", "patch", "polyfem"};
 
 // The largest screen-position difference between two meshes of the same vertices.
 double max_screen_shift(const std::vector<MeshVertex>& a, const std::vector<MeshVertex>& b) {
   double d = 0;
   for (std::size_t i = 0; i < std::min(a.size(), b.size()); ++i) d = std::max(d, std::hypot(a[i].x - b[i].x, a[i].y - b[i].y));
   return a.size() == b.size() ? d : 1e9;
+}
+
+// Where image point (u, v) lands on the screen in `mesh`: interpolated in the triangle whose
+// source contains it (NaN outside every triangle).
+std::pair<double, double> screen_position(const json& mesh, double u, double v) {
+  const std::vector<MeshVertex> vs = vertices_of(mesh);
+  for (const json& t : mesh["triangles"]) {
+    const MeshVertex &a = vs[t[0]], &b = vs[t[1]], &c = vs[t[2]];
+    const double det = (b.u - a.u) * (c.v - a.v) - (b.v - a.v) * (c.u - a.u);
+    const double l1 = ((u - a.u) * (c.v - a.v) - (v - a.v) * (c.u - a.u)) / det;
+    const double l2 = ((b.u - a.u) * (v - a.v) - (b.v - a.v) * (u - a.u)) / det;
+    if (l1 >= -1e-9 && l2 >= -1e-9 && l1 + l2 <= 1 + 1e-9)
+      return {a.x + l1 * (b.x - a.x) + l2 * (c.x - a.x), a.y + l1 * (b.y - a.y) + l2 * (c.y - a.y)};
+  }
+  return {std::nan(""), std::nan("")};
 }
 
 class MeshMethods : public ::testing::Test {
@@ -164,7 +182,7 @@ TEST_F(MeshMethods, MeshHasIcazsShapeAndCoversTheScreenWithoutFoldOvers) {
       EXPECT_EQ(keys, icaz_keys);
       EXPECT_EQ(m["view"]["method"], method);
       const std::vector<MeshVertex> vs = vertices_of(m);
-      ASSERT_GT(vs.size(), 100u) << "a few hundred feature points [Guo09 §3.2], a 20-px grid [Lin13 §IV]";
+      ASSERT_GT(vs.size(), 100u) << "a few hundred feature points [Guo09 §3.2], a 20-px grid [Lin13 §IV], ~200 sampled cells";
       double x0 = 1e9, x1 = -1e9, y0 = 1e9, y1 = -1e9;
       for (const MeshVertex& v : vs) x0 = std::min(x0, v.x), x1 = std::max(x1, v.x), y0 = std::min(y0, v.y), y1 = std::max(y1, v.y);
       EXPECT_NEAR(x0, 0, 0.002);
@@ -271,6 +289,47 @@ TEST_F(MeshMethods, PatchFollowsSignificanceAndLineEdits) {
   EXPECT_NE(testing::read_file(lined_dir + "/patch.default.bin"), file_marked) << "lines are in patch's energy";
   const json lined = mesh("patched", "zoom=0&w=360&h=640", "patch");
   EXPECT_GT(max_screen_shift(vertices_of(after), vertices_of(lined)), 0.1) << "the warp follows the line";
+}
+
+// The sky from (120, 60) to (520, 300) marked as important: the edit writes the new version's
+// polyfem files, the warp of the same view moves, and the sky, which the stretch to 9:16
+// distorted, is distorted less (s = 1 there pulls J toward I [PolyFEM eq. 11], a similarity once
+// zoomed).
+TEST_F(MeshMethods, PolyfemFollowsASignificanceEdit) {
+  upload("polyfem-marked");
+  const std::string dir = fs::canonical(store() + "/images/polyfem-marked").string();
+  const std::string file_before = testing::read_file(dir + "/polyfem.default.bin");
+  const std::string view = "zoom=0&w=360&h=640";
+  const json before = mesh("polyfem-marked", view, "polyfem");
+  const json regions = {{"regions", {{{"rect", {120, 60, 400, 240}}, {"weight", 1}}}}};
+  auto r = http.request("PATCH", "/v1/images/polyfem-marked/significance", regions.dump());
+  ASSERT_EQ(r.status, 200) << r.body;
+  const std::string after_dir = fs::canonical(store() + "/images/polyfem-marked").string();
+  // Not EXPECT_NE: a failure would print both files (~1 MB each).
+  EXPECT_TRUE(testing::read_file(after_dir + "/polyfem.default.bin") != file_before) << "the edit rewrites the file";
+  const json after = mesh("polyfem-marked", view, "polyfem");
+  EXPECT_NE(after["image"]["version"], before["image"]["version"]);
+
+  // The edit remeshes (the cells follow the map's edges): compare image points, not vertices.
+  double shift = 0;
+  for (double u = 40; u < 1280; u += 80)
+    for (double v = 40; v < 800; v += 80) {
+      const auto [x0, y0] = screen_position(before, u, v);
+      const auto [x1, y1] = screen_position(after, u, v);
+      ASSERT_FALSE(std::isnan(x0 + x1)) << "(" << u << ", " << v << ") is in no triangle";
+      shift = std::max(shift, std::hypot(x1 - x0, y1 - y0));
+    }
+  const auto sky = [](const json& mesh) {  // 20 px inside the region
+    std::vector<MeshVertex> out;
+    for (const MeshVertex& v : vertices_of(mesh))
+      if (v.u > 140 && v.u < 500 && v.v > 80 && v.v < 280) out.push_back(v);
+    return out;
+  };
+  const double residual_before = similarity_fit(sky(before)).residual, residual_after = similarity_fit(sky(after)).residual;
+  std::printf("[ figures ] polyfem edit: image points moved up to %.1f px; sky's similarity residual %.3f before, %.3f after\n",
+              shift, residual_before, residual_after);
+  EXPECT_GT(shift, 1) << "the warp follows the edit";
+  EXPECT_LT(residual_after, 0.8 * residual_before) << "the region marked important is distorted less";
 }
 
 }  // namespace

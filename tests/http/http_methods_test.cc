@@ -1,6 +1,7 @@
 // GET /v1/methods on the wire: the methods a view request may name, as the viewer's menus list
-// them — api's own first, then every registered retargeting method — each one answering /viewport,
-// and /mesh unless it says it has none; the saliency kinds; public, cacheable, 304 on its ETag.
+// them — api's own first, then every registered retargeting method, exactly the OpenAPI
+// document's method= values — each one answering /viewport, and /mesh unless it says it has none;
+// the saliency kinds; public, cacheable, 304 on its ETag.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -64,12 +65,17 @@ TEST_F(Methods, ListsApisOwnThenEveryRegisteredMethodAndTheSaliencyKinds) {
     EXPECT_FALSE(m["summary"].get<std::string>().empty()) << m;
     EXPECT_FALSE(m["zoom"].get<std::string>().empty()) << m;
   }
-  // ICAZ first (the default), then traditional zoom and Retarget+Zoom; each name once.
+  // ICAZ first (the default), then traditional zoom, Retarget+Zoom and the retargeting methods;
+  // each name once, and exactly the names the served OpenAPI document offers for method=.
   ASSERT_GE(names.size(), 3u);
   EXPECT_EQ(names[0], "icaz");
   EXPECT_EQ(names[1], "traditional");
-  EXPECT_NE(std::find(names.begin(), names.end(), "retarget-zoom"), names.end());
-  EXPECT_EQ(std::set<std::string>(names.begin(), names.end()).size(), names.size()) << body;
+  for (const char* name : {"retarget-zoom", "seam", "mp", "patch", "polyfem"})
+    EXPECT_NE(std::find(names.begin(), names.end(), name), names.end()) << name;
+  const std::set<std::string> listed(names.begin(), names.end());
+  EXPECT_EQ(listed.size(), names.size()) << body;
+  const json& offered = openapi["components"]["parameters"]["method"]["schema"]["enum"];
+  EXPECT_EQ(std::set<std::string>(offered.begin(), offered.end()), listed);
   // Every registered method, in the registry's order, as it describes itself.
   auto at = names.begin();
   for (const warp::RetargetingMethod* m : warp::retargeting_methods()) {

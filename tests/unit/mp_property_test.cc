@@ -21,12 +21,11 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
-#include <initializer_list>
-#include <ostream>
 #include <string>
 #include <vector>
 
 #include "tests/support/analysed_image.h"
+#include "tests/support/sample_cases.h"
 #include "warp/compare/metrics.h"
 #include "warp/methods/mp/mp_precompute.h"
 #include "warp/methods/mp/mp_solve.h"
@@ -154,16 +153,7 @@ void expect_boundary_on_target(const MpModel& m, Target t, const std::vector<Poi
   }
 }
 
-// One image (a file in samples/, or kSynthetic) and a saliency kind.
-struct Case {
-  const char* image;
-  Saliency kind;
-  friend std::ostream& operator<<(std::ostream& out, const Case& c) {
-    return out << c.image << ", saliency=" << warp::saliency_name(c.kind);
-  }
-};
-
-class MpProperty : public ::testing::TestWithParam<Case> {
+class MpProperty : public ::testing::TestWithParam<testing::SampleCase> {
  protected:
   const Subject& tested() const { return subject(GetParam().image, GetParam().kind); }
 };
@@ -225,24 +215,13 @@ TEST_P(MpProperty, WithoutObjectsAndLinesExactlyTheUniformStretch) {
   }
 }
 
-// Each image with both saliency kinds.
-std::vector<Case> cases(std::initializer_list<const char*> images) {
-  std::vector<Case> out;
-  for (const char* image : images)
-    for (Saliency kind : warp::kSaliencies) out.push_back({image, kind});
-  return out;
-}
-
-std::string name_of(const ::testing::TestParamInfo<Case>& info) {
-  const std::string image = info.param.image;
-  return image.substr(0, image.find('.')) + "_" + std::string(warp::saliency_name(info.param.kind));
-}
-
 INSTANTIATE_TEST_SUITE_P(MpPropertySamples, MpProperty,
-                         ::testing::ValuesIn(cases({"boats_lake_sunset.jpg", "astronaut_portrait.png",
-                                                    "interior_wine_djembe_tall.jpg", "pano_grossmugl_field_4to1.png"})),
-                         name_of);
-INSTANTIATE_TEST_SUITE_P(MpPropertySynthetic, MpProperty, ::testing::ValuesIn(cases({kSynthetic})), name_of);
+                         ::testing::ValuesIn(testing::sample_cases({"boats_lake_sunset.jpg", "astronaut_portrait.png",
+                                                                    "interior_wine_djembe_tall.jpg",
+                                                                    "pano_grossmugl_field_4to1.png"})),
+                         testing::sample_case_name);
+INSTANTIATE_TEST_SUITE_P(MpPropertySynthetic, MpProperty, ::testing::ValuesIn(testing::sample_cases({kSynthetic})),
+                         testing::sample_case_name);
 
 // The synthetic picture has objects and lines with both kinds: without them its properties above
 // would hold trivially.

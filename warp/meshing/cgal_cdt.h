@@ -1,6 +1,6 @@
-// The CGAL constrained Delaunay triangulation that both meshing translation units build on
-// (coarse_mesh.cc, constrained_mesh.cc). Private to meshing/: include it first in those two files
-// and nowhere else — it pulls in CGAL, whose headers are heavy.
+// The CGAL constrained Delaunay triangulation that coarse_mesh.cc and constrained_mesh.cc build on,
+// and the kernel cvt_mesh.cc's Delaunay triangulation uses. Private to meshing/: include it first
+// in those three files and nowhere else — it pulls in CGAL, whose headers are heavy.
 //
 // CGAL's own checks stay on even in release builds (NDEBUG and CGAL_NDEBUG are undefined before
 // any CGAL header). Delaunay refinement of crossing line constraints — whose intersection points

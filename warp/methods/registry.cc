@@ -4,13 +4,14 @@
 
 #include "warp/methods/mp/mp_retargeter.h"
 #include "warp/methods/patch/patch_retargeter.h"
+#include "warp/methods/polyfem/polyfem_retargeter.h"
 #include "warp/methods/retarget_zoom/retarget_zoom.h"
 #include "warp/methods/seam/seam_carving.h"
 
 namespace zoomwarp::warp {
 
 std::span<const RetargetingMethod* const> retargeting_methods() {
-  static const RetargetingMethod* const kAll[] = {&retarget_zoom_method(), &seam_carving_method(), &mp_method(), &patch_method()};
+  static const RetargetingMethod* const kAll[] = {&retarget_zoom_method(), &seam_carving_method(), &mp_method(), &patch_method(), &polyfem_method()};
   return kAll;
 }
 
