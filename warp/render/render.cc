@@ -4,6 +4,8 @@
 #include <cmath>
 #include <map>
 
+#include <opencv2/imgproc.hpp>
+
 #include "warp/render/level_patch.h"
 
 namespace zoomwarp::warp {
@@ -69,35 +71,63 @@ tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEn
     }
   }
 
+  // Per level: each covered screen pixel's position in the level's patch, written by scanning
+  // the triangles (one affine map each), then all of them resampled by one cv::remap — bilinear,
+  // vectorised, the border replicated — and copied under the coverage mask. (Sampling pixel by
+  // pixel in doubles was 3/4 of a viewport's CPU time.)
+  cv::Mat screen(sh, sw, CV_8UC(m.channels), out.pixels.data(), out.row_bytes());
   for (const auto& [level, g] : groups) {
     check_stop(stop);
     const LevelPatch patch = read_patch(image, reader, level, g.u0, g.v0, g.u1, g.v1);
+    int bx0 = sw, by0 = sh, bx1 = -1, by1 = -1;  // the group's pixels on screen
+    for (int f : g.triangles)
+      for (int v : src.triangles[f]) {
+        bx0 = std::min(bx0, std::max(0, int(std::floor(scr[v].x))));
+        bx1 = std::max(bx1, std::min(sw - 1, int(std::ceil(scr[v].x))));
+        by0 = std::min(by0, std::max(0, int(std::floor(scr[v].y))));
+        by1 = std::max(by1, std::min(sh - 1, int(std::ceil(scr[v].y))));
+      }
+    if (bx1 < bx0 || by1 < by0) continue;
+    const int w = bx1 - bx0 + 1, h = by1 - by0 + 1;
+    cv::Mat map_x(h, w, CV_32F), map_y(h, w, CV_32F), covered(h, w, CV_8U, cv::Scalar(0));
     for (int f : g.triangles) {
       check_stop(stop);
       const Triangle& t = src.triangles[f];
       const Point &a = scr[t[0]], &b = scr[t[1]], &c = scr[t[2]];
       const double area = signed_area2(a, b, c);
-      const int x0 = std::max(0, int(std::floor(std::min({a.x, b.x, c.x}))));
-      const int x1 = std::min(sw - 1, int(std::ceil(std::max({a.x, b.x, c.x}))));
-      const int y0 = std::max(0, int(std::floor(std::min({a.y, b.y, c.y}))));
-      const int y1 = std::min(sh - 1, int(std::ceil(std::max({a.y, b.y, c.y}))));
+      const int x0 = std::max(bx0, int(std::floor(std::min({a.x, b.x, c.x}))));
+      const int x1 = std::min(bx1, int(std::ceil(std::max({a.x, b.x, c.x}))));
+      const int y0 = std::max(by0, int(std::floor(std::min({a.y, b.y, c.y}))));
+      const int y1 = std::min(by1, int(std::ceil(std::max({a.y, b.y, c.y}))));
       // Pixel centres inside the triangle (edges included, with a hair of tolerance so shared
-      // edges leave no gap); barycentric coordinates carry them back to the source.
-      const double eps = 1e-7 * std::abs(area);
+      // edges leave no gap); barycentric coordinates carry them back to the source, and the
+      // source to the patch's pixel grid (centres at integer + 0.5).
+      const double eps = 1e-7 * std::abs(area), sign = area > 0 ? 1 : -1;
+      const Point &sa = src.vertices[t[0]], &sb = src.vertices[t[1]], &sc = src.vertices[t[2]];
       for (int y = y0; y <= y1; ++y) {
-        std::uint8_t* row = out.row(y);
+        float* row_x = map_x.ptr<float>(y - by0);
+        float* row_y = map_y.ptr<float>(y - by0);
+        std::uint8_t* row_covered = covered.ptr<std::uint8_t>(y - by0);
         for (int x = x0; x <= x1; ++x) {
           const Point p{x + 0.5, y + 0.5};
-          const double l0 = signed_area2(p, b, c) / area, l1 = signed_area2(a, p, c) / area;
-          const double l2 = 1 - l0 - l1;
-          if (l0 * std::abs(area) < -eps || l1 * std::abs(area) < -eps || l2 * std::abs(area) < -eps) continue;
-          const Point& sa = src.vertices[t[0]];
-          const Point& sb = src.vertices[t[1]];
-          const Point& sc = src.vertices[t[2]];
-          patch.sample(l0 * sa.x + l1 * sb.x + l2 * sc.x, l0 * sa.y + l1 * sb.y + l2 * sc.y, row + x * m.channels);
+          const double e0 = signed_area2(p, b, c), e1 = signed_area2(a, p, c), e2 = area - e0 - e1;
+          if (e0 * sign < -eps || e1 * sign < -eps || e2 * sign < -eps) continue;
+          const double u = (e0 * sa.x + e1 * sb.x + e2 * sc.x) / area, v = (e0 * sa.y + e1 * sb.y + e2 * sc.y) / area;
+          row_x[x - bx0] = float(u * patch.scale - 0.5 - double(patch.x0));
+          row_y[x - bx0] = float(v * patch.scale - 0.5 - double(patch.y0));
+          row_covered[x - bx0] = 1;
         }
       }
     }
+    // Uncovered pixels sample anything valid; the mask keeps them out.
+    map_x.setTo(0, covered == 0);
+    map_y.setTo(0, covered == 0);
+    const tiles::Raster& px = patch.pixels;
+    const cv::Mat level_pixels(px.height, px.width, CV_8UC(px.channels), const_cast<std::uint8_t*>(px.pixels.data()),
+                               px.row_bytes());
+    cv::Mat resampled;
+    cv::remap(level_pixels, resampled, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+    resampled.copyTo(screen(cv::Rect(bx0, by0, w, h)), covered);
   }
   return out;
 }
