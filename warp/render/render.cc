@@ -143,8 +143,9 @@ tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEn
       }
     }
     // Uncovered pixels sample anything valid; the mask keeps them out.
-    map_x.setTo(0, covered == 0);
-    map_y.setTo(0, covered == 0);
+    const cv::Mat uncovered = covered == 0;
+    map_x.setTo(0, uncovered);
+    map_y.setTo(0, uncovered);
     const tiles::Raster& px = patch.pixels;
     const cv::Mat level_pixels(px.height, px.width, CV_8UC(px.channels), const_cast<std::uint8_t*>(px.pixels.data()),
                                px.row_bytes());

@@ -18,7 +18,10 @@ void check_image_size(double width, double height) {
 }  // namespace
 
 PolyfemRetargeting::PolyfemRetargeting(double width, double height, PolyfemModel model)
-    : width_((check_image_size(width, height), width)), height_(height), model_(std::move(model)) {
+    : width_((check_image_size(width, height), width)),
+      height_(height),
+      model_(std::move(model)),
+      g_field_(polyfem_g_field(model_.solution)) {
   for (int level = 0; level < kPreparedLevels; ++level) {
     std::vector<CellSampling> cells;
     for (int c = 0; c < int(model_.mesh.cells.size()); ++c)
@@ -62,7 +65,7 @@ Point PolyfemRetargeting::axpy_chord(int cell, int level) {
     std::lock_guard lock(deep_mutex_);
     if (auto it = deep_chord_.find({level, cell}); it != deep_chord_.end()) return it->second;
   }
-  const Point delta = polyfem_chord_deviation(*sampling(cell, level + 1), polyfem_g_field(model_.solution));
+  const Point delta = polyfem_chord_deviation(*sampling(cell, level + 1), g_field_);
   std::lock_guard lock(deep_mutex_);
   return deep_chord_.emplace(std::make_pair(level, cell), delta).first->second;
 }

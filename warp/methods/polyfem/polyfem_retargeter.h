@@ -97,6 +97,7 @@ class PolyfemRetargeting final : public Retargeter {
 
   const double width_, height_;
   const PolyfemModel model_;
+  const std::vector<Point> g_field_;  // (g_x, g_y) per node, what deep δ_c of G are measured on
   std::vector<std::vector<CellSampling>> prepared_;  // [level][cell]
   std::vector<CellSampling> check_;                  // per cell, kCheckLevels' triangles
   std::mutex deep_mutex_;
