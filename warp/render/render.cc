@@ -45,6 +45,44 @@ LevelPatch read_patch(const tiles::ImageEntry& image, tiles::PyramidReader& read
   return p;
 }
 
+namespace {
+
+// Triangles drawn from one pyramid level, with the source bounding box the level has to cover.
+struct Group {
+  std::vector<int> triangles;
+  double u0 = 1e300, v0 = 1e300, u1 = -1e300, v1 = -1e300;
+};
+
+// Bounds on one level patch. Each triangle's own patch is at most ~4× its screen area (its level
+// minifies by less than 2× per axis), but a group's bounding box can be far larger when its
+// triangles lie far apart in the source (a strongly warped view). cv::remap reads positions in
+// 16-bit fixed point, so a side beyond 32 767 px would be clamped to the wrong pixels; and the
+// patch's memory should follow the screen's. A group over either bound is drawn from the next
+// coarser level instead (a little softer, never wrong and never unbounded).
+constexpr long long kMaxPatchSide = 16384;
+long long max_patch_pixels(int sw, int sh) { return 4LL * sw * sh + (1LL << 20); }
+
+void coarsen_oversized_groups(std::map<int, Group>& groups, const tiles::Manifest& m, int sw, int sh) {
+  for (auto it = groups.begin(); it != groups.end();) {
+    const int level = it->first;
+    const Group& g = it->second;  // map insertions below keep it valid
+    const double scale = double(m.level_width(level)) / m.width;
+    const double side_x = (g.u1 - g.u0) * scale + 3, side_y = (g.v1 - g.v0) * scale + 3;
+    const bool oversized = side_x > kMaxPatchSide || side_y > kMaxPatchSide || side_x * side_y > max_patch_pixels(sw, sh);
+    if (!oversized || level + 1 >= m.levels) {
+      ++it;
+      continue;
+    }
+    Group& coarser = groups[level + 1];
+    coarser.triangles.insert(coarser.triangles.end(), g.triangles.begin(), g.triangles.end());
+    coarser.u0 = std::min(coarser.u0, g.u0), coarser.u1 = std::max(coarser.u1, g.u1);
+    coarser.v0 = std::min(coarser.v0, g.v0), coarser.v1 = std::max(coarser.v1, g.v1);
+    it = groups.erase(it);  // the coarser group comes later in the map and is checked in turn
+  }
+}
+
+}  // namespace
+
 tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEntry& image,
                           tiles::PyramidReader& reader, const StopToken* stop) {
   const tiles::Manifest& m = image.manifest;
@@ -53,10 +91,6 @@ tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEn
   const std::vector<Point>& scr = view.screen;
 
   // Triangles by level, with the source bounding box each level has to cover.
-  struct Group {
-    std::vector<int> triangles;
-    double u0 = 1e300, v0 = 1e300, u1 = -1e300, v1 = -1e300;
-  };
   std::map<int, Group> groups;
   for (int f : view.visible) {
     const Triangle& t = src.triangles[f];
@@ -70,6 +104,8 @@ tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEn
       g.v0 = std::min(g.v0, src.vertices[v].y), g.v1 = std::max(g.v1, src.vertices[v].y);
     }
   }
+
+  coarsen_oversized_groups(groups, m, sw, sh);
 
   // Per level: each covered screen pixel's position in the level's patch, written by scanning
   // the triangles (one affine map each), then all of them resampled by one cv::remap — bilinear,
@@ -126,7 +162,7 @@ tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEn
         // The row's span where every edge function can be ≥ −eps, a pixel wider each side than
         // the bounds solved for (rounding); the test below decides each pixel as before.
         double lo = x0, hi = x1 + 1.0;
-        for (const auto [slope, offset] : {std::pair{ax0, c0}, std::pair{ax1, c1}, std::pair{-ax0 - ax1, area - c0 - c1}}) {
+        for (const auto& [slope, offset] : {std::pair{ax0, c0}, std::pair{ax1, c1}, std::pair{-ax0 - ax1, area - c0 - c1}}) {
           const double k = sign * slope, bound = (-eps - sign * offset);
           if (k > 0) lo = std::max(lo, bound / k);
           else if (k < 0) hi = std::min(hi, bound / k);
