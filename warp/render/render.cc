@@ -159,19 +159,21 @@ tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEn
         std::uint8_t* row_covered = covered.ptr<std::uint8_t>(y - by0);
         const double py = y + 0.5;
         const double c0 = a00 + ay0 * py, c1 = a01 + ay1 * py;
-        // The row's span where every edge function can be ≥ −eps, a pixel wider each side than
-        // the bounds solved for (rounding); the test below decides each pixel as before.
-        double lo = x0, hi = x1 + 1.0;
+        // The row's span: pixel centres px where every edge function is ≥ −eps, solved from
+        // each edge's affine form (an edge parallel to the row holds for all of it or none).
+        // Within it no pixel needs testing, so the loop below has no branch and vectorises.
+        double lo = x0 + 0.5, hi = x1 + 0.5;
+        bool empty = false;
         for (const auto& [slope, offset] : {std::pair{ax0, c0}, std::pair{ax1, c1}, std::pair{-ax0 - ax1, area - c0 - c1}}) {
           const double k = sign * slope, bound = (-eps - sign * offset);
           if (k > 0) lo = std::max(lo, bound / k);
           else if (k < 0) hi = std::min(hi, bound / k);
+          else empty = empty || bound > 0;
         }
-        const int xs = std::max(x0, int(std::floor(lo - 0.5)) - 1), xe = std::min(x1, int(std::ceil(hi - 0.5)) + 1);
+        if (empty || !(lo <= hi)) continue;
+        const int xs = int(std::ceil(lo - 0.5)), xe = int(std::floor(hi - 0.5));
         for (int x = xs; x <= xe; ++x) {
           const double px = x + 0.5;
-          const double e0 = c0 + ax0 * px, e1 = c1 + ax1 * px, e2 = area - e0 - e1;
-          if (e0 * sign < -eps || e1 * sign < -eps || e2 * sign < -eps) continue;
           row_x[x - bx0] = float(u0 + ux * px + uy * py);
           row_y[x - bx0] = float(v0 + vx * px + vy * py);
           row_covered[x - bx0] = 1;
