@@ -558,7 +558,9 @@ measure() {
 }
 
 # ---- report ------------------------------------------------------------------------------------
-med() { echo "$1" | median; }
+# med VALUES [FORMAT]: the median of the space-separated VALUES, printf-formatted (default %.2f).
+med() { fmt "$(echo "$1" | median)" "${2:-%.2f}"; }
+plural() { if [ "$1" -eq 1 ]; then echo "1 $2"; else echo "$1 ${2}s"; fi; }
 fmt() { awk -v v="$1" -v f="$2" 'BEGIN { printf f, v }'; }
 # met CONDITION...: "met" if every awk condition (on numbers substituted in) holds, else "**not met**".
 met() { local c; for c in "$@"; do awk "BEGIN { exit !($c) }" || { echo "**not met**"; return; }; done; echo met; }
@@ -570,17 +572,17 @@ met() { local c; for c in "$@"; do awk "BEGIN { exit !($c) }" || { echo "**not m
 row() {
   local what=$1 label=$2 peer=$3 ours=$4 goal=$5 conds=$6
   local op50 op99 orps pp50 pp99 prps p50r rpsr tail ptail c cpur=""
-  op50=$(med "${res_p50[$ours]}"); op99=$(med "${res_p99[$ours]}"); orps=$(med "${res_rps[$ours]}")
+  op50=$(med "${res_p50[$ours]}"); op99=$(med "${res_p99[$ours]}"); orps=$(med "${res_rps[$ours]}" %.0f)
   tail=$(fmt "$(awk -v a="$op99" -v b="$op50" 'BEGIN { print a / b }')" %.1f)
   if [ "$peer" = engine ]; then
     pp50=${engine_ms:-}; prps="—"; ptail="—"
     if [ -n "$pp50" ]; then
-      p50r=$(ratio "$op50" "$pp50"); cpur=$(ratio "$(med "${res_cpu_ms[$ours]}")" "$pp50")
-      goal+=" (server CPU $(med "${res_cpu_ms[$ours]}") ms/request = ${cpur}× engine)"
+      p50r=$(ratio "$op50" "$pp50"); cpur=$(ratio "$(med "${res_cpu_ms[$ours]}" %.3f)" "$pp50")
+      goal+=" (server CPU $(med "${res_cpu_ms[$ours]}" %.3f) ms/request = ${cpur}× engine)"
     else p50r="—"; pp50="n/a"; fi
     rpsr="—"; pp99="—"
   else
-    pp50=$(med "${res_p50[$peer]}"); pp99=$(med "${res_p99[$peer]}"); prps=$(med "${res_rps[$peer]}")
+    pp50=$(med "${res_p50[$peer]}"); pp99=$(med "${res_p99[$peer]}"); prps=$(med "${res_rps[$peer]}" %.0f)
     p50r=$(ratio "$op50" "$pp50"); rpsr=$(ratio "$orps" "$prps")
     ptail=$(fmt "$(awk -v a="$pp99" -v b="$pp50" 'BEGIN { print a / b }')" %.1f)
   fi
@@ -588,26 +590,25 @@ row() {
   c=${conds//p50r/$p50r}; c=${c//rpsr/$rpsr}; c=${c//tail/$tail}; c=${c//cpur/${cpur:-—}}
   # shellcheck disable=SC2086  # the conditions are separate words
   if [[ "$c" == *"—"* ]]; then verdict="n/a"; else verdict=$(met $c); fi
-  [ "$prps" = "—" ] || prps=$(fmt "$prps" %.0f)
   printf '| %s | %s | %s / %s | %s | %s / %s | %s | %s | %s | %s (%s) | %s: %s |\n' \
-    "$what" "$label" "$pp50" "$pp99" "$prps" "$op50" "$op99" "$(fmt "$orps" %.0f)" \
+    "$what" "$label" "$pp50" "$pp99" "$prps" "$op50" "$op99" "$orps" \
     "$p50r" "$rpsr" "$tail" "$ptail" "$goal" "$verdict"
 }
 
 ingest_row() {
   local tool=$1 label=$2 wall cpu rss mb
   wall=$(med "${ingest_wall[$tool]}"); cpu=$(med "${ingest_cpu[$tool]}")
-  rss=$(med "${ingest_rss[$tool]}"); mb=$(med "${ingest_mb[$tool]}")
+  rss=$(med "${ingest_rss[$tool]}" %.0f); mb=$(med "${ingest_mb[$tool]}" %.1f)
   printf '| %s | %s | %s | %s | %s | %s | %s |\n' "$label" "$wall" "$cpu" "$rss" "$mb" \
-    "$(ratio "$(med "${ingest_wall[zoomwarp]}")" "$wall")" "$(ratio "$(med "${ingest_rss[zoomwarp]}")" "$rss")"
+    "$(ratio "$(med "${ingest_wall[zoomwarp]}")" "$wall")" "$(ratio "$(med "${ingest_rss[zoomwarp]}" %.0f)" "$rss")"
 }
 
 details_row() {
   local name=$1
   printf '| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n' "$name" "${run_conns[$name]}" \
-    "$(med "${res_rps[$name]}")" "$(med "${res_p50[$name]}")" "$(med "${res_p99[$name]}")" \
-    "$(med "${res_srv_cores[$name]}")" "$(med "${res_cpu_ms[$name]}")" "$(med "${res_wrk_cores[$name]}")" \
-    "$(med "${res_other[$name]}")" "$(med "${res_bytes[$name]}")" "$(sed 's/ $//; s# #/#g' <<<"${res_rps[$name]}")"
+    "$(med "${res_rps[$name]}" %.0f)" "$(med "${res_p50[$name]}")" "$(med "${res_p99[$name]}")" \
+    "$(med "${res_srv_cores[$name]}")" "$(med "${res_cpu_ms[$name]}" %.3f)" "$(med "${res_wrk_cores[$name]}")" \
+    "$(med "${res_other[$name]}")" "$(med "${res_bytes[$name]}" %.0f)" "$(sed 's/ $//; s# #/#g' <<<"${res_rps[$name]}")"
 }
 
 machine() {
@@ -624,7 +625,7 @@ report() {
     echo
     machine
     echo "- test image: $image_note"
-    echo "- runs: wrk, $duration s each, $rounds rounds (the order reversed every other round), ${warmup} s warm-up per run; medians over rounds. Computed answers: 1 thread, $connections connections, $views distinct views (seed $seed), zoomwarp with --response-cache 0. Cached tiles: 2 threads, $tile_connections connections, every tile of the $tile_levels highest levels fetched once before."
+    echo "- runs: wrk, $duration s each, $(plural "$rounds" round) (the order reversed every other round), ${warmup} s warm-up per run; medians over rounds. Computed answers: 1 thread, $connections connections, $views distinct views (seed $seed), zoomwarp with --response-cache 0. Cached tiles: 2 threads, $tile_connections connections, every tile of the $tile_levels highest levels fetched once before."
     echo "- peers: iipsrv, $iipsrv_processes single-threaded FastCGI processes (Unix sockets) behind nginx \`fastcgi_pass\`, a JPEG-compressed tiled pyramidal TIFF (vips tiffsave, Q90, 256 px tiles), bilinear, 256 MB tile cache; nginx $("$nginx_bin" -v 2>&1 | sed 's#.*/##') (worker_processes auto, sendfile) serving vips dzsave's tiles (254 px, overlap 1). Answers: JPEG quality $quality everywhere (zoomwarp --jpeg-quality, iipsrv JPEG_QUALITY, dzsave Q)."
     echo "- $comparable_note"
     echo "- the engine alone: ${engine_note}. Its time is CPU time on one core, ours in that row is latency under $connections connections (queueing included), so the goal compares our server's CPU per /mesh request with it."
@@ -641,7 +642,7 @@ report() {
     row "IIIF tiles, response cache on" "iipsrv, the same tiles" iipsrv_iiif_tiles iiif_tiles "p99 ≤ 5× p50" "tail<=5"
     row "plain IIIF region → ${screen_w}×${screen_h}, no cache" "iipsrv, the same regions" iipsrv_region region "p99 ≤ 5× p50" "tail<=5"
     echo
-    echo "Ingest of the test image, median of $rounds builds each (GNU time: wall, user + system CPU, peak RSS; \`du\` of what it wrote). Goal: zoomwarp wall ≤ 1.0× and peak RSS ≤ 1.5× vips dzsave's."
+    echo "Ingest of the test image, median of $(plural "$rounds" build) each (GNU time: wall, user + system CPU, peak RSS; \`du\` of what it wrote). Goal: zoomwarp wall ≤ 1.0× and peak RSS ≤ 1.5× vips dzsave's."
     echo
     echo "| pyramid | wall s | CPU s | peak RSS MB | on disk MB | zoomwarp wall / this | zoomwarp RSS / this |"
     echo "|---|---:|---:|---:|---:|---:|---:|"
