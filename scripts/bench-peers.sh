@@ -82,8 +82,8 @@ options:
   --verbose             also print wrk's own output of every run
   -h, --help            this text
 
-A default run takes about 9 minutes on 2 cores: ~2 to build the image and the pyramids, the rest
-10 runs x (rounds x duration + warmup). Run it on a quiet machine: it reports the CPU that
+A default run takes about 8 minutes on 2 cores: ~2 to build the image, the pyramids (once per
+round) and the tile caches, ~6 for the 10 runs x (warmup + rounds x duration). Run it on a quiet machine: it reports the CPU that
 everything else used during each run and warns above 0.25 cores.
 EOF
 }
