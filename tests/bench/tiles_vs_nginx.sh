@@ -10,10 +10,9 @@
 # with the same URL list -> table + one JSON line. Everything binds to 127.0.0.1 and lives in one
 # temp folder that the EXIT trap removes, with both servers, also on Ctrl-C or failure.
 #
-# Not included: Debian's iipimage-server. It is a FastCGI program only (its package depends on
-# libapache2-mod-fcgid | lighttpd), so measuring it would need an extra front end (lighttpd or
-# Apache) installed and configured, and the front end's cost would be part of the figure. This
-# script installs nothing.
+# This script installs nothing and measures only the tiles. scripts/bench-peers.sh is the whole
+# side-by-side benchmark (iipsrv behind nginx, vips, viewports, meshes, ingest); both share
+# tests/support/wrk_bench.sh.
 #
 # Run `tests/bench/tiles_vs_nginx.sh --help` for the options.
 set -euo pipefail
@@ -22,6 +21,8 @@ script_dir=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 repo_dir=$(cd "$script_dir/../.." && pwd)
 # shellcheck source=../support/nginx.sh
 source "$repo_dir/tests/support/nginx.sh"
+# shellcheck source=../support/wrk_bench.sh
+source "$repo_dir/tests/support/wrk_bench.sh"
 
 # ---- defaults (see usage) -----------------------------------------------------------------------
 duration=10       # seconds per measured wrk run
@@ -123,93 +124,35 @@ cleanup() {
   exit "$rc"
 }
 
-# CPU time (user + system, in clock ticks) of a process and its direct children: zoomwarp's threads
-# are all in its own /proc/PID/stat, nginx's work is done by the workers under the master.
-cpu_ticks() {
-  local pid total=0 t
-  for pid in "$1" $(pgrep -P "$1" 2>/dev/null || true); do
-    # Fields after "(comm)": state is 1, utime 12, stime 13.
-    t=$(awk '{ sub(/^.*\) /, ""); print $12 + $13 }' "/proc/$pid/stat" 2>/dev/null || echo 0)
-    total=$((total + t))
-  done
-  echo "$total"
-}
-
-# Busy CPU time of the whole machine (clock ticks: user, nice, system, irq, softirq, steal). Minus
-# the server's and wrk's own, it shows how much else ran during a run: on 2 cores any other load
-# (a compiler, another benchmark) lowers both servers' figures, not always by the same amount.
-machine_busy_ticks() { awk '/^cpu / { print $2 + $3 + $4 + $7 + $8 + $9; exit }' /proc/stat; }
-
 # ---- zoomwarp ----------------------------------------------------------------------------------
 zoomwarp_port=""
 
 start_zoomwarp() {
   log "ingesting $image"
   "$zoomwarp_bin" ingest "$image" --store "$work/store" --id "$image_id" --quiet >/dev/null
-  # --port 0: the kernel picks a free port, which the 'listening' log line reports.
-  "$zoomwarp_bin" serve --host 127.0.0.1 --port 0 --store "$work/store" --log-requests 0 \
-    2>"$work/zoomwarp.log" >/dev/null &
-  zoomwarp_pid=$!
-  local _
-  for _ in $(seq 100); do
-    zoomwarp_port=$(grep '"msg":"listening"' "$work/zoomwarp.log" | sed -n 's/.*"port":\([0-9]*\).*/\1/p' | head -n 1 || true)
-    [ -n "$zoomwarp_port" ] && break
-    kill -0 "$zoomwarp_pid" 2>/dev/null || die "zoomwarp serve exited during start-up"
-    sleep 0.1
-  done
-  [ -n "$zoomwarp_port" ] || die "zoomwarp did not report its port within 10 s"
+  zoomwarp_serve "$zoomwarp_bin" "$work/store" "$work/zoomwarp.log" || die "zoomwarp did not start"
   log "zoomwarp (pid $zoomwarp_pid) on 127.0.0.1:$zoomwarp_port"
 }
 
 # Response-cache misses so far: used to check that wrk only ever hit the cache.
-zoomwarp_cache_misses() {
-  curl -sf "http://127.0.0.1:$zoomwarp_port/metrics" |
-    awk '/^zoomwarp_cache_misses_total\{cache="response"\}/ { printf "%d\n", $2 }'
-}
+zoomwarp_cache_misses() { zoomwarp_cache_count "http://127.0.0.1:$zoomwarp_port" misses response; }
 
 # ---- tile list ---------------------------------------------------------------------------------
 tile_count=0
 level_list=""
 
-# Writes $work/paths.txt: every tile of the $levels highest DZI levels, computed from the
-# descriptor the way a viewer does (level L is ceil(W / 2^(maxLevel-L)) wide).
+# Writes $work/paths.txt: every tile of the $levels highest DZI levels.
 build_tile_list() {
-  local dzi w h ts max_level size l scale lw lh cols rows c r
-  dzi=$(curl -sSf "http://127.0.0.1:$zoomwarp_port/dzi/$image_id.dzi") || die "could not fetch the DZI descriptor"
-  w=$(sed -n 's/.*Width="\([0-9]*\)".*/\1/p' <<<"$dzi")
-  h=$(sed -n 's/.*Height="\([0-9]*\)".*/\1/p' <<<"$dzi")
-  ts=$(sed -n 's/.*TileSize="\([0-9]*\)".*/\1/p' <<<"$dzi")
-  if [ -z "$w" ] || [ -z "$h" ] || [ -z "$ts" ]; then die "unexpected DZI descriptor: $dzi"; fi
-  size=$(( w > h ? w : h )); max_level=0
-  while [ $(( 1 << max_level )) -lt "$size" ]; do max_level=$((max_level + 1)); done
-  [ "$levels" -le $((max_level + 1)) ] || levels=$((max_level + 1))
-
-  : >"$work/paths.txt"
-  for ((l = max_level - levels + 1; l <= max_level; l++)); do
-    scale=$(( 1 << (max_level - l) ))
-    lw=$(( (w + scale - 1) / scale )); lh=$(( (h + scale - 1) / scale ))
-    cols=$(( (lw + ts - 1) / ts )); rows=$(( (lh + ts - 1) / ts ))
-    for ((r = 0; r < rows; r++)); do
-      for ((c = 0; c < cols; c++)); do
-        echo "/dzi/${image_id}_files/$l/${c}_${r}.jpg"
-      done
-    done >>"$work/paths.txt"
-    level_list+="${level_list:+,}$l"
-  done
+  dzi_tile_paths "http://127.0.0.1:$zoomwarp_port" "$image_id" "$levels" "$work/paths.txt" || die "could not list the tiles"
+  level_list=$dzi_levels
   tile_count=$(wc -l <"$work/paths.txt")
-  log "image ${w}x${h}, tile size $ts, levels $level_list of 0-$max_level: $tile_count tiles"
+  log "image ${dzi_width}x${dzi_height}, levels $level_list: $tile_count tiles"
 }
 
 # Fetches every tile once from zoomwarp over one keep-alive connection: this renders and caches
 # them in zoomwarp, and the saved bodies become nginx's docroot, byte for byte the same responses.
 fetch_tiles() {
-  local p codes
-  while read -r p; do
-    printf 'url = "http://127.0.0.1:%s%s"\noutput = "%s%s"\n' "$zoomwarp_port" "$p" "$work/docroot" "$p"
-  done <"$work/paths.txt" >"$work/curl.cfg"
-  codes=$(curl -sS --fail --fail-early --create-dirs -K "$work/curl.cfg" -w '%{http_code}\n') ||
-    die "fetching the tiles from zoomwarp failed"
-  [ "$(grep -c '^200$' <<<"$codes")" -eq "$tile_count" ] || die "not every tile came back 200 from zoomwarp"
+  fetch_paths "http://127.0.0.1:$zoomwarp_port" "$work/paths.txt" "$work/docroot" || die "fetching the tiles from zoomwarp failed"
   [ "$(find "$work/docroot" -type f -name '*.jpg' | wc -l)" -eq "$tile_count" ] || die "docroot is missing tiles"
   log "fetched $tile_count tiles ($(du -sh "$work/docroot" | cut -f1) on disk)"
 }
@@ -269,83 +212,16 @@ check_same_tile() {
 }
 
 # ---- wrk ---------------------------------------------------------------------------------------
-# Each wrk thread walks the whole tile list in order (from its own starting point, so the threads
-# do not ask for the same tile at the same moment), pre-formatting the requests in init() to keep
-# Lua work per request small. done() prints one machine-readable line. No response() function:
-# defining it makes wrk parse every body, which would cost client CPU on a 2-core machine. wrk
-# counts statuses >= 400 in errors.status; 3xx cannot occur (no conditional requests are sent).
-write_wrk_script() {
-  cat >"$work/tiles.lua" <<'EOF'
-local reqs, n, i = {}, 0, 0
-local threads = 0
-
-function setup(thread)
-  thread:set("thread_index", threads)
-  threads = threads + 1
-end
-
-function init(args)
-  for path in io.lines(args[1]) do
-    n = n + 1
-    reqs[n] = wrk.format("GET", path)
-  end
-  i = (thread_index * 7919) % n   -- spread the threads' starting points over the list
-end
-
-function request()
-  i = i % n + 1
-  return reqs[i]
-end
-
-function done(summary, latency, requests)
-  local e = summary.errors
-  io.write(string.format(
-    "WRK_RESULT requests=%d duration_us=%d bytes=%d p50_us=%d p99_us=%d max_us=%d connect=%d read=%d write=%d status=%d timeout=%d\n",
-    summary.requests, summary.duration, summary.bytes, latency:percentile(50), latency:percentile(99),
-    latency.max, e.connect, e.read, e.write, e.status, e.timeout))
-end
-EOF
+# run NAME PID SECONDS: wrk against one of the two servers with the tile list (run_wrk of
+# tests/support/wrk_bench.sh: fails on any socket error or error status).
+run() {
+  local port
+  port=$([ "$1" = nginx ] && echo "$nginx_port" || echo "$zoomwarp_port")
+  run_wrk "$1" "$2" "http://127.0.0.1:$port" "$3" "$work/paths.txt" "$threads" "$connections" || die "wrk against $1 failed"
+  [ "$verbose" -eq 0 ] || sed 's/^/    /' "$work/wrk_$1.out" >&2
 }
-
-# run_wrk NAME PID PORT SECONDS -> sets wrk_rps, wrk_p99_ms, wrk_p50_ms, srv_cores, wrk_cores,
-# other_cores and fails the benchmark on any socket error or error status.
-run_wrk() {
-  local name=$1 pid=$2 port=$3 secs=$4 out="$work/wrk_$1.out" ticks0 ticks1 busy0 busy1 hz line
-  hz=$(getconf CLK_TCK)
-  ticks0=$(cpu_ticks "$pid"); busy0=$(machine_busy_ticks)
-  # bash's `time` gives wrk's own CPU use: with 2 cores, wrk competes with the server for them.
-  local TIMEFORMAT='%U %S'
-  { time wrk --latency -t "$threads" -c "$connections" -d "${secs}s" -s "$work/tiles.lua" \
-      "http://127.0.0.1:$port" -- "$work/paths.txt" >"$out" 2>&1; } 2>"$work/wrk_time" ||
-    { cat "$out" >&2; die "wrk failed against $name"; }
-  ticks1=$(cpu_ticks "$pid"); busy1=$(machine_busy_ticks)
-  [ "$verbose" -eq 0 ] || sed 's/^/    /' "$out" >&2
-  line=$(grep '^WRK_RESULT ' "$out") || { cat "$out" >&2; die "no result from wrk against $name"; }
-
-  local requests duration_us p50 p99 connect read write status timeout
-  requests=$(field requests "$line"); duration_us=$(field duration_us "$line")
-  p50=$(field p50_us "$line"); p99=$(field p99_us "$line")
-  connect=$(field connect "$line"); read=$(field read "$line"); write=$(field write "$line")
-  status=$(field status "$line"); timeout=$(field timeout "$line")
-  [ "$requests" -gt 0 ] || die "wrk made no requests against $name"
-  [ "$status" -eq 0 ] || die "$name: $status responses with an error status (wrk: Non-2xx or 3xx)"
-  [ $((connect + read + write + timeout)) -eq 0 ] ||
-    die "$name: socket errors: connect $connect, read $read, write $write, timeout $timeout"
-
-  wrk_rps=$(awk -v r="$requests" -v d="$duration_us" 'BEGIN { printf "%.0f", r / (d / 1e6) }')
-  wrk_p50_ms=$(awk -v v="$p50" 'BEGIN { printf "%.3f", v / 1000 }')
-  wrk_p99_ms=$(awk -v v="$p99" 'BEGIN { printf "%.3f", v / 1000 }')
-  srv_cores=$(awk -v t=$((ticks1 - ticks0)) -v hz="$hz" -v d="$duration_us" 'BEGIN { printf "%.2f", t / hz / (d / 1e6) }')
-  wrk_cores=$(awk -v d="$duration_us" '{ printf "%.2f", ($1 + $2) / (d / 1e6) }' "$work/wrk_time")
-  other_cores=$(awk -v b=$((busy1 - busy0)) -v hz="$hz" -v d="$duration_us" -v s="$srv_cores" -v w="$wrk_cores" \
-    'BEGIN { o = b / hz / (d / 1e6) - s - w; printf "%.2f", o < 0 ? 0 : o }')
-}
-
-field() { sed -n "s/.* $1=\([0-9]*\).*/\1/p" <<<" $2"; }
 
 # ---- statistics and output ---------------------------------------------------------------------
-median() { tr ' ' '\n' | grep . | sort -g | awk '{ v[NR] = $1 } END { if (NR % 2) print v[(NR + 1) / 2]; else print (v[NR / 2] + v[NR / 2 + 1]) / 2 }'; }
-ratio() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.3f", a / b }'; }
 json_array() { local IFS=,; echo "[$*]"; }
 
 # Per-round results, space-separated, indexed by round.
@@ -355,16 +231,16 @@ measure() {
   local r
   if [ "$warmup" -gt 0 ]; then
     log "warm-up: ${warmup}s each (not counted)"
-    run_wrk zoomwarp "$zoomwarp_pid" "$zoomwarp_port" "$warmup"
-    run_wrk nginx "$nginx_pid" "$nginx_port" "$warmup"
+    run zoomwarp "$zoomwarp_pid" "$warmup"
+    run nginx "$nginx_pid" "$warmup"
   fi
   local misses_before misses_after
   misses_before=$(zoomwarp_cache_misses)
   for ((r = 1; r <= rounds; r++)); do
-    run_wrk zoomwarp "$zoomwarp_pid" "$zoomwarp_port" "$duration"
+    run zoomwarp "$zoomwarp_pid" "$duration"
     zw_rps+=("$wrk_rps"); zw_p99+=("$wrk_p99_ms"); zw_cpu+=("$srv_cores"); wrk_cpu_zw+=("$wrk_cores"); other+=("$other_cores")
     log "round $r zoomwarp: $wrk_rps req/s, p50 $wrk_p50_ms ms, p99 $wrk_p99_ms ms (cores: server $srv_cores, wrk $wrk_cores, rest $other_cores)"
-    run_wrk nginx "$nginx_pid" "$nginx_port" "$duration"
+    run nginx "$nginx_pid" "$duration"
     ng_rps+=("$wrk_rps"); ng_p99+=("$wrk_p99_ms"); ng_cpu+=("$srv_cores"); wrk_cpu_ng+=("$wrk_cores"); other+=("$other_cores")
     log "round $r nginx:    $wrk_rps req/s, p50 $wrk_p50_ms ms, p99 $wrk_p99_ms ms (cores: server $srv_cores, wrk $wrk_cores, rest $other_cores)"
     r_rps+=("$(ratio "${zw_rps[-1]}" "${ng_rps[-1]}")"); r_p99+=("$(ratio "${zw_p99[-1]}" "${ng_p99[-1]}")")
@@ -416,6 +292,7 @@ main() {
   trap 'exit 130' INT      # exit runs the EXIT trap, which stops the servers
   trap 'exit 143' TERM
   work=$(mktemp -d "${TMPDIR:-/tmp}/tiles_vs_nginx.XXXXXX")
+  wrk_work_dir=$work
   log "load average before start: $(cut -d' ' -f1-3 /proc/loadavg) on $(nproc) cores"
 
   start_zoomwarp
