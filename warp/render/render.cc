@@ -1,6 +1,7 @@
 #include "warp/render/render.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 
@@ -126,9 +127,10 @@ tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEn
     if (bx1 < bx0 || by1 < by0) continue;
     const int w = bx1 - bx0 + 1, h = by1 - by0 + 1;
     cv::Mat map_x(h, w, CV_32F), map_y(h, w, CV_32F), covered(h, w, CV_8U, cv::Scalar(0));
-    for (int f : g.triangles) {
-      check_stop(stop);
-      const Triangle& t = src.triangles[f];
+    for (std::size_t i = 0; i < g.triangles.size(); ++i) {
+      // The token reads the clock: once per triangle was ~0.7 ms of a 30 000-triangle view.
+      if (i % 256 == 0) check_stop(stop);
+      const Triangle& t = src.triangles[g.triangles[i]];
       const Point &a = scr[t[0]], &b = scr[t[1]], &c = scr[t[2]];
       const double area = signed_area2(a, b, c);
       const int x0 = std::max(bx0, int(std::floor(std::min({a.x, b.x, c.x}))));
@@ -153,6 +155,10 @@ tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEn
       const double u0 = ku * (a00 * (sa.x - sc.x) + a01 * (sb.x - sc.x) + area * sc.x) - 0.5 - double(patch.x0);
       const double vx = kv * (ax0 * (sa.y - sc.y) + ax1 * (sb.y - sc.y)), vy = kv * (ay0 * (sa.y - sc.y) + ay1 * (sb.y - sc.y));
       const double v0 = kv * (a00 * (sa.y - sc.y) + a01 * (sb.y - sc.y) + area * sc.y) - 0.5 - double(patch.y0);
+      // Per edge i, e_i·sign = k_i·px + sign·offset_i(py) with k_i = sign·slope_i; its reciprocal
+      // is taken once per triangle, not per row.
+      const std::array<double, 3> k = {sign * ax0, sign * ax1, -sign * (ax0 + ax1)};
+      const std::array<double, 3> inv_k = {k[0] != 0 ? 1 / k[0] : 0, k[1] != 0 ? 1 / k[1] : 0, k[2] != 0 ? 1 / k[2] : 0};
       for (int y = y0; y <= y1; ++y) {
         float* row_x = map_x.ptr<float>(y - by0);
         float* row_y = map_y.ptr<float>(y - by0);
@@ -164,10 +170,11 @@ tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEn
         // Within it no pixel needs testing, so the loop below has no branch and vectorises.
         double lo = x0 + 0.5, hi = x1 + 0.5;
         bool empty = false;
-        for (const auto& [slope, offset] : {std::pair{ax0, c0}, std::pair{ax1, c1}, std::pair{-ax0 - ax1, area - c0 - c1}}) {
-          const double k = sign * slope, bound = (-eps - sign * offset);
-          if (k > 0) lo = std::max(lo, bound / k);
-          else if (k < 0) hi = std::min(hi, bound / k);
+        const std::array<double, 3> offset = {c0, c1, area - c0 - c1};
+        for (int e = 0; e < 3; ++e) {
+          const double bound = -eps - sign * offset[e];
+          if (k[e] > 0) lo = std::max(lo, bound * inv_k[e]);
+          else if (k[e] < 0) hi = std::min(hi, bound * inv_k[e]);
           else empty = empty || bound > 0;
         }
         if (empty || !(lo <= hi)) continue;
