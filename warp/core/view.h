@@ -28,6 +28,9 @@ struct View {
   ZoomGeometry geometry;
   double view_x = 0, view_y = 0;   // top-left of the viewing area in warped pixels
   bool centre_clamped = false;     // the viewing area had to move to stay inside the image
+  // Traditional zoom: screen = (source − (view_x, view_y)) · geometry.screen_scale for every point
+  // of the image, so the renderer may resample the whole screen with one affine warp.
+  bool uniform = false;
   Mesh source;                     // the refined mesh, image pixels
   std::vector<Point> warped;       // per vertex, warped-image pixels
   std::vector<Point> screen;       // per vertex, screen pixels

@@ -323,7 +323,9 @@ View Icaz::view_in(const ViewRequest& req, bool grow) {
 View Icaz::traditional(const ViewRequest& r) {
   check_view_request(r);
   const Point centre{std::clamp(r.cx, 0.0, model_.width), std::clamp(r.cy, 0.0, model_.height)};
-  return uniform_zoom(model_.coarse.mesh, model_.coarse.mesh.vertices, model_.width, model_.height, r, centre);
+  View view = uniform_zoom(model_.coarse.mesh, model_.coarse.mesh.vertices, model_.width, model_.height, r, centre);
+  view.uniform = true;  // the source is its own warp
+  return view;
 }
 
 Geomorph Icaz::geomorph(const View& from, const View& to, const StopToken* stop) {

@@ -82,12 +82,51 @@ void coarsen_oversized_groups(std::map<int, Group>& groups, const tiles::Manifes
   }
 }
 
+// A uniform view (View::uniform): the image's rectangle on screen, its pixel centres resampled
+// from one level by one cv::warpAffine — the same positions and level the triangles would give,
+// without building a map per pixel. At zoom 1 with an integral origin the matrix is a whole-pixel
+// shift and the pixels are copied exactly.
+void render_uniform(const View& view, int sw, int sh, const tiles::ImageEntry& image, tiles::PyramidReader& reader,
+                    cv::Mat& screen) {
+  const tiles::Manifest& m = image.manifest;
+  const double s = view.geometry.screen_scale;
+  if (!(s > 0)) return;
+  // Screen columns (rows) whose centres lie in the image: (x + 0.5)/s + view_x ∈ [0, W], with a
+  // hair of tolerance as the triangles' edges have.
+  const auto covered = [s](double origin, double size, int screen_size) {
+    const double lo = (0 - origin) * s - 0.5 - 1e-9, hi = (size - origin) * s - 0.5 + 1e-9;
+    return std::pair{std::max(0, int(std::ceil(lo))), std::min(screen_size - 1, int(std::floor(hi)))};
+  };
+  const auto [x0, x1] = covered(view.view_x, m.width, sw);
+  const auto [y0, y1] = covered(view.view_y, m.height, sh);
+  if (x1 < x0 || y1 < y0) return;
+  const int level = level_for(s, m.levels);
+  const LevelPatch patch = read_patch(image, reader, level, view.view_x + x0 / s, view.view_y + y0 / s,
+                                      view.view_x + (x1 + 1) / s, view.view_y + (y1 + 1) / s);
+  // Screen pixel (x0 + i, y0 + j) → patch position ((x0 + i + 0.5)/s + view_x)·scale − 0.5 − patch.x0.
+  const double k = patch.scale / s;
+  const cv::Matx23d to_patch(k, 0, ((x0 + 0.5) / s + view.view_x) * patch.scale - 0.5 - double(patch.x0),  //
+                             0, k, ((y0 + 0.5) / s + view.view_y) * patch.scale - 0.5 - double(patch.y0));
+  const tiles::Raster& px = patch.pixels;
+  const cv::Mat level_pixels(px.height, px.width, CV_8UC(px.channels), const_cast<std::uint8_t*>(px.pixels.data()),
+                             px.row_bytes());
+  cv::Mat target = screen(cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1));
+  cv::warpAffine(level_pixels, target, to_patch, target.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+                 cv::BORDER_REPLICATE);
+}
+
 }  // namespace
 
 tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEntry& image,
                           tiles::PyramidReader& reader, const StopToken* stop) {
   const tiles::Manifest& m = image.manifest;
   tiles::Raster out(sw, sh, m.channels);
+  cv::Mat screen(sh, sw, CV_8UC(m.channels), out.pixels.data(), out.row_bytes());
+  if (view.uniform) {
+    check_stop(stop);
+    render_uniform(view, sw, sh, image, reader, screen);
+    return out;
+  }
   const Mesh& src = view.source;
   const std::vector<Point>& scr = view.screen;
 
@@ -112,7 +151,6 @@ tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEn
   // the triangles (one affine map each), then all of them resampled by one cv::remap — bilinear,
   // vectorised, the border replicated — and copied under the coverage mask. (Sampling pixel by
   // pixel in doubles was 3/4 of a viewport's CPU time.)
-  cv::Mat screen(sh, sw, CV_8UC(m.channels), out.pixels.data(), out.row_bytes());
   for (const auto& [level, g] : groups) {
     check_stop(stop);
     const LevelPatch patch = read_patch(image, reader, level, g.u0, g.v0, g.u1, g.v1);
