@@ -48,7 +48,8 @@ class Retargeter {
   // method: its view() says the same. Throws as render() does.
   virtual std::vector<Point> screen_sources(const ViewRequest& request) { return {}; }
 
-  // Bytes held (precomputation and caches), for the engines' memory budget.
+  // Bytes held (precomputation and caches), for the engines' memory budget. Asked on every
+  // request, so it must never wait for a view or a solve in progress (RecentCache::bytes()).
   virtual std::size_t memory_bytes() = 0;
 };
 

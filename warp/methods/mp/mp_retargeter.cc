@@ -79,9 +79,7 @@ std::size_t MpRetargeting::memory_bytes() {
                       (model_.row_object_length.capacity() + model_.column_object_length.capacity()) * sizeof(double);
   for (const MpObject& o : model_.objects) bytes += o.vertices.capacity() * sizeof(int);
   for (const MpLine& l : model_.lines) bytes += l.vertices.capacity() * sizeof(int);
-  std::lock_guard lock(mu_);
-  for (const auto& [size, solved] : cache_.entries()) bytes += solved.positions.capacity() * sizeof(Point);
-  return bytes;
+  return bytes + cache_.bytes();
 }
 
 const RetargetingMethod& mp_method() {

@@ -55,7 +55,8 @@ class MpRetargeting final : public Retargeter {
   const MpModel model_;
   const Mesh mesh_;  // model_.mesh in image pixels
   std::mutex mu_;
-  RecentCache<std::pair<long long, long long>, Solved> cache_{kCachedSizes};  // by size (1/1000 px)
+  RecentCache<std::pair<long long, long long>, Solved> cache_{  // by size (1/1000 px)
+      kCachedSizes, [](const Solved& s) { return s.positions.capacity() * sizeof(Point); }};
 };
 
 // The registry entry "mp": precompute builds the MpModel (mp.<saliency>.bin), load parses it.

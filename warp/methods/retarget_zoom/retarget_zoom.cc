@@ -69,12 +69,7 @@ std::size_t RetargetZoom::memory_bytes() {
   // The factor is not exposed; a Cholesky factor of this planar Laplacian under AMD holds about
   // 30 nonzeros per vertex and axis (index + value).
   const std::size_t factor = m.vertices.size() * 2 * 30 * (sizeof(double) + sizeof(int));
-  std::size_t cached = 0;
-  {
-    std::lock_guard lock(mu_);
-    for (const auto& [size, positions] : cache_.entries()) cached += positions.capacity() * sizeof(Point);
-  }
-  return m.vertices.capacity() * sizeof(Point) + m.triangles.capacity() * sizeof(Triangle) + factor + cached;
+  return m.vertices.capacity() * sizeof(Point) + m.triangles.capacity() * sizeof(Triangle) + factor + cache_.bytes();
 }
 
 const RetargetingMethod& retarget_zoom_method() {

@@ -56,7 +56,8 @@ class RetargetZoom : public Retargeter {
   const double width_, height_;
   const ShapeWarp warp_;
   std::mutex mu_;  // guards the cache and warp_'s solves
-  RecentCache<std::pair<long long, long long>, std::vector<Point>> cache_{kCachedSizes};  // by size (1/1000 px)
+  RecentCache<std::pair<long long, long long>, std::vector<Point>> cache_{  // by size (1/1000 px)
+      kCachedSizes, [](const std::vector<Point>& p) { return p.capacity() * sizeof(Point); }};
 };
 
 // The area bound of the uniform mesh for `model`: the largest leaf among the forest's kept nodes.

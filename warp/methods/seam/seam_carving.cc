@@ -253,9 +253,7 @@ std::vector<Point> SeamCarving::screen_sources(const ViewRequest& r) {
 
 std::size_t SeamCarving::memory_bytes() {
   std::size_t bytes = (maps_.horizontal.order.size() + maps_.vertical.order.size()) * sizeof(std::uint16_t);
-  std::lock_guard lock(mu_);
-  for (const auto& [key, table] : tables_.entries()) bytes += table->bytes();
-  return bytes;
+  return bytes + tables_.bytes();
 }
 
 }  // namespace zoomwarp::warp

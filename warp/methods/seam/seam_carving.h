@@ -113,7 +113,8 @@ class SeamCarving final : public Retargeter {
   const VisibilityMaps maps_;
   std::mutex mu_;
   // By (vertical, seams); the 8 most recent.
-  RecentCache<std::pair<bool, int>, std::shared_ptr<const CarveTable>> tables_{8};
+  RecentCache<std::pair<bool, int>, std::shared_ptr<const CarveTable>> tables_{
+      8, [](const std::shared_ptr<const CarveTable>& t) { return t->bytes(); }};
 };
 
 }  // namespace zoomwarp::warp
