@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <stdexcept>
 
@@ -13,6 +14,8 @@ namespace zoomwarp::tiles {
 struct PyramidReader::Impl {
   OIIO::ImageCache* cache = nullptr;
   std::int64_t limit = 0;
+  // Counted here: get_pixels() does not go through the ImageCache's own find_tile statistics.
+  std::atomic<std::int64_t> lookups{0};
 };
 
 PyramidReader::PyramidReader(std::size_t cache_bytes, int max_open_files)
@@ -34,6 +37,8 @@ Raster PyramidReader::read_level(const ImageEntry& image, int level, Rect r) {
   if (level < 0 || level >= m.levels || r.w <= 0 || r.h <= 0 || r.x < 0 || r.y < 0 ||
       r.x + r.w > m.level_width(level) || r.y + r.h > m.level_height(level))
     throw std::out_of_range("region outside the pyramid level");
+  const long long t = m.tile_size;
+  impl_->lookups += ((r.x + r.w - 1) / t - r.x / t + 1) * ((r.y + r.h - 1) / t - r.y / t + 1);
   Raster out(int(r.w), int(r.h), m.channels);
   OIIO::ustring file(image.level_path(level));
   if (!impl_->cache->get_pixels(file, 0, 0, int(r.x), int(r.x + r.w), int(r.y), int(r.y + r.h), 0,
@@ -78,12 +83,11 @@ void PyramidReader::forget(const ImageEntry& image) {
 
 PyramidReader::Stats PyramidReader::stats() const {
   Stats s;
-  int calls = 0, created = 0;
+  int created = 0;
   long long used = 0;
-  impl_->cache->getattribute("stat:find_tile_calls", calls);
   impl_->cache->getattribute("stat:tiles_created", created);
   impl_->cache->getattribute("stat:cache_memory_used", OIIO::TypeDesc::INT64, &used);
-  s.lookups = calls;
+  s.lookups = impl_->lookups.load();
   s.tiles_read = created;
   s.bytes_used = used;
   s.bytes_limit = impl_->limit;

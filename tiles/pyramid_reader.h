@@ -33,7 +33,7 @@ class PyramidReader {
   void forget(const ImageEntry& image);
 
   struct Stats {
-    std::int64_t lookups = 0;     // tile lookups
+    std::int64_t lookups = 0;     // tiles the reads covered (each one a lookup)
     std::int64_t tiles_read = 0;  // tiles decoded from disk (misses)
     std::int64_t bytes_used = 0;
     std::int64_t bytes_limit = 0;
