@@ -1,24 +1,27 @@
 #!/usr/bin/env bash
 # Proves the container image without Docker: builds the runtime root file system deploy/Dockerfile
-# describes (Debian 12 minbase, slimmed like debian:bookworm-slim, plus deploy/runtime-packages.txt),
-# adds the zoomwarp binary, the uid/gid 10001 user and its store, then runs the server in it as that
-# user and checks what a container would be asked: /healthz, an ingest, a viewport and a mesh, a
-# clean exit on SIGTERM. Prints the installed packages with their sizes, the size of the root and
-# the time each phase took. See deploy/ROOTFS.md.
+# describes (Debian 12 minbase, slimmed like debian:bookworm-slim, plus what
+# deploy/runtime-closure.sh copies: the binary's shared objects and the data files it reads), adds
+# the zoomwarp binary, the uid/gid 10001 user and its store, then runs the server in it as that
+# user and checks what a container would be asked: /healthz, ingests of every source format with a
+# viewport of each, face detection, a mesh, an upload, a clean exit on SIGTERM. Prints the size of
+# the root in parts, its largest shared objects and the time each phase took. See deploy/ROOTFS.md.
 #
 #   deploy/rootfs-test.sh [ZOOMWARP_BINARY]        # default: $ZOOMWARP_BINARY, then build/bin/zoomwarp
 #
 # Environment:
-#   ROOTFS_TEST_CACHE            cache folder (default build-rootfs/rootfs-cache); the cached layers
-#                                are rebuilt only when their inputs change (suite, mirrors, package list)
+#   ROOTFS_TEST_CACHE            cache folder (default build-rootfs/rootfs-cache); the cached base
+#                                layer is rebuilt only when its inputs change (suite, mirrors)
 #   ROOTFS_TEST_MIRROR           Debian mirror (default: the host's apt sources for bookworm)
 #   ROOTFS_TEST_SECURITY_MIRROR  security mirror (default: the host's for bookworm-security)
-#   ROOTFS_TEST_REBUILD=1        rebuild the cached layers (e.g. to pick up security updates)
+#   ROOTFS_TEST_REBUILD=1        rebuild the cached base layer (e.g. to pick up security updates)
 #   ROOTFS_TEST_KEEP=1           keep the assembled root (CACHE/run/root) for inspection
 #
 # Exit status: 0 pass, 1 failure, 77 skipped (not root: chroot, mounts and namespaces need it).
 #
-# Needs root, debootstrap, util-linux (unshare, flock), curl and oiiotool (openimageio-tools).
+# Needs root, debootstrap, util-linux (unshare, flock), curl, oiiotool (openimageio-tools) and the
+# libraries the binary was linked with (the closure is copied from this machine, as the image's is
+# from its builder), with opencv-data's face cascade.
 # The script re-runs itself inside new mount and PID namespaces (unshare), so every mount it
 # makes and every process it starts disappears when that inner run ends, however it ends (a
 # SIGKILL included); the assembled root is removed on exit and, if a kill left one behind, at the
@@ -31,15 +34,21 @@ readonly SUITE=bookworm
 readonly APP_USER=zoomwarp APP_UID=10001 APP_GID=10001
 readonly STORE=/var/lib/zoomwarp
 readonly APP_BINARY=/usr/local/bin/zoomwarp
-# warp/saliency/significance.h reads this file for the face boost and silently does without it when missing.
-readonly FACE_CASCADE=/usr/share/opencv4/haarcascades/haarcascade_frontalface_default.xml
 readonly SAMPLE=boats_lake_sunset.jpg SAMPLE_ID=boats UPLOAD_ID=boats-upload
+# Every source format ingest accepts (tiles/source_format.h), each ingested in the root and viewed:
+# the sample JPEG itself, the bundled RGBA PNG, and the JPEG written as TIFF and WebP by oiiotool.
+readonly ALPHA_SAMPLE=pano_grossmugl_field_4to1.png
+readonly FORMAT_IDS=(boats pano-png boats-tiff boats-webp)
+# Face detection (warp/saliency/significance.h): the portrait ingested with the image's cascade and
+# with none; the significance maps must differ where the face was found.
+readonly FACE_SAMPLE=astronaut_portrait.png FACE_ID=astronaut NO_FACE_ID=astronaut-no-cascade
 readonly VIEW_QUERY='zoom=0.5&w=480&h=360' VIEW_SIZE=480x360
 # The key file the server reads (ZOOMWARP_KEYS), as a Kubernetes Secret mounts it; its curator
-# key is made per run.
+# key (uploads) and admin key (/readyz details) are made per run.
 readonly KEYS_FILE=/etc/zoomwarp/keys
-CURATOR_KEY=$(head -c 24 /dev/urandom | od -An -tx1 | tr -d ' \n')
-readonly CURATOR_KEY
+random_key() { head -c 24 /dev/urandom | od -An -tx1 | tr -d ' \n'; }
+CURATOR_KEY=$(random_key) ADMIN_KEY=$(random_key)
+readonly CURATOR_KEY ADMIN_KEY
 readonly ROOT_PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin
 # Part of every cache key: bump it when this script changes how it builds a cached layer.
 readonly CACHE_FORMAT=2
@@ -47,7 +56,7 @@ readonly CACHE_FORMAT=2
 SELF=$(readlink -f "${BASH_SOURCE[0]}")
 REPO=$(cd "$(dirname "$SELF")/.." && pwd)
 readonly SELF REPO
-readonly PACKAGE_LIST=$REPO/deploy/runtime-packages.txt
+readonly CLOSURE=$REPO/deploy/runtime-closure.sh FILE_LIST=$REPO/deploy/runtime-files.txt
 
 # ---------------------------------------------------------------------------------------------
 # Messages and timing
@@ -116,8 +125,10 @@ resolve_config() {
   ROOTFS_TEST_MIRROR=${ROOTFS_TEST_MIRROR:-$(host_apt_uri "$SUITE" http://deb.debian.org/debian)}
   ROOTFS_TEST_SECURITY_MIRROR=${ROOTFS_TEST_SECURITY_MIRROR:-$(host_apt_uri "$SUITE-security" http://deb.debian.org/debian-security)}
   export ROOTFS_TEST_BINARY ROOTFS_TEST_CACHE ROOTFS_TEST_MIRROR ROOTFS_TEST_SECURITY_MIRROR
-  [[ -f $REPO/samples/$SAMPLE ]] || die "missing sample $REPO/samples/$SAMPLE"
-  read_package_list >/dev/null
+  local sample
+  for sample in "$SAMPLE" "$ALPHA_SAMPLE" "$FACE_SAMPLE"; do
+    [[ -f $REPO/samples/$sample ]] || die "missing sample $REPO/samples/$sample"
+  done
 }
 
 # host_apt_uri SUITE DEFAULT: the first URI the host's apt sources use for SUITE (deb822 .sources
@@ -174,24 +185,13 @@ export_host_apt_proxy() {
   if [[ -z ${https_proxy:-} && -n $https && $https != DIRECT ]]; then export https_proxy=$https; fi
 }
 
-# deploy/runtime-packages.txt: one package per line, '#' to the end of the line is a comment.
-read_package_list() {
-  [[ -f $PACKAGE_LIST ]] || die "missing $PACKAGE_LIST"
-  awk '
-    { sub(/#.*/, "") }
-    NF == 0 { next }
-    NF > 1 { printf "%s:%d: one package per line\n", FILENAME, FNR > "/dev/stderr"; bad = 1; next }
-    { print $1 }
-    END { exit bad }' "$PACKAGE_LIST" || die "malformed $PACKAGE_LIST"
-}
-
 require_root_and_tools() {
   if [[ $(id -u) -ne 0 ]]; then
     say "SKIP: needs root (debootstrap, chroot, mounts and namespaces); run it with sudo"
     exit 77
   fi
   local tool missing=()
-  for tool in debootstrap unshare flock chroot curl oiiotool apt-config awk; do
+  for tool in debootstrap unshare flock chroot curl oiiotool apt-config awk ldd cmp; do
     command -v "$tool" >/dev/null || missing+=("$tool")
   done
   [[ ${#missing[@]} -eq 0 ]] ||
@@ -276,9 +276,9 @@ outer_main() {
 }
 
 # ---------------------------------------------------------------------------------------------
-# Cached layers: CACHE/base (debootstrap minbase, slimmed) and CACHE/runtime (base plus the
-# runtime packages). Each is built in NAME.partial and renamed when complete; NAME.key records its
-# inputs, so a changed input rebuilds it and an interrupted build is never mistaken for a layer.
+# The cached layer: CACHE/base (debootstrap minbase, slimmed). It is built in base.partial and
+# renamed when complete; base.key records its inputs, so a changed input rebuilds it and an
+# interrupted build is never mistaken for a layer.
 
 layer_is_current() {
   local name=$1 key=$2 dir=$ROOTFS_TEST_CACHE/$1
@@ -296,10 +296,6 @@ publish_layer() {
 base_key() {
   printf 'format=%s suite=%s variant=minbase mirror=%s security=%s' \
     "$CACHE_FORMAT" "$SUITE" "$ROOTFS_TEST_MIRROR" "$ROOTFS_TEST_SECURITY_MIRROR"
-}
-
-runtime_key() {
-  printf '%s packages=%s' "$(base_key)" "$(read_package_list | tr '\n' ' ')"
 }
 
 # in_root ROOT COMMAND...: COMMAND inside ROOT as root, with the root's PATH (not the host's).
@@ -386,48 +382,34 @@ Signed-By: /usr/share/keyrings/debian-archive-keyring.gpg
 EOF
 }
 
-build_runtime_layer() {
-  local key partial=$ROOTFS_TEST_CACHE/runtime.partial
-  key=$(runtime_key)
-  if layer_is_current runtime "$key"; then PHASE_NOTE=cached; return; fi
-  remove_tree "$partial"
-  cp -a --reflink=auto "$ROOTFS_TEST_CACHE/base" "$partial"
-  install_runtime_packages "$partial"
-  publish_layer runtime "$key"
-  PHASE_NOTE="apt-get install $(read_package_list | wc -l) listed packages"
-}
-
-# What the Dockerfile's runtime stage runs: apt-get update, install the list without recommends,
-# drop the package lists. Downloaded .debs go to a cache folder bind-mounted over the root's
-# archive folder, so they outlive this layer without being part of it.
-install_runtime_packages() {
-  local root=${1:?} log=$ROOTFS_TEST_CACHE/apt.log packages=()
-  mapfile -t packages < <(read_package_list)
-  cp -L /etc/resolv.conf "$root/etc/resolv.conf" # apt inside the root resolves the mirror's name
-  mkdir -p "$ROOTFS_TEST_CACHE/apt-archives"
-  mount_container_fs "$root"
-  mount --bind "$ROOTFS_TEST_CACHE/apt-archives" "$root/var/cache/apt/archives"
-  say "apt-get install --no-install-recommends ${packages[*]} (log: $log)"
-  if ! { in_root "$root" apt-get -q update &&
-    DEBIAN_FRONTEND=noninteractive in_root "$root" \
-      apt-get -q -y -o Dpkg::Use-Pty=0 install --no-install-recommends "${packages[@]}"; } >"$log" 2>&1; then
-    tail -n 20 "$log" >&2
-    die "apt-get in the root failed (full log: $log)"
-  fi
-  unmount_under "$root"
-  drop_apt_caches "$root"
-  local p
-  for p in "${packages[@]}"; do
-    # shellcheck disable=SC2016 # a dpkg-query format, not a shell expansion
-    in_root "$root" dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' ||
-      die "$p (from $PACKAGE_LIST) is not installed in the root"
-  done
-}
-
 # ---------------------------------------------------------------------------------------------
-# The assembled root (CACHE/run/root, a copy of the runtime layer) and the container around it
+# The closure (CACHE/run/closure), the assembled root (CACHE/run/root: the base layer with the
+# closure copied over it) and the container around it
 
-RUN_DIR='' ROOT='' SERVER_PID='' SERVER_LOG='' PORT=''
+RUN_DIR='' CLOSURE_DIR='' ROOT='' SERVER_LOG='' SERVER_PID='' PORT=''
+
+# The Dockerfile builder's last step: deploy/runtime-closure.sh, against the base layer as the
+# builder runs it against debian:bookworm-slim, so only what the base lacks is copied. Not cached:
+# it depends on the binary and on this machine's libraries, and takes seconds.
+build_closure() {
+  [[ ! -e $RUN_DIR ]] || die "$RUN_DIR exists (the outer run removes it first)"
+  mkdir -p "$RUN_DIR"
+  drop_package_layer
+  local summary
+  summary=$("$CLOSURE" --base "$ROOTFS_TEST_CACHE/base" "$ROOTFS_TEST_BINARY" "$CLOSURE_DIR") ||
+    die "deploy/runtime-closure.sh failed"
+  say "$summary"
+  PHASE_NOTE=${summary#runtime-closure: }
+  PHASE_NOTE=${PHASE_NOTE%, * already in *}
+}
+
+# Before the closure, this script cached the root with Debian's runtime packages installed (about
+# 720 MiB, with the .debs it downloaded); a cache from then holds them for nothing.
+drop_package_layer() {
+  local old
+  for old in runtime runtime.partial apt-archives; do remove_tree "$ROOTFS_TEST_CACHE/$old"; done
+  rm -f "$ROOTFS_TEST_CACHE/runtime.key" "$ROOTFS_TEST_CACHE/apt.log"
+}
 
 # What a container runtime gives a process: a fresh /proc and a minimal /dev (a tmpfs with the
 # usual character devices), read-only since nothing here needs to write either.
@@ -446,19 +428,18 @@ mount_container_fs() {
   mount -o remount,ro "$root/dev"
 }
 
-# As the Dockerfile's runtime stage: the user and group with fixed ids, the store folder it owns
-# (mode 0750), the binary in /usr/local/bin.
+# As the Dockerfile's runtime stage: the closure copied over the base, the loader's cache rebuilt
+# (ldconfig), the user and group with fixed ids, the store folder it owns (mode 0750), the binary
+# in /usr/local/bin.
 assemble_root() {
-  RUN_DIR=$ROOTFS_TEST_CACHE/run ROOT=$ROOTFS_TEST_CACHE/run/root SERVER_LOG=$ROOTFS_TEST_CACHE/run/server.log
-  [[ ! -e $RUN_DIR ]] || die "$RUN_DIR exists (the outer run removes it first)"
-  mkdir -p "$RUN_DIR"
-  cp -a --reflink=auto "$ROOTFS_TEST_CACHE/runtime" "$ROOT"
+  cp -a --reflink=auto "$ROOTFS_TEST_CACHE/base" "$ROOT"
+  cp -a --reflink=auto "$CLOSURE_DIR/." "$ROOT/"
+  in_root "$ROOT" ldconfig
   in_root "$ROOT" groupadd --system --gid "$APP_GID" "$APP_USER"
   in_root "$ROOT" useradd --system --uid "$APP_UID" --gid "$APP_USER" --home-dir "$STORE" \
     --no-create-home --shell /usr/sbin/nologin "$APP_USER"
   install -d -o "$APP_UID" -g "$APP_GID" -m 0750 "$ROOT$STORE"
   install -m 0755 "$ROOTFS_TEST_BINARY" "$ROOT$APP_BINARY"
-  [[ -f $ROOT$FACE_CASCADE ]] || die "$FACE_CASCADE missing from the root (package opencv-data)"
   mount_container_fs "$ROOT"
   set_app_command
 }
@@ -473,20 +454,40 @@ set_app_command() {
     /usr/bin/env -i --chdir="$STORE" PATH="$ROOT_PATH" HOME="$STORE" ZOOMWARP_STORE="$STORE")
 }
 
-ingest_sample() {
-  install -m 0644 "$REPO/samples/$SAMPLE" "$ROOT/tmp/$SAMPLE"
-  local id
-  id=$("${APP[@]}" zoomwarp ingest "/tmp/$SAMPLE" --id "$SAMPLE_ID" --quiet) ||
-    die "zoomwarp ingest failed inside the root"
-  [[ $id == "$SAMPLE_ID" ]] || die "zoomwarp ingest printed '$id', expected '$SAMPLE_ID'"
-  PHASE_NOTE="zoomwarp ingest as uid $APP_UID"
+# ingest_in_root FILE ID [NAME=VALUE...]: `zoomwarp ingest` of the root's /tmp/FILE as uid 10001,
+# with the variables given added to the image's environment; its messages go to RUN_DIR/ingest.log.
+ingest_in_root() {
+  local file=$1 want=$2 id log=$RUN_DIR/ingest.log
+  shift 2
+  if ! id=$("${APP[@]}" "$@" zoomwarp ingest "/tmp/$file" --id "$want" --quiet 2>>"$log"); then
+    tail -n 5 "$log" >&2
+    die "zoomwarp ingest of $file failed inside the root (log: $log)"
+  fi
+  [[ $id == "$want" ]] || die "zoomwarp ingest of $file printed '$id', expected '$want'"
+}
+
+# The sources, one per format (FORMAT_IDS, in that order), and the portrait for face detection,
+# all decoded by the root's libraries; the TIFF and the WebP are written by this machine's oiiotool,
+# at half the JPEG's size (1280×800) to keep the ingests short.
+ingest_samples() {
+  local tmp=$ROOT/tmp
+  install -m 0644 "$REPO/samples/$SAMPLE" "$REPO/samples/$ALPHA_SAMPLE" "$REPO/samples/$FACE_SAMPLE" "$tmp/"
+  oiiotool -q "$tmp/$SAMPLE" --resize 1280x800 -o "$tmp/boats.tif" -o "$tmp/boats.webp" ||
+    die "oiiotool could not write the TIFF and WebP samples"
+  chmod 0644 "$tmp/boats.tif" "$tmp/boats.webp"
+  [[ $(oiiotool --info "$tmp/$ALPHA_SAMPLE") == *", 4 channel,"* ]] || die "$ALPHA_SAMPLE has no alpha channel"
+  local files=("$SAMPLE" "$ALPHA_SAMPLE" boats.tif boats.webp) i
+  for i in "${!FORMAT_IDS[@]}"; do ingest_in_root "${files[$i]}" "${FORMAT_IDS[$i]}"; done
+  ingest_in_root "$FACE_SAMPLE" "$FACE_ID"
+  ingest_in_root "$FACE_SAMPLE" "$NO_FACE_ID" ZOOMWARP_FACE_CASCADE=/no-such-cascade.xml
+  PHASE_NOTE="zoomwarp ingest as uid $APP_UID: JPEG, PNG (RGBA), TIFF, WebP; portrait with and without cascade"
 }
 
 # The image's CMD (serve), on loopback and a port the kernel picks (read from the 'listening'
 # log line), instead of the image's 0.0.0.0:8080; with a key file readable by its group only.
 start_server() {
   install -d -m 0755 "$(dirname "$ROOT$KEYS_FILE")"
-  printf 'rootfs-test curator %s\n' "$CURATOR_KEY" >"$ROOT$KEYS_FILE"
+  printf 'rootfs-test curator %s\nrootfs-test-admin admin %s\n' "$CURATOR_KEY" "$ADMIN_KEY" >"$ROOT$KEYS_FILE"
   chown "0:$APP_GID" "$ROOT$KEYS_FILE"
   chmod 0640 "$ROOT$KEYS_FILE"
   "${APP[@]}" ZOOMWARP_HOST=127.0.0.1 ZOOMWARP_PORT=0 ZOOMWARP_KEYS="$KEYS_FILE" zoomwarp serve >"$SERVER_LOG" 2>&1 &
@@ -552,19 +553,31 @@ json_has() {
   done
 }
 
+# expect_image PATH TYPE OUT SIZE: GET PATH is a TYPE image that decodes, every pixel of it
+# (oiiotool --printstats reads them all, not only the header), to SIZE (WIDTHxHEIGHT).
+expect_image() {
+  local path=$1 type=$2 out=$3 want=$4 size
+  expect_get "$path" 200 "$type" "$out"
+  size=$(oiiotool -q "$out" --printstats --echo '{TOP.width}x{TOP.height}' 2>&1 | tail -n 1) ||
+    die "$path does not decode: $size"
+  [[ $size == "$want" ]] || die "$path is $size, expected $want"
+  say "$path decodes to $size"
+}
+
 check_requests() {
   local out=$RUN_DIR
   expect_get /readyz 200 application/json "$out/readyz.json"
   expect_get "/v1/images/$SAMPLE_ID" 200 application/json "$out/image.json"
   json_has "$out/image.json" "\"id\":\"$SAMPLE_ID\"" "\"status\":\"ready\""
 
-  expect_get "/v1/images/$SAMPLE_ID/viewport?$VIEW_QUERY" 200 image/jpeg "$out/viewport.jpg"
-  local size
-  # --printstats reads every pixel: the JPEG must decode, not only have a valid header.
-  size=$(oiiotool -q "$out/viewport.jpg" --printstats --echo '{TOP.width}x{TOP.height}' 2>&1 | tail -n 1) ||
-    die "viewport JPEG does not decode: $size"
-  [[ $size == "$VIEW_SIZE" ]] || die "viewport JPEG is $size, expected $VIEW_SIZE"
-  say "viewport decodes to $size"
+  local id
+  for id in "${FORMAT_IDS[@]}"; do
+    expect_image "/v1/images/$id/viewport?$VIEW_QUERY" image/jpeg "$out/viewport-$id.jpg" "$VIEW_SIZE"
+  done
+  # IIIF, in the two other output formats.
+  expect_image "/iiif/3/pano-png/full/480,/0/default.png" image/png "$out/iiif.png" 480x120
+  expect_image "/iiif/3/boats-tiff/0,0,640,400/480,/0/default.webp" image/webp "$out/iiif.webp" 480x300
+  check_face_detection
 
   expect_get "/v1/images/$SAMPLE_ID/mesh?$VIEW_QUERY" 200 application/json "$out/mesh.json"
   json_has "$out/mesh.json" '"vertices":[[' '"triangles":[[' '"tiles":[{'
@@ -582,6 +595,19 @@ check_requests() {
   expect_http POST "/v1/images?id=$UPLOAD_ID" 201 application/json "$out/upload.json" \
     --data-binary "@$REPO/samples/$SAMPLE" -H 'Content-Type: application/octet-stream' \
     -H "Authorization: Bearer $CURATOR_KEY"
+}
+
+# The cascade is in the root and loads (/readyz's details, for an admin key, say "on"), and finds
+# the face: the portrait's significance map differs from the one ingested without a cascade.
+check_face_detection() {
+  local out=$RUN_DIR
+  expect_get /readyz 200 application/json "$out/readyz-admin.json" -H "Authorization: Bearer $ADMIN_KEY"
+  json_has "$out/readyz-admin.json" '"face_detection":"on"'
+  expect_get "/v1/images/$FACE_ID/significance.png" 200 image/png "$out/faces.png"
+  expect_get "/v1/images/$NO_FACE_ID/significance.png" 200 image/png "$out/no-faces.png"
+  ! cmp -s "$out/faces.png" "$out/no-faces.png" ||
+    die "the portrait's significance map is the same with and without the cascade: no face found in the root"
+  say "face detection on; the portrait's significance map shows the face"
 }
 
 # The Dockerfile's HEALTHCHECK, `zoomwarp health` (the slim image has no curl), run in the root as
@@ -609,52 +635,57 @@ stop_server() {
 }
 
 # ---------------------------------------------------------------------------------------------
-# Report: packages with their installed sizes, and the size of each part of the root
+# Report: the size of each part of the root, and its largest shared objects
 
 SIZE_REPORT=''
 
-mib() { awk -v k="$1" 'BEGIN { printf "%.1f", k / 1024 }'; }
+# KiB as MiB, one decimal; a few KiB either side of zero print as 0.0, not -0.0.
+mib() { awk -v k="$1" 'BEGIN { m = k / 1024; if (m > -0.05 && m < 0.05) m = 0; printf "%.1f", m }'; }
 
 du_kib() { du -sxk "$@" | awk '{ s += $1 } END { print s }'; }
 
-measure_root() {
-  local base runtime binary total
-  base=$(du_kib "$ROOTFS_TEST_CACHE/base")
-  runtime=$(du_kib "$ROOTFS_TEST_CACHE/runtime")
-  binary=$(du_kib "$ROOT$APP_BINARY")
-  total=$(du_kib "$ROOT")
-  SIZE_REPORT=$(
-    printf '%-36s %9s\n' 'root file system (du)' MiB
-    printf '%-36s %9s\n' "debootstrap minbase, slimmed" "$(mib "$base")"
-    printf '%-36s %9s\n' "+ runtime-packages.txt and deps" "$(mib $((runtime - base)))"
-    printf '%-36s %9s\n' "+ $APP_BINARY" "$(mib "$binary")"
-    printf '%-36s %9s\n' "whole root" "$(mib "$total")"
-  )
+# data_paths: the data files of runtime-files.txt (not its shared objects), as paths in the root.
+data_paths() { sed 's/#.*//' "$FILE_LIST" | awk 'NF && $1 !~ /\.so/ { print $1 }'; }
+
+# KiB and path of each regular file of the closure that is not a data file, largest first.
+closure_objects() {
+  local data
+  data=$(data_paths)
+  (cd "$CLOSURE_DIR" && find . -type f -printf '%k\t/%P\n') |
+    awk -F'\t' -v data="$data" 'BEGIN { n = split(data, d, "\n"); for (i = 1; i <= n; i++) skip[d[i]] = 1 }
+      !($2 in skip)' | sort -k1,1nr
 }
 
-print_packages() {
-  local listed
-  listed=$(read_package_list | tr '\n' ' ')
-  printf '\n%9s  %-8s %s\n' KiB origin package
-  # shellcheck disable=SC2016 # a dpkg-query format, not a shell expansion
-  in_root "$ROOT" dpkg-query -W -f='${Installed-Size}\t${Package}\n' | sort -k1,1nr |
-    awk -F'\t' -v listed=" $listed" -v basefile="$ROOTFS_TEST_CACHE/base.packages" '
-      BEGIN { while ((getline p < basefile) > 0) base[p] = 1 }
-      {
-        origin = index(listed, " " $2 " ") ? "listed" : ($2 in base) ? "minbase" : "dep"
-        kib[origin] += $1; count[origin]++
-        if (origin != "minbase") printf "%9d  %-8s %s\n", $1, origin, $2
-      }
-      END {
-        printf "%9d  %-8s (%d packages, not listed one by one)\n", kib["minbase"], "minbase", count["minbase"]
-        printf "\ninstalled size (dpkg)  packages       MiB\n"
-        for (o in count) if (o != "minbase") { n += count[o]; k += kib[o] }
-        printf "%-21s %9d %9.1f\n", "listed", count["listed"], kib["listed"] / 1024
-        printf "%-21s %9d %9.1f\n", "their dependencies", count["dep"], kib["dep"] / 1024
-        printf "%-21s %9d %9.1f\n", "added to minbase", n, k / 1024
-        printf "%-21s %9d %9.1f\n", "minbase", count["minbase"], kib["minbase"] / 1024
-        printf "%-21s %9d %9.1f\n", "all", n + count["minbase"], (k + kib["minbase"]) / 1024
-      }'
+# The closure's objects are counted apart from the base: those it adds, and those replacing a
+# different version of a file the base has (the size they add or take away).
+measure_root() {
+  local base=$ROOTFS_TEST_CACHE/base kib path
+  local added=0 added_count=0 replaced=0 replaced_count=0 data=0 binary total
+  while IFS=$'\t' read -r kib path; do
+    if [[ -f $base$path && ! -L $base$path ]]; then
+      replaced=$((replaced + kib - $(du_kib "$base$path"))) replaced_count=$((replaced_count + 1))
+    else
+      added=$((added + kib)) added_count=$((added_count + 1))
+    fi
+  done < <(closure_objects)
+  while read -r path; do data=$((data + $(du_kib "$ROOT$path"))); done < <(data_paths)
+  binary=$(du_kib "$ROOT$APP_BINARY")
+  total=$(du_kib "$ROOT")
+  local rest=$((total - $(du_kib "$base") - added - replaced - data - binary))
+  SIZE_REPORT=$(
+    printf '%-56s %9s\n' 'root file system (du)' MiB
+    printf '%-56s %9s\n' "debootstrap minbase, slimmed" "$(mib "$(du_kib "$base")")"
+    printf '%-56s %9s\n' "+ shared objects it lacks ($added_count files)" "$(mib "$added")"
+    printf '%-56s %9s\n' "+ shared objects replacing its own ($replaced_count files)" "$(mib "$replaced")"
+    printf '%-56s %9s\n' "+ data files (runtime-files.txt)" "$(mib "$data")"
+    printf '%-56s %9s\n' "+ $APP_BINARY" "$(mib "$binary")"
+    printf '%-56s %9s\n' "+ links, folders, ld.so.cache, user, store" "$(mib "$rest")"
+    printf '%-56s %9s\n' "whole root" "$(mib "$total")"
+    printf '\n%-56s %9s\n' "largest shared objects of $((added_count + replaced_count)) copied" MiB
+    # awk reads the whole list: head would end the pipeline with SIGPIPE, a failure under pipefail.
+    closure_objects | awk -F'\t' 'NR <= 15 { printf "%-56s %9.1f\n", $2, $1 / 1024 }'
+  )
+  PHASE_NOTE="$(mib "$total") MiB"
 }
 
 # ---------------------------------------------------------------------------------------------
@@ -675,17 +706,18 @@ inner_main() {
   trap 'exit 130' INT
   trap 'exit 143' TERM HUP
   RUN_STARTED=$EPOCHREALTIME
+  RUN_DIR=$ROOTFS_TEST_CACHE/run CLOSURE_DIR=$ROOTFS_TEST_CACHE/run/closure
+  ROOT=$ROOTFS_TEST_CACHE/run/root SERVER_LOG=$ROOTFS_TEST_CACHE/run/server.log
   say "binary $ROOTFS_TEST_BINARY"
   say "cache $ROOTFS_TEST_CACHE, mirrors $ROOTFS_TEST_MIRROR $ROOTFS_TEST_SECURITY_MIRROR"
   phase base build_base_layer
-  phase packages build_runtime_layer
+  phase closure build_closure
   phase assemble assemble_root
   phase measure measure_root
-  phase ingest ingest_sample
+  phase ingest ingest_samples
   phase start start_server
   phase requests check_requests
   phase stop stop_server
-  print_packages
   printf '\n%s\n' "$SIZE_REPORT"
   print_phases
   say "PASS"

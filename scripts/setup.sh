@@ -31,11 +31,13 @@ build_pkgs=(
   libssl-dev
   # seam carving (warp/methods/seam/): liblqr's headers include GLib's, which its package does not pull in
   liblqr-1-0-dev libglib2.0-dev
+  # the face cascade the binary loads at run time; the container image copies it from the builder
+  # (deploy/runtime-files.txt)
+  opencv-data
 )
-# Working on it: the face cascades the binary loads at run time (the container image gets them
-# from deploy/runtime-packages.txt), git, and the test and benchmark libraries; LBFGSpp (header-only)
-# is the reference polyfem's own L-BFGS is tested against (tests/unit/polyfem_lbfgs_test.cc).
-dev_pkgs=(opencv-data git ca-certificates libgtest-dev libgmock-dev libbenchmark-dev liblbfgspp-dev)
+# Working on it: git, and the test and benchmark libraries; LBFGSpp (header-only) is the reference
+# polyfem's own L-BFGS is tested against (tests/unit/polyfem_lbfgs_test.cc).
+dev_pkgs=(git ca-certificates libgtest-dev libgmock-dev libbenchmark-dev liblbfgspp-dev)
 # Tests and benchmarks: a browser for the viewer tests, Node for driving it, nginx and wrk to
 # measure against and to front the replicas (tests/cluster/), curl and jq for the scripts,
 # PyYAML for the deployment files' test (tests/deploy/).

@@ -8,8 +8,9 @@ covering the drain, and agrees with the Service, HPA, PVC, PDB and ConfigMap; ev
 variable named anywhere in deploy/ is a real option (from `zoomwarp serve|ingest|health --help`);
 the store path, port and uid are the same in the Dockerfile, compose.yaml and the k8s manifests;
 nginx.conf keeps its retry and cache directives and the lines tests/cluster substitutes; the
-Dockerfile installs from deploy/runtime-packages.txt and declares what a runtime image should; and
-deploy/README.md's table of variables is exactly what --help says.
+Dockerfile's runtime stage is its base with the tree deploy/runtime-closure.sh gathers in the
+builder (no package installed) and declares what a runtime image should; and deploy/README.md's
+table of variables is exactly what --help says.
 
     python3 tests/deploy/manifests_test.py --binary build/bin/zoomwarp [--root .]
     python3 tests/deploy/manifests_test.py --binary build/bin/zoomwarp --readme-table  # regenerate
@@ -604,19 +605,33 @@ class Dockerfile(unittest.TestCase):
         setup = read("scripts", "setup.sh")
         self.assertIn("--build-only)", setup, "scripts/setup.sh has no --build-only")
 
+    def test_builder_gathers_the_runtime_tree(self):
+        # The closure is compared with the very image the runtime stage starts from.
+        closure = re.search(r"--mount=type=bind,from=(\S+),target=(\S+)\s+deploy/runtime-closure\.sh --base (\S+) "
+                            r"/build/bin/zoomwarp (\S+)$", self.runs(self.build))
+        self.assertTrue(closure, "the builder runs deploy/runtime-closure.sh against the runtime base")
+        image, target, base, tree = closure.groups()
+        self.assertEqual(image, self.runtime[0][1])
+        self.assertEqual(target, base)
+        copies = [rest for word, rest in self.runtime if word == "COPY"]
+        self.assertIn(f"--from={self.build[0][1].split()[-1]} {tree}/ /", copies)
+        self.assertTrue(os.access(path("deploy", "runtime-closure.sh"), os.X_OK), "runtime-closure.sh not executable")
+        # The builder has what runtime-files.txt lists: the face cascade comes from a build package.
+        listed = [l.split("#")[0].strip() for l in read("deploy", "runtime-files.txt").splitlines()]
+        listed = [l for l in listed if l]
+        self.assertIn("/usr/share/opencv4/haarcascades/haarcascade_frontalface_default.xml", listed)
+        for p in listed:
+            self.assertRegex(p, r"^/\S+$", "one absolute path per line, '#' for comments")
+        build_pkgs = re.search(r"^build_pkgs=\((.*?)^\)", read("scripts", "setup.sh"), re.MULTILINE | re.DOTALL)
+        self.assertIn("opencv-data", re.sub(r"#.*", "", build_pkgs.group(1)).split())
+
     def test_runtime(self):
         self.assertEqual(self.runtime[0][1], "debian:bookworm-slim")
         copies = [rest for word, rest in self.runtime if word == "COPY"]
-        self.assertTrue(any(c.startswith("deploy/runtime-packages.txt ") for c in copies))
-        self.assertTrue(any(c.startswith("--from=") and "zoomwarp" in c for c in copies))
+        self.assertTrue(any(c.startswith("--from=") and c.endswith("/usr/local/bin/zoomwarp") for c in copies))
         run = self.runs(self.runtime)
-        self.assertRegex(run, r"sed 's/#\.\*//' \S*runtime-packages.txt \| xargs apt-get install -y --no-install-recommends")
-        self.assertIn("rm -rf /var/lib/apt/lists/*", run)
-        self.assertEqual(run.count("apt-get install"), 1, "packages installed besides deploy/runtime-packages.txt")
-        packages = [l.strip() for l in read("deploy", "runtime-packages.txt").splitlines()
-                    if l.strip() and not l.startswith("#")]
-        for p in packages:
-            self.assertRegex(p, r"^[a-z0-9][a-z0-9.+-]+$", "one package per line, '#' for comments")
+        self.assertNotIn("apt-get", run, "the runtime stage installs no package: the closure carries the libraries")
+        self.assertTrue(run.startswith("ldconfig "), "the loader's cache is rebuilt after the closure is copied")
 
     def test_runtime_declarations(self):
         by = {}
@@ -642,7 +657,7 @@ class Dockerfile(unittest.TestCase):
                     "tests/browser/out", "deploy/compose.yaml", "deploy/keys"):
             self.assertTrue(dockerignore_excludes(rel), f".dockerignore should exclude {rel}")
         # Everything the Dockerfile copies and CMake builds from must stay in the context.
-        needed = ["CMakeLists.txt", "scripts/setup.sh", "deploy/runtime-packages.txt"]
+        needed = ["CMakeLists.txt", "scripts/setup.sh", "deploy/runtime-closure.sh", "deploy/runtime-files.txt"]
         for folder in ("cmake", "tiles", "warp", "api", "server", "web"):
             for d, _, names in os.walk(path(folder)):
                 needed += [os.path.relpath(os.path.join(d, n), ARGS.root) for n in names]
