@@ -43,26 +43,26 @@ class Gate {
 
 constexpr int kCallers = 8;
 
-// Runs `kCallers` concurrent get("k") calls: the first to compute holds until all others wait.
+// Runs `kCallers` concurrent get("k") calls and waits for them. The one that computes counts in
+// `computed` and holds until all the others wait on its flight. `body(i, get)` is caller i:
+// get(compute) calls flights.get("k", …) with that computation.
 template <class Body>
-std::vector<std::thread> callers(Flights& flights, Gate& gate, std::atomic<int>& computed, Body body) {
+void run_callers(Flights& flights, Gate& gate, std::atomic<int>& computed, Body body) {
+  const auto wait = [&](const Flights::Future& f) {
+    gate.arrive();
+    f.wait();
+  };
   std::vector<std::thread> threads;
   for (int i = 0; i < kCallers; ++i)
-    threads.emplace_back([&, body, i] {
-      const auto wait = [&](const Flights::Future& f) {
-        gate.arrive();
-        f.wait();
-      };
-      body(i, [&](auto compute) { return flights.get("k", [&] {
-                                    ++computed;
-                                    gate.hold();
-                                    return compute();
-                                  }, wait); });
+    threads.emplace_back([&, i] {
+      body(i, [&](auto compute) {
+        return flights.get("k", [&] {
+          ++computed;
+          gate.hold();
+          return compute();
+        }, wait);
+      });
     });
-  return threads;
-}
-
-void join(std::vector<std::thread>& threads) {
   for (auto& t : threads) t.join();
 }
 
@@ -72,12 +72,11 @@ TEST(SingleFlight, ConcurrentCallersComputeOnce) {
     Gate gate(kCallers - 1);
     std::atomic<int> computed = 0, leaders = 0;
     std::vector<int> got(kCallers, 0);
-    auto threads = callers(flights, gate, computed, [&](int i, auto get) {
+    run_callers(flights, gate, computed, [&](int i, auto get) {
       const auto r = get([] { return 42; });
       got[std::size_t(i)] = r.value;
       if (r.computed) ++leaders;
     });
-    join(threads);
     EXPECT_EQ(computed, 1) << "keeps " << keeps;
     EXPECT_EQ(leaders, 1);
     EXPECT_EQ(got, std::vector<int>(kCallers, 42));
@@ -91,14 +90,13 @@ TEST(SingleFlight, AnErrorReachesEveryWaiterAndIsNotKept) {
     Flights flights = keeps ? Flights(100, [](const int&) { return 1; }) : Flights();
     Gate gate(kCallers - 1);
     std::atomic<int> computed = 0, failed = 0;
-    auto threads = callers(flights, gate, computed, [&](int, auto get) {
+    run_callers(flights, gate, computed, [&](int, auto get) {
       try {
         get([]() -> int { throw std::runtime_error("model damaged"); });
       } catch (const std::runtime_error& e) {
         if (std::string(e.what()) == "model damaged") ++failed;
       }
     });
-    join(threads);
     EXPECT_EQ(computed, 1) << "keeps " << keeps;
     EXPECT_EQ(failed, kCallers);
     const auto next = flights.get("k", [] { return 5; });
@@ -131,7 +129,7 @@ TEST(SingleFlight, AWaiterThatGivesUpLeavesTheFlightGoing) {
   EXPECT_EQ(kept.value, 3);
 }
 
-// Keys "a"…: each value weighs its own number; used() says whether get() computed.
+// Keys "a"…: each value weighs its own number; computes() says whether get() computed.
 struct Weighed {
   Flights flights{3, [](const int& v) { return std::size_t(v); }};
   bool computes(const std::string& key, int weight = 1) {
