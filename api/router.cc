@@ -193,42 +193,25 @@ Response Router::compute_once(const std::string& cache_key, const warp::StopToke
     warp::check_stop(stop);  // out of time or cancelled while queued: not computed at all
     // Single flight: the first request for a key computes, identical ones arriving meanwhile wait
     // for its answer (a burst of clients opening the same view costs one warp and one encode).
-    std::promise<std::shared_ptr<const Response>> promise;
-    std::shared_future<std::shared_ptr<const Response>> pending;
-    {
-      std::lock_guard lock(in_flight_mu_);
-      auto [it, first] = in_flight_.try_emplace(cache_key);
-      if (first) it->second = promise.get_future().share();
-      else pending = it->second;
-    }
-    if (pending.valid()) {
-      wait_for(pending, stop);  // a waiter that runs out of time leaves; the others wait on
-      try {
-        Response r = *pending.get();  // rethrows the first request's error
-        r.cache = "hit";
-        return r;
-      } catch (const warp::Stopped&) {
-        continue;  // the leader's own client left or ran out of time: not ours; compute it here
-      }
-    }
-    // Off the table before the waiters wake: one that recomputes after a stopped leader must not
-    // find the same failed flight again.
-    auto finish = [&] {
-      std::lock_guard lock(in_flight_mu_);
-      in_flight_.erase(cache_key);
-    };
+    bool computing = false;
     try {
-      auto computed = std::make_shared<const Response>(compute());
-      if (computed->status == 200) cache_.put(cache_key, computed, computed->body->size());
-      finish();
-      promise.set_value(computed);
-      Response r = *computed;
-      r.cache = "miss";
+      const auto [answer, computed] = in_flight_.get(
+          cache_key,
+          [&] {
+            computing = true;
+            auto r = std::make_shared<const Response>(compute());
+            // Cached before the flight lands, so that a request arriving after it finds the answer.
+            if (r->status == 200) cache_.put(cache_key, r, r->body->size());
+            return r;
+          },
+          [&](const auto& pending) { wait_for(pending, stop); });  // a waiter that runs out of time leaves
+      Response r = *answer;
+      r.cache = computed ? "miss" : "hit";
       return r;
-    } catch (...) {
-      finish();
-      promise.set_exception(std::current_exception());
-      throw;
+    } catch (const warp::Stopped&) {
+      if (computing) throw;
+      warp::check_stop(stop);  // this request's own time ran out, or its client left, while waiting
+      // The computing request's own client left or it ran out of time: not ours; compute it here.
     }
   }
 }

@@ -8,9 +8,6 @@
 
 #include <cstddef>
 #include <functional>
-#include <future>
-#include <map>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -21,6 +18,7 @@
 #include "api/deepzoom.h"
 #include "api/http_types.h"
 #include "api/iiif.h"
+#include "api/single_flight.h"
 #include "api/url_signing.h"
 #include "api/view_query.h"
 #include "api/warp_engines.h"
@@ -154,8 +152,7 @@ class Router {
   RouterConfig config_;
   tiles::ByteLruCache<Response> cache_;
   WarpEngines engines_;
-  std::mutex in_flight_mu_;
-  std::map<std::string, std::shared_future<std::shared_ptr<const Response>>> in_flight_;
+  SingleFlight<std::shared_ptr<const Response>> in_flight_;  // keeps nothing: cache_ keeps the answers
 };
 
 }  // namespace zoomwarp::api

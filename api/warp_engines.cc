@@ -11,7 +11,11 @@ namespace zoomwarp::api {
 
 WarpEngines::WarpEngines(tiles::PyramidReader& reader, std::size_t budget_bytes, warp::SignificanceOptions significance,
                          EventLog log)
-    : reader_(reader), budget_(budget_bytes), significance_(std::move(significance)), log_(std::move(log)) {}
+    : reader_(reader),
+      budget_(budget_bytes),
+      significance_(std::move(significance)),
+      log_(std::move(log)),
+      engines_(budget_bytes, [](const Engine& e) { return std::visit([](const auto& p) { return p->memory_bytes(); }, e); }) {}
 
 std::shared_ptr<warp::Icaz> WarpEngines::load_icaz(const tiles::ImageEntry& image, warp::Saliency saliency,
                                                    bool auto_lines) {
@@ -42,18 +46,6 @@ std::shared_ptr<warp::Icaz> WarpEngines::load_icaz(const tiles::ImageEntry& imag
   return std::make_shared<warp::Icaz>(std::move(model), options);
 }
 
-void WarpEngines::evict_over_budget(const std::string& keep) {
-  std::size_t total = 0;
-  for (const auto& [key, entry] : engines_) total += entry.bytes;
-  while (total > budget_ && order_.size() > 1) {
-    const std::string victim = order_.back() == keep ? *std::next(order_.rbegin()) : order_.back();
-    auto it = engines_.find(victim);
-    total -= it->second.bytes;
-    order_.erase(it->second.position);
-    engines_.erase(it);
-  }
-}
-
 std::shared_ptr<warp::Retargeter> WarpEngines::load_retargeter(const tiles::ImageEntry& image,
                                                                const warp::RetargetingMethod& method,
                                                                warp::Saliency saliency) {
@@ -70,7 +62,8 @@ std::shared_ptr<warp::Retargeter> WarpEngines::load_retargeter(const tiles::Imag
 
 std::shared_ptr<warp::Icaz> WarpEngines::get(const tiles::ImageEntry& image, warp::Saliency saliency, bool auto_lines) {
   const std::string key = image.dir + "|icaz|" + std::string(warp::saliency_name(saliency)) + (auto_lines ? "|auto" : "");
-  return std::get<std::shared_ptr<warp::Icaz>>(cached(key, [&] { return Engine(load_icaz(image, saliency, auto_lines)); }));
+  return std::get<std::shared_ptr<warp::Icaz>>(
+      engines_.get(key, [&] { return Engine(load_icaz(image, saliency, auto_lines)); }).value);
 }
 
 std::shared_ptr<warp::Retargeter> WarpEngines::retargeter(const tiles::ImageEntry& image,
@@ -78,52 +71,9 @@ std::shared_ptr<warp::Retargeter> WarpEngines::retargeter(const tiles::ImageEntr
                                                           warp::Saliency saliency) {
   const std::string key = image.dir + "|" + std::string(method.name) + "|" + std::string(warp::saliency_name(saliency));
   return std::get<std::shared_ptr<warp::Retargeter>>(
-      cached(key, [&] { return Engine(load_retargeter(image, method, saliency)); }));
+      engines_.get(key, [&] { return Engine(load_retargeter(image, method, saliency)); }).value);
 }
 
-WarpEngines::Engine WarpEngines::cached(const std::string& key, const std::function<Engine()>& load) {
-  std::promise<Engine> promise;
-  Future existing;
-  {
-    std::lock_guard lock(mu_);
-    if (auto it = engines_.find(key); it != engines_.end()) {
-      order_.splice(order_.begin(), order_, it->second.position);
-      existing = it->second.engine;
-    } else {
-      order_.push_front(key);
-      engines_.emplace(key, Entry{promise.get_future().share(), order_.begin(), 0});
-    }
-  }
-  Engine engine;
-  if (existing.valid()) {
-    engine = existing.get();  // rethrows the loader's error
-  } else {
-    try {
-      engine = load();
-      promise.set_value(engine);
-    } catch (...) {
-      promise.set_exception(std::current_exception());
-      std::lock_guard lock(mu_);
-      if (auto it = engines_.find(key); it != engines_.end()) {
-        order_.erase(it->second.position);
-        engines_.erase(it);
-      }
-      throw;
-    }
-  }
-  // The engine grows as views visit it (lazy forest nodes, caches per target size): measure it again.
-  const std::size_t bytes = std::visit([](const auto& e) { return e->memory_bytes(); }, engine);
-  std::lock_guard lock(mu_);
-  if (auto it = engines_.find(key); it != engines_.end()) it->second.bytes = bytes;
-  evict_over_budget(key);
-  return engine;
-}
-
-std::size_t WarpEngines::memory_bytes() {
-  std::lock_guard lock(mu_);
-  std::size_t total = 0;
-  for (const auto& [key, entry] : engines_) total += entry.bytes;
-  return total;
-}
+std::size_t WarpEngines::memory_bytes() { return engines_.weight(); }
 
 }  // namespace zoomwarp::api

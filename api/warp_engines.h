@@ -19,16 +19,13 @@
 
 #include <cstddef>
 #include <functional>
-#include <future>
-#include <list>
 #include <memory>
-#include <mutex>
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <string_view>
-#include <unordered_map>
 #include <variant>
 
+#include "api/single_flight.h"
 #include "tiles/pyramid_reader.h"
 #include "tiles/store.h"
 #include "warp/icaz/icaz.h"
@@ -60,27 +57,17 @@ class WarpEngines {
 
  private:
   using Engine = std::variant<std::shared_ptr<warp::Icaz>, std::shared_ptr<warp::Retargeter>>;
-  using Future = std::shared_future<Engine>;
   std::shared_ptr<warp::Icaz> load_icaz(const tiles::ImageEntry& image, warp::Saliency saliency, bool auto_lines);
   std::shared_ptr<warp::Retargeter> load_retargeter(const tiles::ImageEntry& image, const warp::RetargetingMethod& method,
                                                     warp::Saliency saliency);
-  // The engine under `key`, loaded by `load` on first use (single flight).
-  Engine cached(const std::string& key, const std::function<Engine()>& load);
-
-  void evict_over_budget(const std::string& keep);
 
   tiles::PyramidReader& reader_;
   std::size_t budget_;
   warp::SignificanceOptions significance_;
   EventLog log_;
-  std::mutex mu_;
-  std::list<std::string> order_;  // most recently used first
-  struct Entry {
-    Future engine;
-    std::list<std::string>::iterator position;
-    std::size_t bytes = 0;  // as last measured
-  };
-  std::unordered_map<std::string, Entry> engines_;
+  // The engines by key, loaded on first use, weighed in bytes after every use (they grow as views
+  // visit them: lazy forest nodes, caches per target size).
+  SingleFlight<Engine> engines_;
 };
 
 }  // namespace zoomwarp::api

@@ -1,0 +1,34 @@
+#include "tests/support/ingested_image.h"
+
+#include "tiles/ingest.h"
+
+namespace zoomwarp::testing {
+
+IngestedImage::IngestedImage(const std::string& path, const std::string& id) {
+  tiles::ingest_image(store, path, id, {});
+  entry = store.find(id);
+}
+
+IngestedImage::MeshViews IngestedImage::mesh_views(const std::string& query) {
+  const tiles::ImageEntry& e = *entry;
+  MeshViews m{api::parse_view_query(query, api::ViewRoute::kMesh, e.manifest.width, e.manifest.height), {}, {}};
+  const api::ViewQuery& q = m.query;
+  if (q.method == api::ViewMethod::kRetargeting) {
+    const auto engine = engines.retargeter(e, *q.retargeting, q.saliency);
+    m.view = engine->view(q.view);
+    if (q.from) m.morph = warp::Geomorph{m.view.source, {}, engine->view(*q.from).screen, m.view.screen};
+    return m;
+  }
+  const auto icaz = engines.get(e, q.saliency, q.auto_lines);
+  if (q.method == api::ViewMethod::kTraditional) {
+    m.view = icaz->traditional(q.view);
+    if (q.from) m.morph = warp::Geomorph{m.view.source, {}, icaz->traditional(*q.from).screen, m.view.screen};
+  } else if (q.from) {
+    m.morph = icaz->geomorph(*q.from, q.view, &m.view);
+  } else {
+    m.view = icaz->view(q.view);
+  }
+  return m;
+}
+
+}  // namespace zoomwarp::testing
