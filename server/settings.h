@@ -11,7 +11,7 @@
 
 namespace zoomwarp::server {
 
-// --store, --max-pixels, --tile-compression, --face-cascade.
+// --store, --max-pixels, --tile-compression, --ingest-threads, --face-cascade.
 std::vector<OptionSpec> store_option_specs();
 
 // The warp engine's analysis settings: --face-cascade found (warp::find_face_cascade), and face

@@ -1,0 +1,59 @@
+// Ingest on many threads (--ingest-threads) stores exactly what ingest on one thread stores: the
+// level files byte for byte (tiles are compressed in parallel but written in order, and nothing
+// time-dependent is written into them).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <map>
+
+#include "tests/support/server_process.h"
+#include "tiles/ingest.h"
+
+namespace zoomwarp {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::TempDir;
+
+// Every file of the published version but the manifest (its version and time differ by design).
+std::map<std::string, std::string> version_files(const tiles::ImageEntry& image) {
+  std::map<std::string, std::string> files;
+  for (const auto& e : fs::directory_iterator(image.dir))
+    if (e.path().filename() != "manifest.json")
+      files[e.path().filename().string()] = testing::read_file(e.path().string());
+  return files;
+}
+
+tiles::IngestOptions on_threads(int threads) {
+  tiles::IngestOptions options;
+  options.pyramid.threads = threads;
+  return options;
+}
+
+void expect_same_files(const std::string& source) {
+  TempDir dir;
+  tiles::Store store(dir.path() + "/store");
+  tiles::ingest_image(store, source, "one", on_threads(1));
+  tiles::ingest_image(store, source, "many", on_threads(4));
+  const auto one = version_files(*store.find("one")), many = version_files(*store.find("many"));
+  ASSERT_EQ(one.size(), many.size());
+  EXPECT_TRUE(one.count("level_0.tif"));
+  for (const auto& [name, bytes] : one) {
+    ASSERT_TRUE(many.count(name)) << name;
+    EXPECT_TRUE(bytes == many.at(name)) << name << " differs between 1 and 4 threads";
+  }
+}
+
+// The demo photograph, RGB JPEG decoded straight into the strips: 10×7 tiles at level 0, edge
+// tiles at every level below.
+TEST(IngestThreads, SameFilesOnOneAndFourThreads) {
+  expect_same_files(testing::samples_dir() + "/boats_lake_sunset.jpg");
+}
+
+// RGBA (straight alpha), 2048×512: a single strip of 8 tiles at level 0, levels of one strip.
+TEST(IngestThreads, SameLevelsForRgbaOnOneAndFourThreads) {
+  expect_same_files(testing::samples_dir() + "/pano_grossmugl_field_4to1.png");
+}
+
+}  // namespace
+}  // namespace zoomwarp
