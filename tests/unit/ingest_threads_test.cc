@@ -1,6 +1,6 @@
 // Ingest on many threads (--ingest-threads) stores exactly what ingest on one thread stores: the
 // level files byte for byte (tiles are compressed in parallel but written in order, and nothing
-// time-dependent is written into them).
+// time-dependent is written into them) and the warp analysis's files (its parts run in parallel).
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -8,6 +8,7 @@
 
 #include "tests/support/server_process.h"
 #include "tiles/ingest.h"
+#include "warp/analysis/image_analysis.h"
 
 namespace zoomwarp {
 namespace {
@@ -24,17 +25,19 @@ std::map<std::string, std::string> version_files(const tiles::ImageEntry& image)
   return files;
 }
 
-tiles::IngestOptions on_threads(int threads) {
+tiles::IngestOptions on_threads(int threads, bool analysed) {
   tiles::IngestOptions options;
   options.pyramid.threads = threads;
+  if (analysed)
+    options.analyse = [threads](const tiles::ImageEntry& staged) { warp::write_image_analysis(staged, {}, threads); };
   return options;
 }
 
-void expect_same_files(const std::string& source) {
+void expect_same_files(const std::string& source, bool analysed) {
   TempDir dir;
   tiles::Store store(dir.path() + "/store");
-  tiles::ingest_image(store, source, "one", on_threads(1));
-  tiles::ingest_image(store, source, "many", on_threads(4));
+  tiles::ingest_image(store, source, "one", on_threads(1, analysed));
+  tiles::ingest_image(store, source, "many", on_threads(4, analysed));
   const auto one = version_files(*store.find("one")), many = version_files(*store.find("many"));
   ASSERT_EQ(one.size(), many.size());
   EXPECT_TRUE(one.count("level_0.tif"));
@@ -45,14 +48,15 @@ void expect_same_files(const std::string& source) {
 }
 
 // The demo photograph, RGB JPEG decoded straight into the strips: 10×7 tiles at level 0, edge
-// tiles at every level below.
+// tiles at every level below; with the ICAZ model, the detected lines, the GBVS map and every
+// method's file.
 TEST(IngestThreads, SameFilesOnOneAndFourThreads) {
-  expect_same_files(testing::samples_dir() + "/boats_lake_sunset.jpg");
+  expect_same_files(testing::samples_dir() + "/boats_lake_sunset.jpg", true);
 }
 
 // RGBA (straight alpha), 2048×512: a single strip of 8 tiles at level 0, levels of one strip.
 TEST(IngestThreads, SameLevelsForRgbaOnOneAndFourThreads) {
-  expect_same_files(testing::samples_dir() + "/pano_grossmugl_field_4to1.png");
+  expect_same_files(testing::samples_dir() + "/pano_grossmugl_field_4to1.png", false);
 }
 
 }  // namespace
