@@ -54,7 +54,7 @@ struct PyramidInfo {
   int source_orientation = 1;
 };
 
-// Fraction of the work done, 0…1; called from the ingesting thread.
+// Fraction of the work done, 0…1, never decreasing; called from the ingesting thread only.
 using ProgressFn = std::function<void(double)>;
 
 // File name of pyramid level k inside an image version's folder.

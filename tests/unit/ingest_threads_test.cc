@@ -1,10 +1,12 @@
 // Ingest on many threads (--ingest-threads) stores exactly what ingest on one thread stores: the
 // level files byte for byte (tiles are compressed in parallel but written in order, and nothing
 // time-dependent is written into them) and the warp analysis's files (its parts run in parallel).
+// Progress is still reported, in order, from the ingesting thread.
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <map>
+#include <thread>
 
 #include "tests/support/server_process.h"
 #include "tiles/ingest.h"
@@ -57,6 +59,23 @@ TEST(IngestThreads, SameFilesOnOneAndFourThreads) {
 // RGBA (straight alpha), 2048×512: a single strip of 8 tiles at level 0, levels of one strip.
 TEST(IngestThreads, SameLevelsForRgbaOnOneAndFourThreads) {
   expect_same_files(testing::samples_dir() + "/pano_grossmugl_field_4to1.png", false);
+}
+
+TEST(IngestThreads, ProgressComesInOrderFromTheIngestingThread) {
+  TempDir dir;
+  tiles::Store store(dir.path() + "/store");
+  std::vector<double> seen;
+  const auto caller = std::this_thread::get_id();
+  bool other_thread = false;
+  tiles::ingest_image(store, testing::samples_dir() + "/boats_lake_sunset.jpg", "boats", on_threads(4, true),
+                      [&](double f) {
+                        seen.push_back(f);
+                        other_thread |= std::this_thread::get_id() != caller;
+                      });
+  ASSERT_GT(seen.size(), 10u) << "a step per chunk of decoded rows";
+  EXPECT_FALSE(other_thread);
+  for (std::size_t i = 1; i < seen.size(); ++i) EXPECT_LE(seen[i - 1], seen[i]) << "step " << i;
+  EXPECT_EQ(seen.back(), 1.0);
 }
 
 }  // namespace
