@@ -5,9 +5,10 @@
 //
 // The files are what OpenImageIO's TIFF writer made before (and still reads): 8-bit RGB or RGBA
 // (a 4th channel tagged as an unspecified extra sample, so no reader premultiplies it),
-// horizontal-difference predictor with zip and lzw, zip through libdeflate at libtiff's levels
-// ("zip:N", "zip" = zip:6), BigTIFF when the raw level exceeds 4000 MiB. They carry no DateTime
-// tag: the same pixels always give the same bytes.
+// horizontal-difference predictor with zip and lzw, zip:1 (the default) through ISA-L's igzip
+// level 1 and the other zip levels through libdeflate at libtiff's levels ("zip:N", "zip" =
+// zip:6), BigTIFF when the raw level exceeds 4000 MiB. They carry no DateTime tag: the same pixels
+// always give the same bytes.
 #pragma once
 
 #include <cstdint>
@@ -30,7 +31,7 @@ class TileEncoder {
  private:
   friend class LevelFile;
   int tile_size_ = 256, channels_ = 3;
-  int deflate_level_ = 0;  // 0: stored as is (none), or encoded by libtiff when written (lzw)
+  int zip_quality_ = 0;  // 1…9; 0: stored as is (none), or encoded by libtiff when written (lzw)
 };
 
 class LevelFile {
