@@ -29,6 +29,9 @@ build_pkgs=(
   nlohmann-json3-dev libturbojpeg0-dev libpng-dev libwebp-dev libssl-dev
   libopencv-imgproc-dev libopencv-objdetect-dev
   libssl-dev
+  # pyramid levels written by tiles/level_file.cc: libtiff directly, tiles compressed by ISA-L
+  # (zip:1) and libdeflate (other zip levels)
+  libtiff-dev libdeflate-dev libisal-dev
   # seam carving (warp/methods/seam/): liblqr's headers include GLib's, which its package does not pull in
   liblqr-1-0-dev libglib2.0-dev
   # the face cascade the binary loads at run time; the container image copies it from the builder

@@ -81,9 +81,10 @@ int ingest_command(const std::vector<std::string>& args) {
         std::snprintf(took, sizeof took, " %.2f s", t.seconds);
         methods += (methods.empty() ? "; " : ", ") + t.file + took;
       }
-      std::printf("ingested %s: %dx%d, %d levels, version %s, in %s; %.2f s (warp analysis %.2f s%s)\n", m.id.c_str(),
-                  m.width, m.height, m.levels, m.version.c_str(), store.root().c_str(), total_s, analysis_s,
-                  methods.c_str());
+      std::printf("ingested %s: %dx%d, %d levels, version %s, in %s; %.2f s on %d threads (pyramid %.2f s, "
+                  "warp analysis %.2f s%s)\n",
+                  m.id.c_str(), m.width, m.height, m.levels, m.version.c_str(), store.root().c_str(), total_s,
+                  options.pyramid.threads, total_s - analysis_s, analysis_s, methods.c_str());
     }
     return 0;
   } catch (const std::invalid_argument& e) {

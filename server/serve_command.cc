@@ -168,7 +168,11 @@ int serve_command(const std::vector<std::string>& args) {
     WorkerPool cpu(workers, queue);
     // Uploads are admitted against http.upload_slots; the pool's queue also counts a job handed to
     // a thread that has not picked it up yet, so it gets room for every slot and never refuses one.
-    WorkerPool ingest(ingest_workers, http.upload_slots);
+    // An ingest runs on --ingest-threads threads (started by its pool thread, so they inherit its
+    // priority), ten nice levels below the request workers: on an idle machine it takes every
+    // core, under request load it yields to the requests instead of halving their CPU.
+    constexpr int kIngestNice = 10;
+    WorkerPool ingest(ingest_workers, http.upload_slots, kIngestNice);
     Metrics metrics;
     metrics.add_sampler([&] {
       using S = Metrics::Sample;

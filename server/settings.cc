@@ -1,7 +1,9 @@
 #include "server/settings.h"
 
+#include <algorithm>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
+#include <thread>
 
 #include "server/log.h"
 #include "warp/analysis/image_analysis.h"
@@ -13,6 +15,8 @@ std::vector<OptionSpec> store_option_specs() {
       {"store", "./store", "folder of the image store (shared by all replicas)"},
       {"max-pixels", "1000000000", "largest image accepted, in pixels (width x height), checked before decoding"},
       {"tile-compression", "zip:1", "TIFF compression of stored pyramid levels: zip:1 … zip:9, zip (= zip:6), lzw, none"},
+      {"ingest-threads", std::to_string(std::max(1u, std::thread::hardware_concurrency())),
+       "threads one ingest uses: tiles compressed and the warp analysis's parts run on all of them (same files for any count)"},
       {"face-cascade", warp::kDefaultFaceCascade,
        "OpenCV Haar cascade for faces in significance maps (the default is also looked for in OpenCV's data folders); "
        "missing: face detection is off"},
@@ -39,13 +43,14 @@ tiles::IngestOptions ingest_options(const Options& o, const warp::SignificanceOp
   tiles::IngestOptions opt;
   opt.limits.max_pixels = std::uint64_t(o.integer("max-pixels", 1, 1LL << 40));
   opt.pyramid.compression = o.str("tile-compression");
+  opt.pyramid.threads = int(o.integer("ingest-threads", 1, 256));
   const auto& c = opt.pyramid.compression;
   const bool zip_level = c.size() == 5 && c.rfind("zip:", 0) == 0 && c[4] >= '1' && c[4] <= '9';
   if (c != "zip" && !zip_level && c != "lzw" && c != "none")
     throw std::invalid_argument("--tile-compression must be zip:1 … zip:9, zip, lzw or none, not '" + c + "'");
   // The warp engine's significance map, published with the image.
-  opt.analyse = [significance, method_timings](const tiles::ImageEntry& staged) {
-    auto timings = warp::write_image_analysis(staged, significance);
+  opt.analyse = [significance, method_timings, threads = opt.pyramid.threads](const tiles::ImageEntry& staged) {
+    auto timings = warp::write_image_analysis(staged, significance, threads);
     if (method_timings) *method_timings = std::move(timings);
   };
   return opt;

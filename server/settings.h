@@ -11,7 +11,7 @@
 
 namespace zoomwarp::server {
 
-// --store, --max-pixels, --tile-compression, --face-cascade.
+// --store, --max-pixels, --tile-compression, --ingest-threads, --face-cascade.
 std::vector<OptionSpec> store_option_specs();
 
 // The warp engine's analysis settings: --face-cascade found (warp::find_face_cascade), and face
@@ -22,8 +22,9 @@ struct AnalysisSettings {
 };
 AnalysisSettings analysis_settings(const Options& o);
 
-// The ingest options; the warp analysis hook stores each method file's precompute time in
-// `*method_timings` when given (`zoomwarp ingest` prints them).
+// The ingest options (pyramid and warp analysis on --ingest-threads threads); the warp analysis
+// hook stores each method file's precompute time in `*method_timings` when given (`zoomwarp
+// ingest` prints them).
 tiles::IngestOptions ingest_options(const Options& o, const warp::SignificanceOptions& significance,
                                     std::vector<warp::MethodFileTiming>* method_timings = nullptr);
 

@@ -1,8 +1,13 @@
 #include "server/worker_pool.h"
 
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+
 namespace zoomwarp::server {
 
-WorkerPool::WorkerPool(int threads, std::size_t max_queue) : max_queue_(max_queue) {
+WorkerPool::WorkerPool(int threads, std::size_t max_queue, int nice) : max_queue_(max_queue), nice_(nice) {
   for (int i = 0; i < threads; ++i) threads_.emplace_back([this] { run(); });
 }
 
@@ -36,6 +41,11 @@ std::size_t WorkerPool::running() const {
 }
 
 void WorkerPool::run() {
+  if (nice_ > 0) {
+    // Raising one's own nice value needs no privilege; 19 is the lowest priority there is.
+    const id_t self = id_t(::gettid());
+    ::setpriority(PRIO_PROCESS, self, std::min(19, ::getpriority(PRIO_PROCESS, self) + nice_));
+  }
   std::unique_lock lock(mu_);
   while (true) {
     cv_.wait(lock, [&] { return stopping_ || !queue_.empty(); });

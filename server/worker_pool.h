@@ -20,7 +20,9 @@ namespace zoomwarp::server {
 
 class WorkerPool {
  public:
-  WorkerPool(int threads, std::size_t max_queue);
+  // `nice` > 0 lowers the threads' CPU priority by that much (Linux nice values are per thread,
+  // and threads they start inherit them): their work then yields to the process's other threads.
+  WorkerPool(int threads, std::size_t max_queue, int nice = 0);
   ~WorkerPool();  // finishes queued jobs, then joins
   WorkerPool(const WorkerPool&) = delete;
   WorkerPool& operator=(const WorkerPool&) = delete;
@@ -34,6 +36,7 @@ class WorkerPool {
   void run();
 
   const std::size_t max_queue_;
+  const int nice_;
   mutable std::mutex mu_;
   std::condition_variable cv_;
   std::deque<std::function<void()>> queue_;

@@ -13,7 +13,11 @@ Manifest ingest_image(Store& store, const std::string& source_path, const std::s
   probe_source(source_path, options.limits);  // refuse bad input before making anything
   const std::string staging = store.make_staging_dir();
   try {
-    PyramidInfo info = build_pyramid(source_path, staging, options.pyramid, options.limits, progress);
+    // With an analysis, the pyramid's progress runs to 0.95 and the analysis's step follows.
+    const double pyramid_share = options.analyse ? 0.95 : 1.0;
+    ProgressFn pyramid_progress;
+    if (progress) pyramid_progress = [&](double f) { progress(pyramid_share * f); };
+    PyramidInfo info = build_pyramid(source_path, staging, options.pyramid, options.limits, pyramid_progress);
     Manifest m;
     m.id = id;
     m.width = info.width;
@@ -30,10 +34,12 @@ Manifest ingest_image(Store& store, const std::string& source_path, const std::s
     std::error_code ec;
     m.source_bytes = std::int64_t(std::filesystem::file_size(source_path, ec));
     if (options.analyse) {
-      if (progress) progress(0.97);
       options.analyse(ImageEntry{m, staging});
+      if (progress) progress(0.99);
     }
-    return store.publish(staging, std::move(m))->manifest;
+    Manifest published = store.publish(staging, std::move(m))->manifest;
+    if (progress) progress(1.0);
+    return published;
   } catch (const IngestError&) {
     store.discard(staging);
     throw;

@@ -4,11 +4,14 @@
 #include <OpenImageIO/imagebufalgo.h>
 #include <OpenImageIO/imageio.h>
 
+#include <algorithm>
 #include <memory>
 #include <vector>
 
+#include "tiles/level_file.h"
 #include "tiles/manifest.h"
 #include "tiles/source_format.h"
+#include "tiles/strip_pipeline.h"
 
 namespace zoomwarp::tiles {
 
@@ -40,83 +43,70 @@ void halve_rows(const std::uint8_t* a, const std::uint8_t* b, int w, int ch, std
   }
 }
 
-// One level being written: rows are gathered into a strip one tile high, each full strip is
-// written as a row of tiles, and pairs of rows are halved into the next coarser level.
+// One level being written. Its rows are written straight into a strip one tile high (by the
+// decoder, or by halving the finer level); each pair of rows is halved into the next coarser level
+// as it arrives, and each full strip is handed to the pipeline (encoded there, written in order).
+// Strips start at even rows (the tile size is even), so pairs never straddle two strips.
 class LevelWriter {
  public:
-  LevelWriter(const std::string& dir, int level, int w, int h, int ch, const PyramidOptions& opt)
-      : w_(w), h_(h), ch_(ch), tile_(opt.tile_size) {
-    const std::string path = dir + "/" + level_filename(level);
-    OIIO::ImageSpec spec(w, h, ch, OIIO::TypeDesc::UINT8);
-    spec.tile_width = spec.tile_height = tile_;
-    spec.tile_depth = 1;
-    spec.alpha_channel = -1;  // store straight values; no reader may premultiply them
-    spec.attribute("compression", opt.compression);
-    spec.attribute("Software", "zoomwarp");
-    out_ = OIIO::ImageOutput::create(path);
-    if (!out_ || !out_->open(path, spec))
-      throw IngestError(Kind::kIo, "cannot create " + path + ": " + OIIO::geterror());
-    strip_.resize(std::size_t(tile_) * w_ * ch_);
-    tile_buf_.resize(std::size_t(tile_) * tile_ * ch_);
-    if (w > 1 || h > 1) {
-      next_ = std::make_unique<LevelWriter>(dir, level + 1, (w + 1) / 2, (h + 1) / 2, ch, opt);
-      pending_.resize(std::size_t(w_) * ch_);
-      half_.resize(std::size_t((w_ + 1) / 2) * ch_);
-    }
+  LevelWriter(const std::string& dir, int level, int w, int h, int ch, const PyramidOptions& opt,
+              StripPipeline& pipeline)
+      : file_(dir + "/" + level_filename(level), w, h, ch, opt.tile_size, opt.compression),
+        pipeline_(pipeline), w_(w), ch_(ch), tile_(opt.tile_size), strip_(new_strip()) {
+    if (w > 1 || h > 1)
+      next_ = std::make_unique<LevelWriter>(dir, level + 1, (w + 1) / 2, (h + 1) / 2, ch, opt, pipeline);
   }
 
-  void push_row(const std::uint8_t* row) {
-    std::copy_n(row, std::size_t(w_) * ch_, strip_.data() + std::size_t(strip_rows_) * w_ * ch_);
-    if (++strip_rows_ == tile_) flush_strip();
-    if (!next_) return;
-    if (has_pending_) {
-      halve_rows(pending_.data(), row, w_, ch_, half_.data());
-      next_->push_row(half_.data());
-      has_pending_ = false;
-    } else {
-      std::copy_n(row, pending_.size(), pending_.data());
-      has_pending_ = true;
-    }
+  // Where the next rows go, and how many fit before the strip is full: the caller writes up to
+  // rows_free() rows there, then calls add_rows().
+  std::uint8_t* free_rows() { return row(strip_rows_); }
+  int rows_free() const { return tile_ - strip_rows_; }
+
+  void add_rows(int n) {
+    for (int i = 0; i < n; ++i)
+      if (++strip_rows_ % 2 == 0 && next_) halve_into_next(strip_rows_ - 2, strip_rows_ - 1);
+    if (strip_rows_ == tile_) flush_strip();
   }
 
-  void finish() {
+  // Hands over the last partial strips of this level and the coarser ones; an odd last row is
+  // halved with itself.
+  void flush() {
+    if (strip_rows_ % 2 == 1 && next_) halve_into_next(strip_rows_ - 1, strip_rows_ - 1);
     if (strip_rows_ > 0) flush_strip();
-    if (next_) {
-      if (has_pending_) {
-        halve_rows(pending_.data(), pending_.data(), w_, ch_, half_.data());
-        next_->push_row(half_.data());
-      }
-      next_->finish();
-    }
-    if (!out_->close()) throw IngestError(Kind::kIo, "cannot finish a level: " + out_->geterror());
+    if (next_) next_->flush();
+  }
+
+  // After the pipeline is drained: closes this level's file and the coarser ones.
+  void close() {
+    file_.close();
+    if (next_) next_->close();
   }
 
  private:
-  // Writes the strip one whole tile at a time. Edge tiles are padded by repeating the last column
-  // and row: the padding then compresses to almost nothing and holds no stale memory.
+  std::uint8_t* row(int r) { return strip_.get() + std::size_t(r) * w_ * ch_; }
+
+  // Not zeroed: only written rows are read (the pipeline pads a partial strip from its last row).
+  std::unique_ptr<std::uint8_t[]> new_strip() const {
+    return std::make_unique_for_overwrite<std::uint8_t[]>(std::size_t(tile_) * w_ * ch_);
+  }
+
+  void halve_into_next(int a, int b) {
+    halve_rows(row(a), row(b), w_, ch_, next_->free_rows());
+    next_->add_rows(1);
+  }
+
   void flush_strip() {
-    const std::size_t px = std::size_t(ch_);
-    for (int x0 = 0; x0 < w_; x0 += tile_) {
-      const int cols = std::min(tile_, w_ - x0);
-      for (int r = 0; r < tile_; ++r) {
-        const std::uint8_t* src = strip_.data() + (std::size_t(std::min(r, strip_rows_ - 1)) * w_ + x0) * px;
-        std::uint8_t* dst = tile_buf_.data() + std::size_t(r) * tile_ * px;
-        std::copy_n(src, cols * px, dst);
-        for (int c = cols; c < tile_; ++c) std::copy_n(src + (cols - 1) * px, px, dst + c * px);
-      }
-      if (!out_->write_tile(x0, strip_y_, 0, OIIO::TypeDesc::UINT8, tile_buf_.data()))
-        throw IngestError(Kind::kIo, "cannot write tiles: " + out_->geterror());
-    }
+    pipeline_.submit(file_, strip_y_ / tile_, w_, strip_rows_, std::move(strip_));
+    strip_ = new_strip();
     strip_y_ += strip_rows_;
     strip_rows_ = 0;
   }
 
-  int w_, h_, ch_, tile_;
-  std::unique_ptr<OIIO::ImageOutput> out_;
-  std::vector<std::uint8_t> strip_, tile_buf_;
+  LevelFile file_;
+  StripPipeline& pipeline_;
+  int w_, ch_, tile_;
+  std::unique_ptr<std::uint8_t[]> strip_;
   int strip_rows_ = 0, strip_y_ = 0;
-  std::vector<std::uint8_t> pending_, half_;
-  bool has_pending_ = false;
   std::unique_ptr<LevelWriter> next_;
 };
 
@@ -205,21 +195,35 @@ PyramidInfo build_pyramid(const std::string& path, const std::string& out_dir,
   const int rc = src.read_channels, ch = info.channels;
   const int sw = in.spec().width, sh = in.spec().height;
 
-  LevelWriter level0(out_dir, 0, info.width, info.height, ch, options);
-  std::vector<std::uint8_t> row(std::size_t(info.width) * ch);
+  // Strips given to the pipeline and not yet encoded hold at most half a level-0 strip's pixels
+  // (or four tiles per thread, for narrow images): a level-0 strip is compressed by all threads
+  // right after it is handed over, while the coarser levels' strips are compressed as the next
+  // rows are decoded. Memory stays that of the strips being filled and does not grow with the
+  // image; letting a whole level-0 strip be compressed behind the decoder would add its size again
+  // (14 MB for an 18 084 px wide image) for little: decoding is a sixth of the pyramid's work.
+  const std::size_t tile_bytes = std::size_t(options.tile_size) * options.tile_size * ch;
+  const std::size_t strip0_bytes = tile_bytes * std::size_t((info.width + options.tile_size - 1) / options.tile_size);
+  StripPipeline pipeline(options.threads,
+                         std::max(strip0_bytes / 2, 4 * tile_bytes * std::size_t(std::max(options.threads, 1))));
+  LevelWriter level0(out_dir, 0, info.width, info.height, ch, options, pipeline);
 
   if (info.source_orientation == 1) {
-    // Small chunks: OpenImageIO allocates conversion buffers proportional to the chunk.
-    const int strip = 16;
-    std::vector<std::uint8_t> buf(std::size_t(strip) * sw * rc);
-    for (int y = 0; y < sh; y += strip) {
-      const int n = std::min(strip, sh - y);
-      check_read(in, in.read_scanlines(0, 0, y, y + n, 0, 0, rc, OIIO::TypeDesc::UINT8, buf.data()));
-      for (int r = 0; r < n; ++r) {
-        to_stored(buf.data() + std::size_t(r) * sw * rc, rc, sw, ch, row.data());
-        level0.push_row(row.data());
-      }
-      if (progress) progress(0.95 * (y + n) / sh);
+    // Decoded straight into level 0's strip when the stored layout is the source's (8-bit RGB or
+    // RGBA); otherwise through a small buffer, mapped to RGB(A). Small chunks either way:
+    // OpenImageIO allocates conversion buffers proportional to the chunk.
+    const int chunk = 16;
+    const bool direct = rc == ch;
+    std::vector<std::uint8_t> buf(direct ? 0 : std::size_t(chunk) * sw * rc);
+    for (int y = 0; y < sh;) {
+      const int n = std::min({chunk, sh - y, level0.rows_free()});
+      std::uint8_t* rows = level0.free_rows();
+      check_read(in, in.read_scanlines(0, 0, y, y + n, 0, 0, rc, OIIO::TypeDesc::UINT8, direct ? rows : buf.data()));
+      if (!direct)
+        for (int r = 0; r < n; ++r)
+          to_stored(buf.data() + std::size_t(r) * sw * rc, rc, sw, ch, rows + std::size_t(r) * sw * ch);
+      level0.add_rows(n);
+      y += n;
+      if (progress) progress(0.95 * y / sh);
     }
   } else {
     // A rotation needs whole columns, so the image is decoded whole (8-bit) and reoriented.
@@ -235,12 +239,14 @@ PyramidInfo build_pyramid(const std::string& path, const std::string& out_dir,
     for (int y = 0; y < info.height; ++y) {
       upright.get_pixels(OIIO::ROI(0, info.width, y, y + 1, 0, 1, 0, rc), OIIO::TypeDesc::UINT8,
                          src_row.data());
-      to_stored(src_row.data(), rc, info.width, ch, row.data());
-      level0.push_row(row.data());
+      to_stored(src_row.data(), rc, info.width, ch, level0.free_rows());
+      level0.add_rows(1);
       if (progress && y % 256 == 0) progress(0.3 + 0.65 * y / info.height);
     }
   }
-  level0.finish();
+  level0.flush();
+  pipeline.drain();
+  level0.close();
   if (progress) progress(1.0);
   return info;
 }

@@ -1,10 +1,12 @@
 // Ingest, step one: decode a source image and write its multi-resolution pyramid.
 //
-// The source is streamed in strips of scanlines; each strip is written as one row of tiles of
-// level 0 and halved (2×2 box, rounding sizes up) into level 1, which feeds level 2, and so on
-// down to 1×1. Memory is a few strips per level, never the whole image — except for sources with
-// an EXIF rotation, which are decoded whole (as 8-bit, never float) to be reoriented.
-// Each level is its own tiled TIFF (see tiles/README.md for why).
+// The source is streamed in strips of scanlines; each strip becomes one row of tiles of level 0
+// and is halved (2×2 box, rounding sizes up) into level 1, which feeds level 2, and so on down to
+// 1×1. The tiles are compressed on PyramidOptions::threads threads and written in order
+// (strip_pipeline.h), so the files do not depend on the thread count. Memory is about two strips
+// per level, never the whole image — except for sources with an EXIF rotation, which are decoded
+// whole (as 8-bit, never float) to be reoriented. Each level is its own tiled TIFF (see
+// tiles/README.md for why).
 #pragma once
 
 #include <cstdint>
@@ -17,6 +19,9 @@ namespace zoomwarp::tiles {
 struct PyramidOptions {
   int tile_size = 256;
   std::string compression = "zip:1";  // TIFF compression of the levels (see tiles/README.md)
+  // Threads compressing tiles, the calling thread (which decodes and halves) included; the files
+  // are byte for byte the same whatever the count.
+  int threads = 1;
 };
 
 struct SourceLimits {
@@ -49,7 +54,7 @@ struct PyramidInfo {
   int source_orientation = 1;
 };
 
-// Fraction of the work done, 0…1; called from the ingesting thread.
+// Fraction of the work done, 0…1, never decreasing; called from the ingesting thread only.
 using ProgressFn = std::function<void(double)>;
 
 // File name of pyramid level k inside an image version's folder.

@@ -33,7 +33,7 @@ ARGS = None  # filled in by main(): --binary, --root
 
 # Options whose default is the machine's CPU count: --help shows this machine's number, the README
 # says so in words.
-CPU_DEPENDENT = {"io-threads", "workers"}
+CPU_DEPENDENT = {"io-threads", "workers", "ingest-threads"}
 
 
 # ---- reading the binary ---------------------------------------------------------------------------

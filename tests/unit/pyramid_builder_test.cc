@@ -156,6 +156,11 @@ TEST_F(Refusals, UnsupportedFormats) {
 
 TEST_F(Refusals, TruncatedAndCorruptImages) {
   EXPECT_EQ(refusal(truncated(testing::samples_dir() + "/boats_lake_sunset.jpg", 0.5)), tiles::IngestError::Kind::kCorrupt);
+  // Found while tiles are still being compressed on other threads.
+  tiles::IngestOptions threaded;
+  threaded.pyramid.threads = 4;
+  EXPECT_EQ(refusal(truncated(testing::samples_dir() + "/boats_lake_sunset.jpg", 0.8), threaded),
+            tiles::IngestError::Kind::kCorrupt);
   EXPECT_EQ(refusal(truncated(testing::samples_dir() + "/pano_grossmugl_field_4to1.png", 0.5)),
             tiles::IngestError::Kind::kCorrupt);
   EXPECT_EQ(refusal(write_bytes("bad.jpg", std::string("\xFF\xD8\xFF\xE0", 4) + std::string(2000, '\x17'))),

@@ -43,9 +43,11 @@ inline constexpr const char* kModelJsonFile = "warp.json";
 
 // The ingest hook: builds the image's model (no lines yet) and writes its files into the (still
 // staged) folder, the retargeting methods' files (method_files.h) for every saliency kind
-// included. Returns how long each method file took. Throws std::runtime_error if it cannot write.
+// included, on up to `threads` threads — fewer for large analysis images, so that the jobs running
+// at once take at most 32 MB more than one (the files are the same for any count). Returns how
+// long each method file took. Throws std::runtime_error if it cannot write.
 std::vector<MethodFileTiming> write_image_analysis(const tiles::ImageEntry& image,
-                                                   const SignificanceOptions& significance = {});
+                                                   const SignificanceOptions& significance = {}, int threads = 1);
 
 // Writes the model's files into `dir` (each to a temporary name, then renamed into place).
 void write_image_model(const std::string& dir, const ImageModel& model);

@@ -1,8 +1,10 @@
 #include "warp/analysis/method_files.h"
 
 #include <chrono>
+#include <functional>
 #include <stdexcept>
 
+#include "tiles/parallel_jobs.h"
 #include "warp/analysis/analysis_image.h"
 #include "warp/analysis/detected_lines.h"
 #include "warp/analysis/model_file.h"
@@ -38,22 +40,28 @@ std::string method_file_name(const RetargetingMethod& method, Saliency saliency)
 
 std::vector<MethodFileTiming> write_method_files(const std::string& dir, const tiles::ImageEntry& image,
                                                  tiles::PyramidReader& reader, const ImageModel& model,
-                                                 std::span<const Saliency> kinds, MethodSelection which) {
+                                                 std::span<const Saliency> kinds, MethodSelection which, int threads) {
   std::vector<const RetargetingMethod*> methods;
   for (const RetargetingMethod* method : retargeting_methods())
     if (method->precompute && (which == MethodSelection::kAll || method->reads_lines)) methods.push_back(method);
-  std::vector<MethodFileTiming> out;
-  if (methods.empty() || kinds.empty()) return out;
+  if (methods.empty() || kinds.empty()) return {};
   const SharedInput shared = shared_input(image, reader, model);
-  for (Saliency kind : kinds) {
-    const SignificanceMap saliency = saliency_map(image, reader, model, kind);
-    for (const RetargetingMethod* method : methods) {
-      const auto start = std::chrono::steady_clock::now();
-      const std::string file = method_file_name(*method, kind);
-      replace_file(dir, file, sealed(*method, precompute(*method, model, kind, saliency, shared)));
-      out.push_back({file, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()});
-    }
-  }
+  std::vector<SignificanceMap> maps;
+  for (Saliency kind : kinds) maps.push_back(saliency_map(image, reader, model, kind));
+  // One job per (method, kind), each writing its own file and timing. Method-major: a method
+  // costs about the same for every kind, so threads taking jobs in this order finish together.
+  std::vector<MethodFileTiming> out(methods.size() * kinds.size());
+  std::vector<std::function<void()>> jobs;
+  for (std::size_t m = 0; m < methods.size(); ++m)
+    for (std::size_t k = 0; k < kinds.size(); ++k)
+      jobs.push_back([&, m, k, slot = jobs.size()] {
+        const auto start = std::chrono::steady_clock::now();
+        const RetargetingMethod& method = *methods[m];
+        const std::string file = method_file_name(method, kinds[k]);
+        replace_file(dir, file, sealed(method, precompute(method, model, kinds[k], maps[k], shared)));
+        out[slot] = {file, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()};
+      });
+  tiles::run_jobs(jobs, threads);
   return out;
 }
 

@@ -30,8 +30,9 @@ std::string method_file_name(const RetargetingMethod& method, Saliency saliency)
 
 // Precomputes every registered method that keeps a file (kReadingLines: only those whose
 // precomputation reads lines — what an edit of the lines alone makes stale), for each kind in
-// `kinds`, and writes the files into `dir`. Returns how long each took (for `zoomwarp ingest`'s
-// report).
+// `kinds`, and writes the files into `dir`; up to `threads` precomputations at once (they are
+// independent). Returns how long each took (for `zoomwarp ingest`'s report), for each
+// method in the registry's order each kind in `kinds`.
 struct MethodFileTiming {
   std::string file;
   double seconds = 0;
@@ -40,7 +41,7 @@ enum class MethodSelection { kAll, kReadingLines };
 std::vector<MethodFileTiming> write_method_files(const std::string& dir, const tiles::ImageEntry& image,
                                                  tiles::PyramidReader& reader, const ImageModel& model,
                                                  std::span<const Saliency> kinds,
-                                                 MethodSelection which = MethodSelection::kAll);
+                                                 MethodSelection which = MethodSelection::kAll, int threads = 1);
 
 // How load_retargeter got the precomputation.
 enum class MethodSource { kStored, kNoFile, kBuiltInMemory, kRebuiltDamaged };
