@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "warp/core/fold_blend.h"
+#include "warp/icaz/spring_matrix.h"
 
 namespace zoomwarp::warp {
 
@@ -34,14 +35,6 @@ Point line_normal(const Line& l, const std::vector<Point>& positions) {
   return len > 0 ? Point{-dy / len, dx / len} : Point{0, 1};
 }
 
-// Adds w·(Σ_k a_k u_k)² to a quadratic form over variables u (indices into `col`): w·a·aᵀ.
-template <std::size_t N>
-void add_square(Triplets& t, const std::array<int, N>& var, const std::array<double, N>& a, double w) {
-  for (std::size_t p = 0; p < N; ++p)
-    for (std::size_t q = 0; q < N; ++q)
-      if (var[p] >= 0 && var[q] >= 0) t.emplace_back(var[p], var[q], w * a[p] * a[q]);
-}
-
 }  // namespace
 
 struct ShapeWarp::Impl {
@@ -61,7 +54,7 @@ struct ShapeWarp::Impl {
   // Fast path: one factorization per axis, and the coupling A_FC of free to fixed unknowns: the
   // fixed values x_C (0, the target size, or a pinned position) enter the RHS as −A_FC x_C.
   std::shared_ptr<const Solver> solver_x, solver_y;  // the same one when the systems are equal
-  SpMat coupling_x, coupling_y;
+  std::vector<Coupling> coupling_x, coupling_y;
 
   void classify(const std::vector<int>& pinned) {
     const std::size_t n = mesh.vertices.size();
@@ -97,61 +90,41 @@ struct ShapeWarp::Impl {
   // The fast path's systems. Per axis, the matrix is the weighted graph Laplacian
   // Σ_f w_f Σ_e (e_i − e_j)(e_i − e_j)ᵀ — the same for x and y — plus the orientation-form line
   // terms α(u_i − u_s)² of lines whose normal is that axis, restricted to the free unknowns.
-  // One AMD ordering of the whole mesh serves both axes (each numbers its free unknowns in that
-  // order and CHOLMOD keeps it): AMD was the largest single cost of a fine view's factorization.
+  // One AMD ordering serves both axes (each numbers its free unknowns in that order and CHOLMOD
+  // keeps it), made on the vertices free along some axis: pinned ones only add columns to order.
   void factor_axes(double alpha) {
     const int n = int(mesh.vertices.size());
-    Triplets t;
-    t.reserve(mesh.triangles.size() * 12);
+    std::vector<Spring> shape;
+    shape.reserve(mesh.triangles.size() * 3);
     for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
-      for (int k = 0; k < 3; ++k) {
-        const int i = mesh.triangles[f][k], j = mesh.triangles[f][(k + 1) % 3];
-        add_square<2>(t, {i, j}, {1.0, -1.0}, weights[f]);
-      }
-    SpMat laplacian(n, n);
-    laplacian.setFromTriplets(t.begin(), t.end());
+      for (int k = 0; k < 3; ++k) shape.push_back({mesh.triangles[f][k], mesh.triangles[f][(k + 1) % 3], weights[f]});
+    std::vector<int> unknown(n, -1), vertex_of;
+    for (int i = 0; i < n; ++i)
+      if (!fixed_x[i] || !fixed_y[i]) unknown[i] = int(vertex_of.size()), vertex_of.push_back(i);
+    const SpMat pattern = spring_matrix(shape, unknown, int(vertex_of.size()));
     Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> elimination;
-    Eigen::AMDOrdering<int>()(laplacian, elimination);
-    number_unknowns({elimination.indices().data(), elimination.indices().data() + n});
+    Eigen::AMDOrdering<int>()(pattern.selfadjointView<Eigen::Lower>(), elimination);
+    std::vector<int> order(vertex_of.size());
+    for (std::size_t k = 0; k < order.size(); ++k) order[k] = vertex_of[elimination.indices()[k]];
+    number_unknowns(order);
 
-    auto line_terms_of = [&](LineKind normal_kind) {
-      Triplets terms;
+    auto with_lines_of = [&](LineKind normal_kind) {
+      std::vector<Spring> springs = shape;
       for (const Line& l : lines)
         if (l.kind == normal_kind)
-          for (std::size_t k = 1; k < l.vertices.size(); ++k)
-            add_square<2>(terms, {l.vertices[k], l.vertices[0]}, {1.0, -1.0}, alpha);
-      return terms;
+          for (std::size_t k = 1; k < l.vertices.size(); ++k) springs.push_back({l.vertices[k], l.vertices[0], alpha});
+      return springs;
     };
-    auto build = [&](const Triplets& line_terms, const std::vector<int>& free, int n_free,
-                     std::shared_ptr<const Solver>& solver, SpMat& coupling) {
-      SpMat with_lines;
-      if (!line_terms.empty()) {
-        with_lines.resize(n, n);
-        with_lines.setFromTriplets(line_terms.begin(), line_terms.end());
-        with_lines += laplacian;
-      }
-      const SpMat& form = line_terms.empty() ? laplacian : with_lines;
-      // CHOLMOD reads the lower triangle only (Solver's UpLo), so only that is kept of A_FF.
-      Triplets ff, fc;
-      ff.reserve(form.nonZeros() / 2 + n);
-      for (int col = 0; col < n; ++col)
-        for (SpMat::InnerIterator e(form, col); e; ++e) {
-          const int r = free[e.row()];
-          if (r < 0) continue;
-          const int c = free[col];
-          if (c < 0) fc.emplace_back(r, col, e.value());
-          else if (r >= c) ff.emplace_back(r, c, e.value());
-        }
-      coupling.resize(n_free, n);
-      coupling.setFromTriplets(fc.begin(), fc.end());
+    auto build = [&](const std::vector<Spring>& springs, const std::vector<int>& free, int n_free,
+                     std::shared_ptr<const Solver>& solver, std::vector<Coupling>& coupling) {
       // Every vertex of this axis fixed (a coarsest mesh with no interior vertex: images whose
       // short side is under ~110 px, see shape_warp.h): the axis is determined and there is
       // nothing to factor. CHOLMOD must not be given the empty matrix: Eigen hands it a null
       // value array, cholmod_analyze refuses it ("invalid xtype") and returns no factor, which
       // Eigen's factorize() then dereferences.
       if (n_free == 0) return;
-      SpMat a(n_free, n_free);
-      a.setFromTriplets(ff.begin(), ff.end());
+      // CHOLMOD reads the lower triangle only (Solver's UpLo), which is all spring_matrix makes.
+      const SpMat a = spring_matrix(springs, free, n_free, &coupling);
       auto factor = std::make_shared<Solver>();
       factor->cholmod().nmethods = 1;
       factor->cholmod().method[0].ordering = CHOLMOD_NATURAL;
@@ -160,15 +133,16 @@ struct ShapeWarp::Impl {
       solver = std::move(factor);
     };
     // x: vertical lines keep their x (normal (1,0)); y: horizontal lines keep their y.
-    const Triplets x_lines = line_terms_of(LineKind::kVertical), y_lines = line_terms_of(LineKind::kHorizontal);
-    build(x_lines, free_x, n_free_x, solver_x, coupling_x);
+    const std::vector<Spring> x_springs = with_lines_of(LineKind::kVertical);
+    build(x_springs, free_x, n_free_x, solver_x, coupling_x);
     // When both axes fix the same vertices and carry no line terms — a local solve away from the
     // image border, the usual case for a pan — their systems are the same matrix: factor it once.
-    if (x_lines.empty() && y_lines.empty() && free_x == free_y) {
+    const std::vector<Spring> y_springs = with_lines_of(LineKind::kHorizontal);
+    if (x_springs.size() == shape.size() && y_springs.size() == shape.size() && free_x == free_y) {
       solver_y = solver_x;
       coupling_y = coupling_x;
     } else {
-      build(y_lines, free_y, n_free_y, solver_y, coupling_y);
+      build(y_springs, free_y, n_free_y, solver_y, coupling_y);
     }
   }
 
@@ -230,9 +204,10 @@ struct ShapeWarp::Impl {
 
   // −A_FC x_C of both axes for fixed values taken from `p` (constant during a solve).
   std::pair<Eigen::VectorXd, Eigen::VectorXd> fixed_rhs(const std::vector<Point>& p) const {
-    Eigen::VectorXd cx(p.size()), cy(p.size());
-    for (std::size_t i = 0; i < p.size(); ++i) cx[i] = fixed_x[i] ? p[i].x : 0, cy[i] = fixed_y[i] ? p[i].y : 0;
-    return {-(coupling_x * cx), -(coupling_y * cy)};
+    Eigen::VectorXd bx = Eigen::VectorXd::Zero(n_free_x), by = Eigen::VectorXd::Zero(n_free_y);
+    for (const Coupling& c : coupling_x) bx[c.row] -= c.value * p[c.vertex].x;
+    for (const Coupling& c : coupling_y) by[c.row] -= c.value * p[c.vertex].y;
+    return {std::move(bx), std::move(by)};
   }
 
   // One global step of the fast path; `fixed` is fixed_rhs() of the solve.

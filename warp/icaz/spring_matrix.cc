@@ -1,0 +1,55 @@
+#include "warp/icaz/spring_matrix.h"
+
+#include <algorithm>
+
+namespace zoomwarp::warp {
+
+Eigen::SparseMatrix<double> spring_matrix(const std::vector<Spring>& springs, const std::vector<int>& index, int n,
+                                          std::vector<Coupling>* coupling) {
+  // Column c holds its diagonal first, then one entry per spring between c and a higher unknown.
+  std::vector<int> start(std::size_t(n) + 1, 0);
+  for (int c = 0; c < n; ++c) start[c + 1] = 1;
+  for (const Spring& s : springs) {
+    const int a = index[s.i], b = index[s.j];
+    if (a >= 0 && b >= 0 && a != b) ++start[std::min(a, b) + 1];
+  }
+  for (int c = 0; c < n; ++c) start[c + 1] += start[c];
+  std::vector<int> rows(std::size_t(start[n]));
+  std::vector<double> values(rows.size(), 0.0);
+  std::vector<int> end(start.begin(), start.end() - 1);
+  for (int c = 0; c < n; ++c) rows[end[c]++] = c;
+  for (const Spring& s : springs) {
+    const int a = index[s.i], b = index[s.j];
+    if (s.i == s.j || a == b) continue;
+    if (a >= 0) values[start[a]] += s.w;
+    if (b >= 0) values[start[b]] += s.w;
+    if (a >= 0 && b >= 0) {
+      const int c = std::min(a, b);
+      rows[end[c]] = std::max(a, b), values[end[c]++] = -s.w;
+    } else if (coupling) {
+      if (a >= 0) coupling->push_back({a, s.j, -s.w});
+      if (b >= 0) coupling->push_back({b, s.i, -s.w});
+    }
+  }
+  // Sort each column's off-diagonal entries by row (a handful: insertion sort), merge repeats
+  // (an interior edge is a spring of both its triangles) and compact.
+  Eigen::SparseMatrix<double> m(n, n);
+  int out = 0;
+  for (int c = 0; c < n; ++c) {
+    const int first = start[c], last = end[c];
+    for (int p = first + 2; p < last; ++p)
+      for (int q = p; q > first + 1 && rows[q - 1] > rows[q]; --q) std::swap(rows[q], rows[q - 1]), std::swap(values[q], values[q - 1]);
+    m.outerIndexPtr()[c] = out;
+    for (int p = first; p < last; ++p) {
+      if (p > first && rows[p] == rows[out - 1]) values[out - 1] += values[p];
+      else rows[out] = rows[p], values[out++] = values[p];
+    }
+  }
+  m.outerIndexPtr()[n] = out;
+  m.resizeNonZeros(out);
+  std::copy_n(rows.begin(), out, m.innerIndexPtr());
+  std::copy_n(values.begin(), out, m.valuePtr());
+  return m;
+}
+
+}  // namespace zoomwarp::warp
