@@ -35,6 +35,16 @@ Point line_normal(const Line& l, const std::vector<Point>& positions) {
   return len > 0 ? Point{-dy / len, dx / len} : Point{0, 1};
 }
 
+// The largest distance between a vertex's positions in a and b (convergence test).
+double largest_move(const std::vector<Point>& a, const std::vector<Point>& b) {
+  double largest2 = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const double dx = b[i].x - a[i].x, dy = b[i].y - a[i].y;
+    largest2 = std::max(largest2, dx * dx + dy * dy);
+  }
+  return std::sqrt(largest2);
+}
+
 }  // namespace
 
 struct ShapeWarp::Impl {
@@ -146,49 +156,64 @@ struct ShapeWarp::Impl {
     }
   }
 
-  // Optimal isotropic scale of each triangle for the current positions (the "local" step).
-  std::vector<double> scales(const std::vector<Point>& cur) const {
-    std::vector<double> s(mesh.triangles.size());
+  // Per triangle, its edge vectors d_e = v_i − v_j (edge e = (k, k + 1)) in the source and
+  // Σ_e |d_e|²: read by every local step and right-hand side, so measured once.
+  std::vector<std::array<Point, 3>> edge;
+  std::vector<double> edge_norm2;
+
+  void measure_edges() {
+    edge.resize(mesh.triangles.size()), edge_norm2.resize(mesh.triangles.size());
     for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
-      double num = 0, den = 0;
+      double den = 0;
       for (int k = 0; k < 3; ++k) {
-        const int i = mesh.triangles[f][k], j = mesh.triangles[f][(k + 1) % 3];
-        const double dx = mesh.vertices[i].x - mesh.vertices[j].x, dy = mesh.vertices[i].y - mesh.vertices[j].y;
-        num += (cur[i].x - cur[j].x) * dx + (cur[i].y - cur[j].y) * dy;
-        den += dx * dx + dy * dy;
+        const Point &a = mesh.vertices[mesh.triangles[f][k]], &b = mesh.vertices[mesh.triangles[f][(k + 1) % 3]];
+        edge[f][k] = {a.x - b.x, a.y - b.y};
+        den += edge[f][k].x * edge[f][k].x + edge[f][k].y * edge[f][k].y;
       }
-      s[f] = den > 0 ? num / den : 1.0;
+      edge_norm2[f] = den;
     }
+  }
+
+  // The optimal isotropic scale s_f of each triangle for positions p (the "local" step) and, if
+  // asked, the shape energy D_Shape of p at those scales: one pass for both, as an accelerated
+  // step needs the energy of the positions whose scales the next step starts from.
+  std::vector<double> scales(const std::vector<Point>& p, double* energy = nullptr) const {
+    std::vector<double> s(mesh.triangles.size());
+    double e = 0;
+    for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+      const Triangle& t = mesh.triangles[f];
+      std::array<Point, 3> warped;
+      double num = 0;
+      for (int k = 0; k < 3; ++k) {
+        const Point &a = p[t[k]], &b = p[t[(k + 1) % 3]];
+        warped[k] = {a.x - b.x, a.y - b.y};
+        num += warped[k].x * edge[f][k].x + warped[k].y * edge[f][k].y;
+      }
+      s[f] = edge_norm2[f] > 0 ? num / edge_norm2[f] : 1.0;
+      if (!energy) continue;
+      for (int k = 0; k < 3; ++k) {
+        const double ex = warped[k].x - s[f] * edge[f][k].x, ey = warped[k].y - s[f] * edge[f][k].y;
+        e += weights[f] * (ex * ex + ey * ey);
+      }
+    }
+    if (energy) *energy = e;
     return s;
   }
 
-  // Right-hand side of the shape term for one axis: b_i = Σ w_f s_f (u_i − u_j) over edges.
-  Eigen::VectorXd shape_rhs(const std::vector<double>& s, bool y_axis, const std::vector<int>& free, int n_free,
-                            const std::vector<double>& w) const {
-    Eigen::VectorXd b = Eigen::VectorXd::Zero(n_free);
-    for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
+  // Adds the shape term's right-hand sides of both axes, b_i = Σ w_f s_f (u_i − u_j) over
+  // edges, to bx (indexed by free_x) and by (by free_y).
+  void add_shape_rhs(const std::vector<double>& s, const std::vector<double>& w, double* bx, double* by) const {
+    for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+      const double ws = w[f] * s[f];
       for (int k = 0; k < 3; ++k) {
         const int i = mesh.triangles[f][k], j = mesh.triangles[f][(k + 1) % 3];
-        const double d = y_axis ? mesh.vertices[i].y - mesh.vertices[j].y : mesh.vertices[i].x - mesh.vertices[j].x;
-        const double c = w[f] * s[f] * d;
-        if (free[i] >= 0) b[free[i]] += c;
-        if (free[j] >= 0) b[free[j]] -= c;
+        const double cx = ws * edge[f][k].x, cy = ws * edge[f][k].y;
+        if (free_x[i] >= 0) bx[free_x[i]] += cx;
+        if (free_x[j] >= 0) bx[free_x[j]] -= cx;
+        if (free_y[i] >= 0) by[free_y[i]] += cy;
+        if (free_y[j] >= 0) by[free_y[j]] -= cy;
       }
-    return b;
-  }
-
-  // The shape energy D_Shape of positions p, with each s_f at its optimum for p.
-  double energy(const std::vector<Point>& p) const {
-    const auto s = scales(p);
-    double e = 0;
-    for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
-      for (int k = 0; k < 3; ++k) {
-        const int i = mesh.triangles[f][k], j = mesh.triangles[f][(k + 1) % 3];
-        const double ex = (p[i].x - p[j].x) - s[f] * (mesh.vertices[i].x - mesh.vertices[j].x);
-        const double ey = (p[i].y - p[j].y) - s[f] * (mesh.vertices[i].y - mesh.vertices[j].y);
-        e += weights[f] * (ex * ex + ey * ey);
-      }
-    return e;
+    }
   }
 
   std::vector<int> inverted(const std::vector<Point>& p) const { return folded_triangles(mesh, p); }
@@ -210,11 +235,13 @@ struct ShapeWarp::Impl {
     return {std::move(bx), std::move(by)};
   }
 
-  // One global step of the fast path; `fixed` is fixed_rhs() of the solve.
-  void solve_decoupled(std::vector<Point>& cur, const std::pair<Eigen::VectorXd, Eigen::VectorXd>& fixed) const {
-    const auto s = scales(cur);
-    Eigen::VectorXd bx = shape_rhs(s, false, free_x, n_free_x, weights) + fixed.first;
-    Eigen::VectorXd by = shape_rhs(s, true, free_y, n_free_y, weights) + fixed.second;
+  // One global step of the fast path from positions with scales `s`; `fixed` is fixed_rhs() of
+  // the solve.
+  void solve_decoupled(std::vector<Point>& cur, const std::vector<double>& s,
+                       const std::pair<Eigen::VectorXd, Eigen::VectorXd>& fixed) const {
+    Eigen::VectorXd bx = Eigen::VectorXd::Zero(n_free_x), by = Eigen::VectorXd::Zero(n_free_y);
+    add_shape_rhs(s, weights, bx.data(), by.data());
+    bx += fixed.first, by += fixed.second;
     const Eigen::VectorXd x = solver_x ? Eigen::VectorXd(solver_x->solve(bx)) : bx;
     const Eigen::VectorXd y = solver_y ? Eigen::VectorXd(solver_y->solve(by)) : by;
     for (std::size_t i = 0; i < cur.size(); ++i) {
@@ -231,19 +258,17 @@ struct ShapeWarp::Impl {
     const int n = n_free_x + n_free_y;
     if (n == 0) return;  // every coordinate fixed: nothing to solve, and nothing CHOLMOD accepts
     auto [a, b] = joint_system(cur, tw, th, alpha, iteration % 2 == 0, w, cur);
-    b += joint_shape_rhs(cur, w);
+    b += joint_shape_rhs(scales(cur), w);
     Solver solver;
     solver.compute(a);
     if (solver.info() != Eigen::Success) throw std::runtime_error("CHOLMOD could not factor the warp system");
     write_joint(cur, solver.solve(b));
   }
 
-  // The shape term's right-hand side for the joint unknowns (free x, then free y).
-  Eigen::VectorXd joint_shape_rhs(const std::vector<Point>& cur, const std::vector<double>& w) const {
-    const auto s = scales(cur);
-    Eigen::VectorXd b(n_free_x + n_free_y);
-    b.head(n_free_x) = shape_rhs(s, false, free_x, n_free_x, w);
-    b.tail(n_free_y) = shape_rhs(s, true, free_y, n_free_y, w);
+  // The shape term's right-hand side for the joint unknowns (free x, then free y), from scales s.
+  Eigen::VectorXd joint_shape_rhs(const std::vector<double>& s, const std::vector<double>& w) const {
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(n_free_x + n_free_y);
+    add_shape_rhs(s, w, b.data(), b.data() + n_free_x);
     return b;
   }
 
@@ -364,6 +389,7 @@ ShapeWarp::ShapeWarp(Mesh mesh, std::vector<double> weights, double width, doubl
     impl_->lines.push_back({std::move(ids), kind});
   }
   impl_->classify(pinned);
+  impl_->measure_edges();
   if (!impl_->has_oblique) impl_->factor_axes(WarpOptions{}.alpha);
 }
 
@@ -422,17 +448,23 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
   if (!fast && options.fixed_line_normals && has_unknowns) joint = constant_joint(start, m.weights);
   const bool accelerated_path = fast || joint;
   // What an accelerated step must lower: the shape energy (the fast path's H/V line terms are
-  // nearly met by construction), plus the line energy when oblique lines are in the system.
-  auto objective = [&](const std::vector<Point>& p) {
-    return joint ? m.energy(p) + m.line_energy(p, start, options.alpha) : m.energy(p);
+  // nearly met by construction), plus the line energy when oblique lines are in the system. The
+  // scales of p come with it: the next step starts from whichever positions are kept.
+  auto objective = [&](const std::vector<Point>& p, std::vector<double>& scales_of_p) {
+    double shape = 0;
+    scales_of_p = m.scales(p, &shape);
+    return joint ? shape + m.line_energy(p, start, options.alpha) : shape;
   };
+  std::vector<double> scales;  // of r.positions, when `scales_current`
+  bool scales_current = false;
   for (r.iterations = 0; r.iterations < options.max_iterations;) {
     check_stop(options.stop);
     const std::vector<Point> before = r.positions;
     if (accelerated_path) {
+      if (!scales_current) scales = m.scales(r.positions);
       std::vector<Point> step = r.positions;
-      if (joint) m.write_joint(step, joint->solver.solve(joint->constant + m.joint_shape_rhs(step, m.weights)));
-      else m.solve_decoupled(step, fixed);
+      if (joint) m.write_joint(step, joint->solver.solve(joint->constant + m.joint_shape_rhs(scales, m.weights)));
+      else m.solve_decoupled(step, scales, fixed);
       const Eigen::VectorXd u = stack(r.positions), g = stack(step), f = g - u;
       if (g_prev.size() == n2) {
         dg.push_back(g - g_prev), df.push_back(f - f_prev);
@@ -440,23 +472,27 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
       }
       g_prev = g, f_prev = f;
       r.positions = step;
+      scales_current = false;
       if (!dg.empty()) {
         Eigen::MatrixXd F(n2, df.size()), G(n2, dg.size());
         for (std::size_t k = 0; k < df.size(); ++k) F.col(k) = df[k], G.col(k) = dg[k];
         const Eigen::VectorXd gamma = F.colPivHouseholderQr().solve(f);
         std::vector<Point> accelerated = unstack(g - G * gamma);
-        if (objective(accelerated) < objective(step)) r.positions = std::move(accelerated);
-        else dg.clear(), df.clear();
+        std::vector<double> accelerated_scales, step_scales;
+        if (objective(accelerated, accelerated_scales) < objective(step, step_scales)) {
+          r.positions = std::move(accelerated), scales = std::move(accelerated_scales);
+        } else {
+          dg.clear(), df.clear();
+          scales = std::move(step_scales);
+        }
+        scales_current = true;
       }
     } else if (m.n_free_x + m.n_free_y > 0) {
       m.solve_joint(r.positions, tw, th, options.alpha, r.iterations, m.weights);
     }
     ++r.iterations;
-    double moved = 0;
-    for (std::size_t i = 0; i < before.size(); ++i)
-      moved = std::max(moved, std::hypot(r.positions[i].x - before[i].x, r.positions[i].y - before[i].y));
     // Oblique lines alternate two forms: judge convergence after a pair of iterations.
-    if (moved < options.tolerance && (accelerated_path || r.iterations % 2 == 0)) {
+    if (largest_move(before, r.positions) < options.tolerance && (accelerated_path || r.iterations % 2 == 0)) {
       r.converged = true;
       break;
     }
@@ -491,15 +527,13 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
       check_stop(options.stop);
       const std::vector<Point> before = r.positions;
       if (round_joint) {
-        m.write_joint(r.positions, round_joint->solver.solve(round_joint->constant + m.joint_shape_rhs(r.positions, w)));
+        m.write_joint(r.positions,
+                      round_joint->solver.solve(round_joint->constant + m.joint_shape_rhs(m.scales(r.positions), w)));
         ++r.iterations;
       } else {
         m.solve_joint(r.positions, tw, th, options.alpha, r.iterations++, w);
       }
-      double moved = 0;
-      for (std::size_t i = 0; i < before.size(); ++i)
-        moved = std::max(moved, std::hypot(r.positions[i].x - before[i].x, r.positions[i].y - before[i].y));
-      if (moved < options.tolerance && (round_joint || k % 2 == 1)) break;
+      if (largest_move(before, r.positions) < options.tolerance && (round_joint || k % 2 == 1)) break;
     }
     bad = m.inverted(r.positions);
     r.guard_rounds = round + 1;

@@ -6,7 +6,8 @@ namespace zoomwarp::warp {
 
 Eigen::SparseMatrix<double> spring_matrix(const std::vector<Spring>& springs, const std::vector<int>& index, int n,
                                           std::vector<Coupling>* coupling) {
-  // Column c holds its diagonal first, then one entry per spring between c and a higher unknown.
+  // Column c has room for its diagonal (first) and one entry per spring between c and a higher
+  // unknown.
   std::vector<int> start(std::size_t(n) + 1, 0);
   for (int c = 0; c < n; ++c) start[c + 1] = 1;
   for (const Spring& s : springs) {
@@ -24,26 +25,32 @@ Eigen::SparseMatrix<double> spring_matrix(const std::vector<Spring>& springs, co
     if (a >= 0) values[start[a]] += s.w;
     if (b >= 0) values[start[b]] += s.w;
     if (a >= 0 && b >= 0) {
-      const int c = std::min(a, b);
-      rows[end[c]] = std::max(a, b), values[end[c]++] = -s.w;
+      // A repeat (an interior edge is a spring of both its triangles) adds to its entry: a column
+      // holds a few entries, so a linear search is cheaper than sorting repeats out later.
+      const int c = std::min(a, b), r = std::max(a, b);
+      int p = start[c] + 1;
+      while (p < end[c] && rows[p] != r) ++p;
+      if (p == end[c]) rows[end[c]++] = r;
+      values[p] -= s.w;
     } else if (coupling) {
       if (a >= 0) coupling->push_back({a, s.j, -s.w});
       if (b >= 0) coupling->push_back({b, s.i, -s.w});
     }
   }
-  // Sort each column's off-diagonal entries by row (a handful: insertion sort), merge repeats
-  // (an interior edge is a spring of both its triangles) and compact.
+  // Sort each column's off-diagonal entries by row (insertion sort) and compact.
   Eigen::SparseMatrix<double> m(n, n);
   int out = 0;
   for (int c = 0; c < n; ++c) {
     const int first = start[c], last = end[c];
-    for (int p = first + 2; p < last; ++p)
-      for (int q = p; q > first + 1 && rows[q - 1] > rows[q]; --q) std::swap(rows[q], rows[q - 1]), std::swap(values[q], values[q - 1]);
-    m.outerIndexPtr()[c] = out;
-    for (int p = first; p < last; ++p) {
-      if (p > first && rows[p] == rows[out - 1]) values[out - 1] += values[p];
-      else rows[out] = rows[p], values[out++] = values[p];
+    for (int p = first + 2; p < last; ++p) {
+      const int r = rows[p];
+      const double v = values[p];
+      int q = p;
+      for (; q > first + 1 && rows[q - 1] > r; --q) rows[q] = rows[q - 1], values[q] = values[q - 1];
+      rows[q] = r, values[q] = v;
     }
+    m.outerIndexPtr()[c] = out;
+    for (int p = first; p < last; ++p) rows[out] = rows[p], values[out++] = values[p];
   }
   m.outerIndexPtr()[n] = out;
   m.resizeNonZeros(out);
