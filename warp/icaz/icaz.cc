@@ -22,7 +22,15 @@ double place_on_axis(double c, double view, double target, double scale) {
   return std::clamp(c - view / 2, 0.0, target - view);
 }
 
-// The triangles whose screen bounding box overlaps the screen.
+// Keeps a cache of CachedWarp under 64 entries by dropping the least recently used.
+template <class Cache>
+void make_room(Cache& cache) {
+  if (cache.size() < 64) return;
+  cache.erase(std::min_element(cache.begin(), cache.end(), [](const auto& a, const auto& b) {
+    return a.second.last_used < b.second.last_used;
+  }));
+}
+
 // Vertex chains of each line in a refined mesh (its end points are those of the coarse chain).
 std::vector<std::vector<int>> line_chains(const Mesh& mesh, const CoarseMesh& coarse) {
   std::vector<std::vector<int>> out;
@@ -131,6 +139,7 @@ std::size_t Icaz::memory_bytes() {
   {
     std::lock_guard lock(coarse_mu_);
     for (const auto& [size, cached] : coarse_cache_) coarse += cached.positions.capacity() * sizeof(Point);
+    for (const auto& [k, cached] : anchors_) coarse += cached.positions.capacity() * sizeof(Point);
   }
   std::shared_lock lock(forest_mu_);
   const ImageModel& m = model_;
@@ -179,13 +188,58 @@ std::vector<Point> Icaz::coarse_positions(const ZoomGeometry& g, WarpResult* sta
     it->second.last_used = ++coarse_clock_;
     return it->second.positions;
   }
-  *stats = coarse_.solve(g.target_width, g.target_height, tolerance_for(g, stop));
-  if (coarse_cache_.size() >= 64)
-    coarse_cache_.erase(std::min_element(coarse_cache_.begin(), coarse_cache_.end(), [](const auto& a, const auto& b) {
-      return a.second.last_used < b.second.last_used;
-    }));
+  *stats = coarse_.solve(g.target_width, g.target_height, tolerance_for(g, stop),
+                         coarse_start(g.target_width, g.target_height, stop));
+  make_room(coarse_cache_);
   coarse_cache_.emplace(key, CachedWarp{stats->positions, ++coarse_clock_});
   return stats->positions;
+}
+
+// Every zoom level asks for a new target size, and from the affine stretch the coarse warp needs
+// 6–8 local–global iterations (14 for a 4:1 panorama on a portrait screen). Started instead from
+// the warps at the two anchor aspects around the target's — a geometric grid of aspects 10 %
+// apart through the image's own, same area — each scaled to the target and the two blended
+// linearly in log aspect, it needs 1–2 (world map, boats, a 4:1 panorama and a tall interior on
+// 480×360 and 360×640; within 0.08 screen px of the warp from the affine stretch). Nested
+// iteration across zoom levels rather than resolutions [ICAZ §6.2]. Anchors depend on nothing
+// but the image, so a view stays a function of its request whatever was asked before; each is
+// solved once (from the affine stretch, to 0.01 px) and kept like a cached warp. The target at
+// the image's aspect (z = 1) is anchor 0 itself, whose start is the identity: still exact.
+// Where an anchor needed the fold-over guard (a 4:1 panorama on a portrait screen near z = 0),
+// its reweighted warp is no nearer the answer than the affine stretch, which is used instead.
+std::vector<Point> Icaz::coarse_start(double tw, double th, const StopToken* stop) {
+  const double u = std::log((tw / th) / (model_.width / model_.height)) / kAnchorStep;
+  const double k = std::floor(u), t = u - k;
+  std::vector<Point> start(model_.coarse.mesh.vertices.size());
+  for (int side = 0; side < 2; ++side) {
+    const double weight = side ? t : 1 - t;
+    if (weight == 0) continue;
+    const int index = int(k) + side;
+    const CachedWarp& warp = anchor(index, stop);
+    if (warp.guarded) return {};
+    const double sx = weight * tw / anchor_width(index), sy = weight * th / anchor_height(index);
+    for (std::size_t i = 0; i < start.size(); ++i)
+      start[i].x += sx * warp.positions[i].x, start[i].y += sy * warp.positions[i].y;
+  }
+  return start;
+}
+
+double Icaz::anchor_width(int k) const { return model_.width * std::exp(k * kAnchorStep / 2); }
+double Icaz::anchor_height(int k) const { return model_.height * std::exp(-k * kAnchorStep / 2); }
+
+const Icaz::CachedWarp& Icaz::anchor(int k, const StopToken* stop) {
+  if (auto it = anchors_.find(k); it != anchors_.end()) {
+    it->second.last_used = ++coarse_clock_;
+    return it->second;
+  }
+  WarpOptions o;
+  o.tolerance = kAnchorTolerance;
+  o.fixed_line_normals = true;
+  o.stop = stop;
+  WarpResult r = coarse_.solve(anchor_width(k), anchor_height(k), o);
+  make_room(anchors_);
+  const bool guarded = r.guard_rounds > 0 || r.affine_blend > 0;
+  return anchors_.emplace(k, CachedWarp{std::move(r.positions), ++coarse_clock_, guarded}).first->second;
 }
 
 // Runs work(false) holding the forest lock shared; if it needs the forest to grow, runs
