@@ -8,6 +8,7 @@
 
 #include "warp/core/limits.h"
 #include "warp/core/uniform_zoom.h"
+#include "warp/icaz/edge_map.h"
 #include "warp/icaz/lod_cut.h"
 
 namespace zoomwarp::warp {
@@ -95,15 +96,17 @@ Submesh submesh(const Mesh& mesh, const std::vector<char>& chosen) {
 // too, so the visible part stays straight while the cost of a view no longer grows with the
 // total length of the lines.
 std::vector<std::vector<int>> local_line_runs(const std::vector<std::vector<int>>& chains, const Submesh& local) {
-  std::unordered_map<int, int> index;
-  for (int i = 0; i < int(local.vertex.size()); ++i) index.emplace(local.vertex[i], i);
   std::vector<std::vector<int>> runs;
+  if (chains.empty()) return runs;
+  FlatMap<int> index;  // mesh vertex → submesh vertex
+  index.reserve(local.vertex.size());
+  for (int i = 0; i < int(local.vertex.size()); ++i) index.emplace(std::uint32_t(local.vertex[i]), i);
   for (const auto& chain : chains) {
     std::vector<int> run;
     for (std::size_t k = 0; k <= chain.size(); ++k) {
-      const auto it = k < chain.size() ? index.find(chain[k]) : index.end();
-      if (it != index.end()) {
-        run.push_back(it->second);
+      const int* found = k < chain.size() ? index.find(std::uint32_t(chain[k])) : nullptr;
+      if (found) {
+        run.push_back(*found);
         continue;
       }
       if (run.size() >= 2) runs.push_back(run);
