@@ -23,7 +23,28 @@ double place_on_axis(double c, double view, double target, double scale) {
   return std::clamp(c - view / 2, 0.0, target - view);
 }
 
-// Keeps a cache of CachedWarp under 64 entries by dropping the least recently used.
+// The affine map of a triangle onto its warped image, p ↦ A p + t: where the coarse warp puts a
+// forest vertex (through its root triangle), and how much it magnifies the root's area.
+struct AffineMap {
+  double a = 1, b = 0, c = 0, d = 1, tx = 0, ty = 0;
+
+  Point operator()(const Point& p) const { return {a * p.x + b * p.y + tx, c * p.x + d * p.y + ty}; }
+  double area_ratio() const { return a * d - b * c; }
+};
+
+// The map taking triangle (s0, s1, s2) to (w0, w1, w2): A = [w1 − w0, w2 − w0] [s1 − s0, s2 − s0]⁻¹.
+AffineMap triangle_map(const Point& s0, const Point& s1, const Point& s2, const Point& w0, const Point& w1,
+                       const Point& w2) {
+  const double e = s1.x - s0.x, f = s2.x - s0.x, g = s1.y - s0.y, h = s2.y - s0.y, det = e * h - f * g;
+  const double i00 = h / det, i01 = -f / det, i10 = -g / det, i11 = e / det;  // [s1 − s0, s2 − s0]⁻¹
+  const double p = w1.x - w0.x, q = w2.x - w0.x, r = w1.y - w0.y, u = w2.y - w0.y;
+  AffineMap m;
+  m.a = p * i00 + q * i10, m.b = p * i01 + q * i11, m.c = r * i00 + u * i10, m.d = r * i01 + u * i11;
+  m.tx = w0.x - m.a * s0.x - m.b * s0.y, m.ty = w0.y - m.c * s0.x - m.d * s0.y;
+  return m;
+}
+
+// Keeps a cache under 64 entries by dropping the least recently used.
 template <class Cache>
 void make_room(Cache& cache) {
   if (cache.size() < 64) return;
@@ -118,6 +139,11 @@ std::vector<std::vector<int>> local_line_runs(const std::vector<std::vector<int>
 
 }  // namespace
 
+struct Icaz::CoarseWarp {
+  std::vector<Point> positions;  // of the coarsest mesh's vertices
+  std::vector<AffineMap> maps;   // of its triangles (the forest's roots)
+};
+
 Icaz::Icaz(ImageModel model, const IcazOptions& options)
     : model_(std::move(model)),
       options_(options),
@@ -141,7 +167,8 @@ std::size_t Icaz::memory_bytes() {
   std::size_t coarse = 0;
   {
     std::lock_guard lock(coarse_mu_);
-    for (const auto& [size, cached] : coarse_cache_) coarse += cached.positions.capacity() * sizeof(Point);
+    for (const auto& [size, cached] : coarse_cache_)
+      coarse += cached.warp->positions.capacity() * sizeof(Point) + cached.warp->maps.capacity() * sizeof(AffineMap);
     for (const auto& [k, cached] : anchors_) coarse += cached.positions.capacity() * sizeof(Point);
   }
   std::shared_lock lock(forest_mu_);
@@ -184,18 +211,26 @@ WarpOptions Icaz::tolerance_for(const ZoomGeometry& g, const StopToken* stop) {
   return o;
 }
 
-std::vector<Point> Icaz::coarse_positions(const ZoomGeometry& g, WarpResult* stats, const StopToken* stop) {
+std::shared_ptr<const Icaz::CoarseWarp> Icaz::coarse_warp(const ZoomGeometry& g, WarpResult* stats,
+                                                          const StopToken* stop) {
   const auto key = std::make_pair(std::llround(g.target_width * 1000), std::llround(g.target_height * 1000));
   std::lock_guard lock(coarse_mu_);
   if (auto it = coarse_cache_.find(key); it != coarse_cache_.end()) {
     it->second.last_used = ++coarse_clock_;
-    return it->second.positions;
+    return it->second.warp;
   }
   *stats = coarse_.solve(g.target_width, g.target_height, tolerance_for(g, stop),
                          coarse_start(g.target_width, g.target_height, stop));
+  auto warp = std::make_shared<CoarseWarp>();
+  warp->positions = stats->positions;
+  const Mesh& roots = model_.coarse.mesh;
+  warp->maps.reserve(roots.triangles.size());
+  for (const Triangle& t : roots.triangles)
+    warp->maps.push_back(triangle_map(roots.vertices[t[0]], roots.vertices[t[1]], roots.vertices[t[2]],
+                                      warp->positions[t[0]], warp->positions[t[1]], warp->positions[t[2]]));
   make_room(coarse_cache_);
-  coarse_cache_.emplace(key, CachedWarp{stats->positions, ++coarse_clock_});
-  return stats->positions;
+  coarse_cache_.emplace(key, CachedCoarse{warp, ++coarse_clock_});
+  return warp;
 }
 
 // Every zoom level asks for a new target size, and from the affine stretch the coarse warp needs
@@ -291,7 +326,8 @@ View Icaz::view_in(const ViewRequest& req, bool grow) {
   const Point centre{std::clamp(req.cx, 0.0, model_.width), std::clamp(req.cy, 0.0, model_.height)};
 
   // Coarse level: warp, then place the viewing area on the view centre, inside the image.
-  const std::vector<Point> coarse = coarse_positions(g, &out.coarse_stats, req.stop);
+  const std::shared_ptr<const CoarseWarp> coarse_warped = coarse_warp(g, &out.coarse_stats, req.stop);
+  const std::vector<Point>& coarse = coarse_warped->positions;
   check_stop(req.stop);
   auto place = [&](const Point& c) {
     return Point{place_on_axis(c.x, g.view_width, g.target_width, g.screen_scale),
@@ -300,18 +336,8 @@ View Icaz::view_in(const ViewRequest& req, bool grow) {
   Point origin = place(locate(model_.coarse.mesh, coarse, centre));
 
   // Warped position of any forest vertex through its root triangle's affine map.
-  const Mesh& roots = model_.coarse.mesh;
-  auto warped_by_coarse = [&](int v) {
-    const auto& t = roots.triangles[forest_.root_of_vertex(v)];
-    const auto l = barycentric(forest_.vertices()[v], roots.vertices[t[0]], roots.vertices[t[1]], roots.vertices[t[2]]);
-    return combine(l, coarse[t[0]], coarse[t[1]], coarse[t[2]]);
-  };
-  // Area magnification of each root under the coarse warp.
-  auto root_stretch = [&](int r) {
-    const auto& t = roots.triangles[r];
-    return signed_area2(coarse[t[0]], coarse[t[1]], coarse[t[2]]) /
-           signed_area2(roots.vertices[t[0]], roots.vertices[t[1]], roots.vertices[t[2]]);
-  };
+  const std::vector<AffineMap>& root_map = coarse_warped->maps;
+  auto warped_by_coarse = [&](int v) { return root_map[forest_.root_of_vertex(v)](forest_.vertices()[v]); };
 
   // Refinement: split what touches the viewing area (with a margin of one screen triangle) and
   // is larger on screen than the threshold. A cap bounds the work whatever the input.
@@ -322,7 +348,7 @@ View Icaz::view_in(const ViewRequest& req, bool grow) {
                                                             options_.max_screen_triangles);
   const double margin = std::sqrt(max_area) / g.screen_scale;
   auto wants_split = [&](int node) {
-    if (forest_.area(node) * std::max(root_stretch(forest_.root_of(node)), 0.0) * s2 <= max_area) return false;
+    if (forest_.area(node) * std::max(root_map[forest_.root_of(node)].area_ratio(), 0.0) * s2 <= max_area) return false;
     double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
     for (int v : forest_.corners(node)) {
       const Point p = warped_by_coarse(v);

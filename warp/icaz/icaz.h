@@ -90,9 +90,14 @@ class Icaz {
     std::uint64_t last_used = 0;
     bool guarded = false;  // the fold-over guard reweighted it (anchors only)
   };
+  struct CoarseWarp;  // a coarse warp with each coarsest triangle's affine map (icaz.cc)
+  struct CachedCoarse {
+    std::shared_ptr<const CoarseWarp> warp;
+    std::uint64_t last_used = 0;
+  };
 
   static WarpOptions tolerance_for(const ZoomGeometry& g, const StopToken* stop);
-  std::vector<Point> coarse_positions(const ZoomGeometry& g, WarpResult* stats, const StopToken* stop);
+  std::shared_ptr<const CoarseWarp> coarse_warp(const ZoomGeometry& g, WarpResult* stats, const StopToken* stop);
   // The coarse warp's start for a target size (empty: the affine stretch), and the anchor warps
   // it is made of (coarse_mu_ held). Anchor k is the image's aspect × e^(k · kAnchorStep) at the
   // image's area.
@@ -122,7 +127,7 @@ class Icaz {
   std::vector<double> node_mean_;  // per forest node, NaN until computed
 
   std::mutex coarse_mu_;  // guards the two caches below and coarse_'s solves
-  std::map<std::pair<long long, long long>, CachedWarp> coarse_cache_;  // by target size (1/1000 px)
+  std::map<std::pair<long long, long long>, CachedCoarse> coarse_cache_;  // by target size (1/1000 px)
   std::map<int, CachedWarp> anchors_;  // coarse warps at the anchor aspects, by grid index
   std::uint64_t coarse_clock_ = 0;
 };
