@@ -225,6 +225,54 @@ TEST(SpringMatrix, EqualsTheSumOfTheSpringsSquares) {
   }
 }
 
+// Each axis's system is taken from the Laplacian assembled once on the vertices free along some
+// axis: dropping the unknowns an axis fixes and renumbering the rest (restricted_form) gives
+// what assembling the springs on that axis's unknowns gives, coupling included.
+TEST(SpringMatrix, RestrictedFormEqualsTheFormAssembledOnItsUnknowns) {
+  std::mt19937 rng(5);
+  const int vertices = 80;
+  std::vector<int> index(vertices, -1), vertex_of;
+  for (int v = 0; v < vertices; ++v)
+    if (rng() % 5) index[v] = int(vertex_of.size()), vertex_of.push_back(v);
+  std::vector<warp::Spring> springs;
+  for (int s = 0; s < 500; ++s) {
+    const int i = int(rng() % vertices), j = s % 4 == 0 && !springs.empty() ? springs.back().i : int(rng() % vertices);
+    springs.push_back({i, j, 0.1 + double(rng() % 100) / 10});
+  }
+  std::vector<warp::Coupling> coupling;
+  const Eigen::SparseMatrix<double> whole = warp::spring_matrix(springs, index, int(vertex_of.size()), &coupling);
+  // Drop a fifth of the unknowns, renumber the rest in a shuffled order.
+  std::vector<int> keep(vertex_of.size(), -1), order;
+  for (std::size_t u = 0; u < keep.size(); ++u)
+    if (rng() % 5) order.push_back(int(u));
+  std::shuffle(order.begin(), order.end(), rng);
+  for (std::size_t k = 0; k < order.size(); ++k) keep[order[k]] = int(k);
+  const int n = int(order.size());
+  std::vector<warp::Coupling> kept_coupling, direct_coupling;
+  const Eigen::SparseMatrix<double> restricted =
+      warp::restricted_form(whole, coupling, keep, n, vertex_of, &kept_coupling);
+  std::vector<int> direct_index(vertices, -1);
+  for (int v = 0; v < vertices; ++v)
+    if (index[v] >= 0) direct_index[v] = keep[index[v]];
+  const Eigen::SparseMatrix<double> direct = warp::spring_matrix(springs, direct_index, n, &direct_coupling);
+
+  ASSERT_EQ(restricted.rows(), n);
+  ASSERT_EQ(restricted.nonZeros(), direct.nonZeros());
+  for (int c = 0; c < n; ++c) {
+    Eigen::SparseMatrix<double>::InnerIterator r(restricted, c), d(direct, c);
+    for (; r && d; ++r, ++d) {
+      ASSERT_EQ(r.row(), d.row()) << "column " << c;
+      ASSERT_NEAR(r.value(), d.value(), 1e-9) << "entry " << r.row() << ", " << c;
+    }
+    ASSERT_FALSE(r || d) << "column " << c;
+  }
+  std::map<std::pair<int, int>, double> coupling_sum;
+  for (const auto& e : kept_coupling) coupling_sum[{e.row, e.vertex}] += e.value;
+  for (const auto& e : direct_coupling) coupling_sum[{e.row, e.vertex}] -= e.value;
+  for (const auto& [entry, difference] : coupling_sum)
+    ASSERT_NEAR(difference, 0, 1e-9) << "coupling " << entry.first << ", vertex " << entry.second;
+}
+
 TEST(ShapeWarp, SameSizeIsTheIdentity) {
   auto cm = warp::build_coarse_mesh(2560, 1600, {});
   warp::ShapeWarp warp(cm.mesh, disc_weights(cm.mesh, {1280, 800}, 400), 2560, 1600);

@@ -4,6 +4,7 @@
 #include <Eigen/Dense>
 #include <Eigen/OrderingMethods>
 #include <Eigen/Sparse>
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -100,59 +101,69 @@ struct ShapeWarp::Impl {
   // The fast path's systems. Per axis, the matrix is the weighted graph Laplacian
   // Σ_f w_f Σ_e (e_i − e_j)(e_i − e_j)ᵀ — the same for x and y — plus the orientation-form line
   // terms α(u_i − u_s)² of lines whose normal is that axis, restricted to the free unknowns.
-  // One AMD ordering serves both axes (each numbers its free unknowns in that order and CHOLMOD
-  // keeps it), made on the vertices free along some axis: pinned ones only add columns to order.
+  // The Laplacian is assembled once on the vertices free along some axis and ordered there by
+  // AMD; each axis numbers its free unknowns in that order (CHOLMOD keeps it) and takes its
+  // system from that one — only an axis with line terms is assembled again.
   void factor_axes(double alpha) {
     const int n = int(mesh.vertices.size());
-    std::vector<Spring> shape;
-    shape.reserve(mesh.triangles.size() * 3);
+    std::vector<Spring> springs;
+    springs.reserve(mesh.triangles.size() * 3);
     for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
-      for (int k = 0; k < 3; ++k) shape.push_back({mesh.triangles[f][k], mesh.triangles[f][(k + 1) % 3], weights[f]});
+      for (int k = 0; k < 3; ++k) springs.push_back({mesh.triangles[f][k], mesh.triangles[f][(k + 1) % 3], weights[f]});
     std::vector<int> unknown(n, -1), vertex_of;
     for (int i = 0; i < n; ++i)
       if (!fixed_x[i] || !fixed_y[i]) unknown[i] = int(vertex_of.size()), vertex_of.push_back(i);
-    const SpMat pattern = spring_matrix(shape, unknown, int(vertex_of.size()));
+    std::vector<Coupling> laplacian_coupling;
+    const SpMat laplacian = spring_matrix(springs, unknown, int(vertex_of.size()), &laplacian_coupling);
     Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> elimination;
-    Eigen::AMDOrdering<int>()(pattern.selfadjointView<Eigen::Lower>(), elimination);
+    Eigen::AMDOrdering<int>()(laplacian.selfadjointView<Eigen::Lower>(), elimination);
     std::vector<int> order(vertex_of.size());
     for (std::size_t k = 0; k < order.size(); ++k) order[k] = vertex_of[elimination.indices()[k]];
     number_unknowns(order);
 
-    auto with_lines_of = [&](LineKind normal_kind) {
-      std::vector<Spring> springs = shape;
-      for (const Line& l : lines)
-        if (l.kind == normal_kind)
-          for (std::size_t k = 1; k < l.vertices.size(); ++k) springs.push_back({l.vertices[k], l.vertices[0], alpha});
-      return springs;
+    // CHOLMOD reads the lower triangle only (Solver's UpLo), which is all spring_matrix and
+    // restricted_form make.
+    auto factor = [](const SpMat& a) {
+      auto solver = std::make_shared<Solver>();
+      solver->cholmod().nmethods = 1;
+      solver->cholmod().method[0].ordering = CHOLMOD_NATURAL;
+      solver->compute(a);
+      if (solver->info() != Eigen::Success) throw std::runtime_error("CHOLMOD could not factor the warp system");
+      return solver;
     };
-    auto build = [&](const std::vector<Spring>& springs, const std::vector<int>& free, int n_free,
-                     std::shared_ptr<const Solver>& solver, std::vector<Coupling>& coupling) {
+    // Factors one axis's system (line terms with normal `kind`); returns whether it has line terms.
+    auto build = [&](LineKind kind, const std::vector<int>& free, int n_free, std::shared_ptr<const Solver>& solver,
+                     std::vector<Coupling>& coupling) {
+      const std::size_t shape_springs = springs.size();
+      for (const Line& l : lines)
+        if (l.kind == kind)
+          for (std::size_t k = 1; k < l.vertices.size(); ++k) springs.push_back({l.vertices[k], l.vertices[0], alpha});
+      const bool with_lines = springs.size() > shape_springs;
       // Every vertex of this axis fixed (a coarsest mesh with no interior vertex: images whose
       // short side is under ~110 px, see shape_warp.h): the axis is determined and there is
       // nothing to factor. CHOLMOD must not be given the empty matrix: Eigen hands it a null
       // value array, cholmod_analyze refuses it ("invalid xtype") and returns no factor, which
       // Eigen's factorize() then dereferences.
-      if (n_free == 0) return;
-      // CHOLMOD reads the lower triangle only (Solver's UpLo), which is all spring_matrix makes.
-      const SpMat a = spring_matrix(springs, free, n_free, &coupling);
-      auto factor = std::make_shared<Solver>();
-      factor->cholmod().nmethods = 1;
-      factor->cholmod().method[0].ordering = CHOLMOD_NATURAL;
-      factor->compute(a);
-      if (factor->info() != Eigen::Success) throw std::runtime_error("CHOLMOD could not factor the warp system");
-      solver = std::move(factor);
+      if (n_free > 0 && with_lines) {
+        solver = factor(spring_matrix(springs, free, n_free, &coupling));
+      } else if (n_free > 0) {
+        std::vector<int> keep(vertex_of.size());
+        for (std::size_t u = 0; u < keep.size(); ++u) keep[u] = free[vertex_of[u]];
+        solver = factor(restricted_form(laplacian, laplacian_coupling, keep, n_free, vertex_of, &coupling));
+      }
+      springs.resize(shape_springs);
+      return with_lines;
     };
     // x: vertical lines keep their x (normal (1,0)); y: horizontal lines keep their y.
-    const std::vector<Spring> x_springs = with_lines_of(LineKind::kVertical);
-    build(x_springs, free_x, n_free_x, solver_x, coupling_x);
+    const bool x_lines = build(LineKind::kVertical, free_x, n_free_x, solver_x, coupling_x);
     // When both axes fix the same vertices and carry no line terms — a local solve away from the
     // image border, the usual case for a pan — their systems are the same matrix: factor it once.
-    const std::vector<Spring> y_springs = with_lines_of(LineKind::kHorizontal);
-    if (x_springs.size() == shape.size() && y_springs.size() == shape.size() && free_x == free_y) {
+    const bool y_lines = std::any_of(lines.begin(), lines.end(), [](const Line& l) { return l.kind == LineKind::kHorizontal; });
+    if (!x_lines && !y_lines && free_x == free_y) {
       solver_y = solver_x;
       coupling_y = coupling_x;
     } else {
-      build(y_springs, free_y, n_free_y, solver_y, coupling_y);
+      build(LineKind::kHorizontal, free_y, n_free_y, solver_y, coupling_y);
     }
   }
 

@@ -32,4 +32,14 @@ struct Coupling {
 Eigen::SparseMatrix<double> spring_matrix(const std::vector<Spring>& springs, const std::vector<int>& index, int n,
                                           std::vector<Coupling>* coupling = nullptr);
 
+// The same form with fewer unknowns, renumbered, from one spring_matrix made (`lower`, its
+// `coupling`): unknown u stays as number keep[u] (`n` of them) or, when keep[u] < 0, becomes
+// fixed vertex vertex_of[u]. Its entries with kept unknowns move to `kept_coupling`, as do the
+// entries of `coupling` whose row is kept. Cheaper than assembling the springs again: each axis
+// of a warp fixes a subset of one set of unknowns, in an order known only once that set is
+// ordered.
+Eigen::SparseMatrix<double> restricted_form(const Eigen::SparseMatrix<double>& lower, const std::vector<Coupling>& coupling,
+                                            const std::vector<int>& keep, int n, const std::vector<int>& vertex_of,
+                                            std::vector<Coupling>* kept_coupling);
+
 }  // namespace zoomwarp::warp
