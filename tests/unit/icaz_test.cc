@@ -9,12 +9,14 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <random>
 #include <set>
 
 #include "tests/support/images.h"
 #include "tests/support/server_process.h"
 #include "warp/icaz/icaz.h"
 #include "warp/icaz/shape_warp.h"
+#include "warp/core/triangle_locator.h"
 #include "warp/core/uniform_zoom.h"
 
 namespace zoomwarp {
@@ -533,6 +535,49 @@ TEST(IcazGeomorph, EachEndDrawsItsViewExactly) {
 
 namespace zoomwarp {
 namespace {
+
+// Geomorphing places each vertex a view lacks through the view's triangle holding it, found by a
+// grid (TriangleLocator) instead of a scan over all triangles: on real meshes — two views' cuts,
+// their common refinement, the coarsest mesh — the grid answers exactly what the scan
+// (locate_in) answers, triangle and barycentric coordinates bit for bit, for every vertex, points
+// on every edge (its midpoint and a quarter along), points inside, and points on and just
+// outside the image's border.
+TEST(IcazGeomorph, TheGridLocatesWhatTheScanLocates) {
+  auto icaz = engine("boats_lake_sunset.jpg", true);
+  const double W = icaz->model().width, H = icaz->model().height;
+  warp::ViewRequest a, b;
+  a.zoom = 0.3, a.cx = 0.3 * W, a.cy = 0.6 * H;
+  b.zoom = 0.8, b.cx = 0.7 * W, b.cy = 0.4 * H;
+  const warp::View va = icaz->view(a), vb = icaz->view(b);
+  const warp::Geomorph g = icaz->geomorph(va, vb);
+  std::mt19937 rng(11);
+  int points = 0;
+  for (const warp::Mesh* mesh : {&va.source, &vb.source, &g.source, &icaz->model().coarse.mesh}) {
+    std::vector<Point> probes = mesh->vertices;
+    for (const auto& t : mesh->triangles)
+      for (int k = 0; k < 3; ++k) {
+        const Point &p = mesh->vertices[t[k]], &q = mesh->vertices[t[(k + 1) % 3]];
+        probes.push_back({(p.x + q.x) / 2, (p.y + q.y) / 2});
+        probes.push_back({0.75 * p.x + 0.25 * q.x, 0.75 * p.y + 0.25 * q.y});
+      }
+    std::uniform_real_distribution<double> u(0, 1);
+    for (int i = 0; i < 2000; ++i) probes.push_back({u(rng) * W, u(rng) * H});
+    for (double off : {0.0, 1e-12, 1e-9, 1e-6, 0.5}) {
+      for (int i = 0; i <= 50; ++i) {
+        const double x = W * i / 50, y = H * i / 50;
+        probes.insert(probes.end(), {{x, -off}, {x, H + off}, {-off, y}, {W + off, y}});
+      }
+    }
+    const warp::TriangleLocator grid(*mesh);
+    for (const Point& p : probes) {
+      const warp::MeshPoint found = grid.find(p), scanned = warp::locate_in(*mesh, p);
+      ASSERT_EQ(found.triangle, scanned.triangle) << "(" << p.x << ", " << p.y << ")";
+      for (int k = 0; k < 3; ++k) ASSERT_EQ(found.barycentric[k], scanned.barycentric[k]) << "(" << p.x << ", " << p.y << ")";
+    }
+    points += int(probes.size());
+  }
+  std::printf("[ figures ] grid and scan agree on %d points of 4 meshes\n", points);
+}
 
 TEST(IcazBaselines, TraditionalLetterboxesThenCrops) {
   auto icaz = engine("pano_grossmugl_field_4to1.png", false);  // 2048 × 512

@@ -4,9 +4,9 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
-#include <unordered_map>
 
 #include "warp/core/limits.h"
+#include "warp/core/triangle_locator.h"
 #include "warp/core/uniform_zoom.h"
 #include "warp/icaz/edge_map.h"
 #include "warp/icaz/lod_cut.h"
@@ -422,16 +422,16 @@ Geomorph Icaz::geomorph_in(const View& from, const View& to, const StopToken* st
   // Split, coarsest first, every node that is a strict ancestor of a node of either cut; the
   // dependents that refine() adds keep the result conforming.
   std::vector<int> ancestors;
-  std::vector<char> seen(std::size_t(forest_.node_count()), 0);
+  FlatMap<int> depth;  // of each ancestor, measured once (not per comparison)
+  depth.reserve(from.nodes.size() + to.nodes.size());
   for (const View* v : {&from, &to})
     for (int n : v->nodes)
-      for (int p = forest_.parent(n); p >= 0 && !seen[p]; p = forest_.parent(p)) seen[p] = 1, ancestors.push_back(p);
-  auto depth = [&](int n) {
-    int d = 0;
-    for (; n >= 0; n = forest_.parent(n)) ++d;
-    return d;
-  };
-  std::sort(ancestors.begin(), ancestors.end(), [&](int a, int b) { return depth(a) < depth(b); });
+      for (int p = forest_.parent(n); p >= 0 && depth.emplace(std::uint32_t(p), 0).second; p = forest_.parent(p))
+        ancestors.push_back(p);
+  for (int a : ancestors)
+    for (int p = a; p >= 0; p = forest_.parent(p)) ++*depth.find(std::uint32_t(a));
+  std::sort(ancestors.begin(), ancestors.end(),
+            [&](int a, int b) { return *depth.find(std::uint32_t(a)) < *depth.find(std::uint32_t(b)); });
   LodCut cut = root_cut_;
   cut.set_growable(grow);
   for (int n : ancestors) cut.refine(n);
@@ -442,13 +442,17 @@ Geomorph Icaz::geomorph_in(const View& from, const View& to, const StopToken* st
   // A vertex a view has keeps that view's position; one it lacks (finer than its cut) is placed
   // by the affine map of the view's triangle holding it — exactly where that view draws it.
   auto positions = [&](const View& v) {
-    std::unordered_map<int, int> index;
-    for (int i = 0; i < int(v.forest_vertex.size()); ++i) index.emplace(v.forest_vertex[i], i);
+    FlatMap<int> index;  // forest vertex → the view's vertex
+    index.reserve(v.forest_vertex.size());
+    for (int i = 0; i < int(v.forest_vertex.size()); ++i) index.emplace(std::uint32_t(v.forest_vertex[i]), i);
+    const TriangleLocator where(v.source);
     std::vector<Point> out;
+    out.reserve(g.forest_vertex.size());
     for (std::size_t i = 0; i < g.forest_vertex.size(); ++i) {
       if (i % 256 == 0) check_stop(stop);
-      auto it = index.find(g.forest_vertex[i]);
-      out.push_back(it != index.end() ? v.screen[it->second] : locate(v.source, v.screen, g.source.vertices[i]));
+      const Point& p = g.source.vertices[i];
+      const int* found = index.find(std::uint32_t(g.forest_vertex[i]));
+      out.push_back(found ? v.screen[*found] : locate(v.source, v.screen, p, where.find(p)));
     }
     return out;
   };
