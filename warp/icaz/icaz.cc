@@ -235,10 +235,11 @@ std::shared_ptr<const Icaz::CoarseWarp> Icaz::coarse_warp(const ZoomGeometry& g,
 
 // Every zoom level asks for a new target size, and from the affine stretch the coarse warp needs
 // 6–8 local–global iterations (14 for a 4:1 panorama on a portrait screen). Started instead from
-// the warps at the two anchor aspects around the target's — a geometric grid of aspects 10 %
+// the warps at the two anchor aspects around the target's — a geometric grid of aspects 5 %
 // apart through the image's own, same area — each scaled to the target and the two blended
-// linearly in log aspect, it needs 1–2 (world map, boats, a 4:1 panorama and a tall interior on
-// 480×360 and 360×640; within 0.08 screen px of the warp from the affine stretch). Nested
+// linearly in log aspect, it needs 1 (world map, boats, a 4:1 panorama and a tall interior on
+// 480×360 and 360×640; within 0.05 screen px of the warp from the affine stretch; a 10 % grid
+// needed 1–2 there but up to 4 on the 315 MP mosaic, whose target pixels are small). Nested
 // iteration across zoom levels rather than resolutions [ICAZ §6.2]. Anchors depend on nothing
 // but the image, so a view stays a function of its request whatever was asked before; each is
 // solved once (from the affine stretch, to 0.01 px) and kept like a cached warp. The target at

@@ -101,7 +101,7 @@ class Icaz {
   // The coarse warp's start for a target size (empty: the affine stretch), and the anchor warps
   // it is made of (coarse_mu_ held). Anchor k is the image's aspect × e^(k · kAnchorStep) at the
   // image's area.
-  static constexpr double kAnchorStep = 0.1, kAnchorTolerance = 0.01;  // log aspect; target px
+  static constexpr double kAnchorStep = 0.05, kAnchorTolerance = 0.01;  // log aspect; target px
   std::vector<Point> coarse_start(double target_width, double target_height, const StopToken* stop);
   const CachedWarp& anchor(int k, const StopToken* stop);
   double anchor_width(int k) const;
