@@ -1,5 +1,6 @@
 // Time per zoom and per pan action of the ICAZ operator at 480×360 with 500 px² triangles, along
-// the zoom range, on a ≥ 10 MP wide photo and on a ≥ 300 MP synthetic mosaic; plus the paper's
+// the zoom range, on a ≥ 10 MP wide photo and on a ≥ 300 MP synthetic mosaic, and of a geomorph
+// between two views; plus the paper's
 // Fig. 9 comparison with a uniform mesh of the finest resolution, the Retargeting+Zooming
 // baseline on that mesh (method=retarget-zoom: its load, a view at a new screen aspect, a view at
 // a cached one), and the model-building cost.
@@ -51,24 +52,29 @@ void BM_BuildModel(benchmark::State& state, int which) {
   state.SetLabel(s.name);
 }
 
-// One zoom action per iteration: the zoom level moves by a hair each time so the coarse warp is
-// never a cache hit.
+// One zoom action per iteration: the zoom level moves by a hair each time (towards the middle of
+// the range), over more levels than the coarse-warp cache holds, so the coarse warp is never a
+// cache hit.
 void BM_Zoom(benchmark::State& state, int which) {
   Subject& s = subjects()[which];
   const double z = state.range(0) / 100.0;
   int i = 0;
   std::size_t vertices = 0;
-  double iterations = 0, guard_rounds = 0;
+  double iterations = 0, coarse_iterations = 0, guard_rounds = 0, coarse_solves = 0;
   for (auto _ : state) {
     warp::ViewRequest r;
-    r.zoom = std::min(1.0, z + 1e-4 * (i++ % 50));
+    const double step = 1e-5 * (i++ % 1000);
+    r.zoom = z < 0.5 ? z + step : z - step;
     r.cx = 0.4 * s.width, r.cy = 0.5 * s.height;
     const warp::View v = s.icaz->view(r);
     vertices = v.source.vertices.size();
     iterations += v.fine_stats.iterations, guard_rounds += v.fine_stats.guard_rounds;
+    coarse_iterations += v.coarse_stats.iterations, coarse_solves += v.coarse_stats.iterations > 0;
   }
   state.counters["vertices"] = double(vertices);
   state.counters["fine_iterations"] = benchmark::Counter(iterations, benchmark::Counter::kAvgIterations);
+  state.counters["coarse_iterations"] = benchmark::Counter(coarse_iterations, benchmark::Counter::kAvgIterations);
+  state.counters["coarse_solved"] = benchmark::Counter(coarse_solves, benchmark::Counter::kAvgIterations);
   state.counters["guard_rounds"] = benchmark::Counter(guard_rounds, benchmark::Counter::kAvgIterations);
   state.SetLabel(s.name);
 }
@@ -86,6 +92,28 @@ void BM_Pan(benchmark::State& state, int which) {
     benchmark::DoNotOptimize(s.icaz->view(r));
   }
   state.SetLabel(s.name);
+}
+
+// A geomorph between two views [ICAZ §5.3] (the views made once, outside the timing): the
+// common refinement of their cuts and both ends' positions, each vertex a view lacks located in
+// that view's mesh. Arg 0: z = 0.3 → 0.7 across the image (the test's pair); 1: z = 0 → 1 at
+// the centre (the view at z = 0 lacks nearly everything).
+void BM_Geomorph(benchmark::State& state, int which) {
+  Subject& s = subjects()[which];
+  warp::ViewRequest a, b;
+  if (state.range(0) == 0) {
+    a.zoom = 0.3, a.cx = 0.3 * s.width, a.cy = 0.6 * s.height;
+    b.zoom = 0.7, b.cx = 0.7 * s.width, b.cy = 0.4 * s.height;
+  } else {
+    a.zoom = 0, b.zoom = 1;
+    a.cx = b.cx = 0.5 * s.width, a.cy = b.cy = 0.5 * s.height;
+  }
+  const warp::View va = s.icaz->view(a), vb = s.icaz->view(b);
+  std::size_t vertices = 0;
+  for (auto _ : state) vertices = s.icaz->geomorph(va, vb).source.vertices.size();
+  state.counters["vertices"] = double(vertices);
+  state.counters["lacked"] = double(2 * vertices - va.source.vertices.size() - vb.source.vertices.size());
+  state.SetLabel(s.name + (state.range(0) == 0 ? ", z 0.3 -> 0.7 across" : ", z 0 -> 1"));
 }
 
 // Fig. 9: a uniform mesh whose triangles are as fine as the adaptive mesh's finest (500 px² at
@@ -220,6 +248,7 @@ int main(int argc, char** argv) {
     benchmark::RegisterBenchmark(("BuildModel/" + tag).c_str(), BM_BuildModel, which)->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark(("Zoom/" + tag).c_str(), BM_Zoom, which)->DenseRange(0, 100, 20)->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark(("Pan/" + tag).c_str(), BM_Pan, which)->DenseRange(0, 100, 20)->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark(("Geomorph/" + tag).c_str(), BM_Geomorph, which)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
   }
   benchmark::RegisterBenchmark("UniformMeshZoom/photo", BM_UniformMeshZoom, 0)->Arg(50)->Unit(benchmark::kMillisecond)->Iterations(3);
   benchmark::RegisterBenchmark("RetargetZoom/photo", BM_RetargetZoom, 0)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(5);

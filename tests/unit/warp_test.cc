@@ -13,6 +13,7 @@
 #include "warp/meshing/coarse_mesh.h"
 #include "warp/icaz/edge_map.h"
 #include "warp/icaz/shape_warp.h"
+#include "warp/icaz/spring_matrix.h"
 
 namespace zoomwarp {
 namespace {
@@ -174,6 +175,102 @@ TEST(EdgeMap, BehavesLikeAMap) {
       for (std::uint64_t k = 5000; k < 5100; ++k) ASSERT_FALSE(map.find(k));
     }
   }
+}
+
+// The global step's matrix assembled directly in compressed columns equals the quadratic form
+// Σ w (u_i − u_j)² written out densely — repeated springs (an interior edge is one of both its
+// triangles) summed, fixed vertices moved to the coupling — and is what CHOLMOD reads: the lower
+// triangle, rows sorted, no repeats.
+TEST(SpringMatrix, EqualsTheSumOfTheSpringsSquares) {
+  std::mt19937 rng(3);
+  const int vertices = 60;
+  std::vector<int> index(vertices, -1);
+  int n = 0;
+  for (int v = 0; v < vertices; ++v)
+    if (rng() % 4) index[v] = n++;
+  std::shuffle(index.begin(), index.end(), rng);  // unknowns numbered in no particular order
+  std::vector<warp::Spring> springs;
+  for (int s = 0; s < 400; ++s) {
+    const int i = int(rng() % vertices), j = s % 3 == 0 && !springs.empty() ? springs.back().j : int(rng() % vertices);
+    springs.push_back({i, s % 5 == 0 && !springs.empty() ? springs.back().i : j, 0.1 + double(rng() % 100) / 10});
+  }
+  std::vector<warp::Coupling> coupling;
+  const Eigen::SparseMatrix<double> m = warp::spring_matrix(springs, index, n, &coupling);
+
+  std::vector<std::vector<double>> form(vertices, std::vector<double>(vertices, 0.0));
+  for (const auto& s : springs)
+    if (s.i != s.j) form[s.i][s.i] += s.w, form[s.j][s.j] += s.w, form[s.i][s.j] -= s.w, form[s.j][s.i] -= s.w;
+  std::vector<std::vector<double>> expected(n, std::vector<double>(n, 0.0)), expected_coupling(n, std::vector<double>(vertices, 0.0));
+  for (int a = 0; a < vertices; ++a)
+    for (int b = 0; b < vertices; ++b)
+      if (index[a] >= 0 && index[b] >= 0) expected[index[a]][index[b]] = form[a][b];
+      else if (index[a] >= 0) expected_coupling[index[a]][b] = form[a][b];
+
+  ASSERT_EQ(m.rows(), n);
+  ASSERT_TRUE(m.isCompressed());
+  std::vector<std::vector<double>> got(n, std::vector<double>(n, 0.0));
+  for (int c = 0; c < n; ++c) {
+    int previous = -1;
+    for (Eigen::SparseMatrix<double>::InnerIterator e(m, c); e; ++e) {
+      ASSERT_GE(e.row(), c) << "not the lower triangle";
+      ASSERT_GT(e.row(), previous) << "rows unsorted or repeated in column " << c;
+      previous = int(e.row());
+      got[e.row()][c] = e.value();
+    }
+  }
+  for (const auto& e : coupling) expected_coupling[e.row][e.vertex] -= e.value;
+  for (int r = 0; r < n; ++r) {
+    for (int c = 0; c <= r; ++c) ASSERT_NEAR(got[r][c], expected[r][c], 1e-9) << "entry " << r << ", " << c;
+    for (int v = 0; v < vertices; ++v) ASSERT_NEAR(expected_coupling[r][v], 0, 1e-9) << "coupling " << r << ", " << v;
+  }
+}
+
+// Each axis's system is taken from the Laplacian assembled once on the vertices free along some
+// axis: dropping the unknowns an axis fixes and renumbering the rest (restricted_form) gives
+// what assembling the springs on that axis's unknowns gives, coupling included.
+TEST(SpringMatrix, RestrictedFormEqualsTheFormAssembledOnItsUnknowns) {
+  std::mt19937 rng(5);
+  const int vertices = 80;
+  std::vector<int> index(vertices, -1), vertex_of;
+  for (int v = 0; v < vertices; ++v)
+    if (rng() % 5) index[v] = int(vertex_of.size()), vertex_of.push_back(v);
+  std::vector<warp::Spring> springs;
+  for (int s = 0; s < 500; ++s) {
+    const int i = int(rng() % vertices), j = s % 4 == 0 && !springs.empty() ? springs.back().i : int(rng() % vertices);
+    springs.push_back({i, j, 0.1 + double(rng() % 100) / 10});
+  }
+  std::vector<warp::Coupling> coupling;
+  const Eigen::SparseMatrix<double> whole = warp::spring_matrix(springs, index, int(vertex_of.size()), &coupling);
+  // Drop a fifth of the unknowns, renumber the rest in a shuffled order.
+  std::vector<int> keep(vertex_of.size(), -1), order;
+  for (std::size_t u = 0; u < keep.size(); ++u)
+    if (rng() % 5) order.push_back(int(u));
+  std::shuffle(order.begin(), order.end(), rng);
+  for (std::size_t k = 0; k < order.size(); ++k) keep[order[k]] = int(k);
+  const int n = int(order.size());
+  std::vector<warp::Coupling> kept_coupling, direct_coupling;
+  const Eigen::SparseMatrix<double> restricted =
+      warp::restricted_form(whole, coupling, keep, n, vertex_of, &kept_coupling);
+  std::vector<int> direct_index(vertices, -1);
+  for (int v = 0; v < vertices; ++v)
+    if (index[v] >= 0) direct_index[v] = keep[index[v]];
+  const Eigen::SparseMatrix<double> direct = warp::spring_matrix(springs, direct_index, n, &direct_coupling);
+
+  ASSERT_EQ(restricted.rows(), n);
+  ASSERT_EQ(restricted.nonZeros(), direct.nonZeros());
+  for (int c = 0; c < n; ++c) {
+    Eigen::SparseMatrix<double>::InnerIterator r(restricted, c), d(direct, c);
+    for (; r && d; ++r, ++d) {
+      ASSERT_EQ(r.row(), d.row()) << "column " << c;
+      ASSERT_NEAR(r.value(), d.value(), 1e-9) << "entry " << r.row() << ", " << c;
+    }
+    ASSERT_FALSE(r || d) << "column " << c;
+  }
+  std::map<std::pair<int, int>, double> coupling_sum;
+  for (const auto& e : kept_coupling) coupling_sum[{e.row, e.vertex}] += e.value;
+  for (const auto& e : direct_coupling) coupling_sum[{e.row, e.vertex}] -= e.value;
+  for (const auto& [entry, difference] : coupling_sum)
+    ASSERT_NEAR(difference, 0, 1e-9) << "coupling " << entry.first << ", vertex " << entry.second;
 }
 
 TEST(ShapeWarp, SameSizeIsTheIdentity) {

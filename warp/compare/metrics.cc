@@ -5,6 +5,7 @@
 #include <limits>
 #include <numeric>
 
+#include "warp/core/triangle_locator.h"
 #include "warp/core/uniform_zoom.h"
 
 namespace zoomwarp::warp {
@@ -57,11 +58,10 @@ MapMeasure measure_map(const View& view, const SignificanceMap& map, const std::
   for (int y = 0; y < map.height; ++y)
     for (int x = 0; x < map.width; ++x) {
       const Point p{(x + 0.5) / map.scale, (y + 0.5) / map.scale};
-      std::array<double, 3> l;
-      const int f = locator.find(p, &l);
+      const MeshPoint where = locator.find(p);
+      const int f = where.triangle;
       if (f < 0) continue;
-      const Triangle& t = mesh.triangles[f];
-      if (!on_screen(combine(l, view.screen[t[0]], view.screen[t[1]], view.screen[t[2]]), sw, sh)) continue;
+      if (!on_screen(locate(mesh, view.screen, p, where), sw, sh)) continue;
       triangle(f);
       const std::size_t i = std::size_t(y) * map.width + x;
       if (salient[i]) {
@@ -87,11 +87,10 @@ std::optional<double> straightness(const View& view, const std::vector<Segment>&
     std::vector<Point> shown;
     for (int i = 0; i <= n; ++i) {
       const double u = double(i) / n;
-      std::array<double, 3> l;
-      const int f = locator.find({s.a.x + u * (s.b.x - s.a.x), s.a.y + u * (s.b.y - s.a.y)}, &l);
-      if (f < 0) continue;
-      const Triangle& t = view.source.triangles[f];
-      const Point q = combine(l, view.screen[t[0]], view.screen[t[1]], view.screen[t[2]]);
+      const Point p{s.a.x + u * (s.b.x - s.a.x), s.a.y + u * (s.b.y - s.a.y)};
+      const MeshPoint where = locator.find(p);
+      if (where.triangle < 0) continue;
+      const Point q = locate(view.source, view.screen, p, where);
       if (on_screen(q, sw, sh)) shown.push_back(q);
     }
     if (shown.size() >= 2) worst = std::max(worst.value_or(0.0), chord_deviation(shown));
@@ -256,65 +255,6 @@ ViewMetrics raster_view_metrics(const tiles::Raster& screen, const std::vector<P
   }
   out.coverage = double(covered) / pixels;
   return out;
-}
-
-TriangleLocator::TriangleLocator(const Mesh& mesh) : mesh_(mesh) {
-  if (mesh.triangles.empty()) return;
-  double x1 = -1e300, y1 = -1e300;
-  x0_ = y0_ = 1e300;
-  for (const Point& p : mesh.vertices) x0_ = std::min(x0_, p.x), y0_ = std::min(y0_, p.y), x1 = std::max(x1, p.x), y1 = std::max(y1, p.y);
-  // About one triangle per cell, at most 2048 cells a side.
-  const double w = std::max(x1 - x0_, 1e-9), h = std::max(y1 - y0_, 1e-9);
-  cell_ = std::max({std::sqrt(w * h / mesh.triangles.size()), w / 2048, h / 2048});
-  nx_ = std::max(1, int(std::ceil(w / cell_))), ny_ = std::max(1, int(std::ceil(h / cell_)));
-  auto cell_range = [&](const Triangle& t, int* cx0, int* cx1, int* cy0, int* cy1) {
-    double a = 1e300, b = -1e300, c = 1e300, d = -1e300;
-    for (int v : t) a = std::min(a, mesh.vertices[v].x), b = std::max(b, mesh.vertices[v].x), c = std::min(c, mesh.vertices[v].y), d = std::max(d, mesh.vertices[v].y);
-    *cx0 = std::clamp(int((a - x0_) / cell_), 0, nx_ - 1), *cx1 = std::clamp(int((b - x0_) / cell_), 0, nx_ - 1);
-    *cy0 = std::clamp(int((c - y0_) / cell_), 0, ny_ - 1), *cy1 = std::clamp(int((d - y0_) / cell_), 0, ny_ - 1);
-  };
-  std::vector<int> count(std::size_t(nx_) * ny_ + 1, 0);
-  int cx0, cx1, cy0, cy1;
-  for (const Triangle& t : mesh.triangles) {
-    cell_range(t, &cx0, &cx1, &cy0, &cy1);
-    for (int y = cy0; y <= cy1; ++y)
-      for (int x = cx0; x <= cx1; ++x) ++count[std::size_t(y) * nx_ + x + 1];
-  }
-  std::partial_sum(count.begin(), count.end(), count.begin());
-  start_ = count;
-  items_.resize(std::size_t(start_.back()));
-  for (int f = 0; f < int(mesh.triangles.size()); ++f) {
-    cell_range(mesh.triangles[f], &cx0, &cx1, &cy0, &cy1);
-    for (int y = cy0; y <= cy1; ++y)
-      for (int x = cx0; x <= cx1; ++x) items_[std::size_t(count[std::size_t(y) * nx_ + x]++)] = f;
-  }
-}
-
-int TriangleLocator::find(const Point& p, std::array<double, 3>* bary) const {
-  if (mesh_.triangles.empty()) return -1;
-  const int cx = std::clamp(int(std::floor((p.x - x0_) / cell_)), 0, nx_ - 1);
-  const int cy = std::clamp(int(std::floor((p.y - y0_) / cell_)), 0, ny_ - 1);
-  const std::size_t cell = std::size_t(cy) * nx_ + cx;
-  int best = -1;
-  double best_inside = -std::numeric_limits<double>::infinity();
-  for (int i = start_[cell]; i < start_[cell + 1]; ++i) {
-    const Triangle& t = mesh_.triangles[items_[i]];
-    const auto l = barycentric(p, mesh_.vertices[t[0]], mesh_.vertices[t[1]], mesh_.vertices[t[2]]);
-    const double inside = std::min({l[0], l[1], l[2]});
-    if (inside > best_inside) {
-      best_inside = inside, best = items_[i], *bary = l;
-      if (inside >= 0) break;
-    }
-  }
-  if (best >= 0) return best;
-  // An empty cell (a point off the mesh): the nearest triangle over all.
-  for (int f = 0; f < int(mesh_.triangles.size()); ++f) {
-    const Triangle& t = mesh_.triangles[f];
-    const auto l = barycentric(p, mesh_.vertices[t[0]], mesh_.vertices[t[1]], mesh_.vertices[t[2]]);
-    const double inside = std::min({l[0], l[1], l[2]});
-    if (inside > best_inside) best_inside = inside, best = f, *bary = l;
-  }
-  return best;
 }
 
 }  // namespace zoomwarp::warp

@@ -23,7 +23,6 @@
 // Plain data in, plain data out; thread-safe (no state).
 #pragma once
 
-#include <array>
 #include <optional>
 #include <vector>
 
@@ -77,21 +76,5 @@ double chord_deviation(const std::vector<Point>& points);
 // residual divided by s × the RMS radius of `from` about its centroid — dimensionless, 0 when `to`
 // is a similar copy of `from`. Same sizes, ≥ 2 distinct points; otherwise NaN.
 double similarity_fit_residual(const std::vector<Point>& from, const std::vector<Point>& to);
-
-// Which triangle of a mesh holds a point: the one containing it, or the most nearly containing
-// one (points on edges, or off the mesh by rounding). A uniform grid of the triangles' boxes, so
-// O(1) expected per query. Keeps a reference: `mesh` must outlive it. Const use is thread-safe.
-class TriangleLocator {
- public:
-  explicit TriangleLocator(const Mesh& mesh);
-  // The triangle holding p, with its barycentric coordinates; -1 when the mesh is empty.
-  int find(const Point& p, std::array<double, 3>* bary) const;
-
- private:
-  const Mesh& mesh_;
-  double x0_ = 0, y0_ = 0, cell_ = 1;
-  int nx_ = 0, ny_ = 0;
-  std::vector<int> start_, items_;  // CSR: cell → triangles whose box meets it
-};
 
 }  // namespace zoomwarp::warp

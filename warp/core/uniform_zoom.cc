@@ -20,21 +20,30 @@ Point combine(const std::array<double, 3>& l, const Point& a, const Point& b, co
   return {l[0] * a.x + l[1] * b.x + l[2] * c.x, l[0] * a.y + l[1] * b.y + l[2] * c.y};
 }
 
-// Where source point p lands in a warp of `mesh`: the affine map of the triangle holding it
-// (the most nearly containing one, for points on edges or rounding).
-Point locate(const Mesh& mesh, const std::vector<Point>& warped, const Point& p) {
+MeshPoint locate_in(const Mesh& mesh, const Point& p) {
   double best = -std::numeric_limits<double>::infinity();
-  Point out = p;
-  for (const auto& t : mesh.triangles) {
+  MeshPoint out;
+  for (int f = 0; f < int(mesh.triangles.size()); ++f) {
+    const Triangle& t = mesh.triangles[f];
     const auto l = barycentric(p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
     const double inside = std::min({l[0], l[1], l[2]});
     if (inside > best) {
       best = inside;
-      out = combine(l, warped[t[0]], warped[t[1]], warped[t[2]]);
+      out = {f, l};
       if (inside >= 0) break;
     }
   }
   return out;
+}
+
+Point locate(const Mesh& mesh, const std::vector<Point>& warped, const Point& p, const MeshPoint& where) {
+  if (where.triangle < 0) return p;
+  const Triangle& t = mesh.triangles[where.triangle];
+  return combine(where.barycentric, warped[t[0]], warped[t[1]], warped[t[2]]);
+}
+
+Point locate(const Mesh& mesh, const std::vector<Point>& warped, const Point& p) {
+  return locate(mesh, warped, p, locate_in(mesh, p));
 }
 
 // Requests come from the network: refuse what no view can be made of rather than compute garbage.

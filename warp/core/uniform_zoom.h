@@ -21,9 +21,21 @@ void check_view_request(const ViewRequest& r);
 std::array<double, 3> barycentric(const Point& p, const Point& a, const Point& b, const Point& c);
 Point combine(const std::array<double, 3>& l, const Point& a, const Point& b, const Point& c);
 
-// Where source point p lands in a warp of `mesh`: the affine map of the triangle holding it (the
-// most nearly containing one, for points on edges or rounding). O(triangles).
+// The triangle of `mesh` holding source point p, and p's barycentric coordinates in it: the first
+// triangle (in mesh order) whose smallest coordinate is ≥ 0, else the one whose smallest
+// coordinate is largest (points just outside the mesh, rounding); triangle −1 if none compares
+// (no triangle of positive area). O(triangles); TriangleLocator (triangle_locator.h) answers the
+// same for many points.
+struct MeshPoint {
+  int triangle = -1;
+  std::array<double, 3> barycentric{};
+};
+MeshPoint locate_in(const Mesh& mesh, const Point& p);
+
+// Where source point p lands in a warp of `mesh`: through the affine map of locate_in's triangle
+// (p itself if there is none). O(triangles).
 Point locate(const Mesh& mesh, const std::vector<Point>& warped, const Point& p);
+Point locate(const Mesh& mesh, const std::vector<Point>& warped, const Point& p, const MeshPoint& where);
 
 // The triangles of `mesh` whose screen bounding box meets the screen [0, sw] × [0, sh].
 std::vector<int> visible_triangles(const Mesh& mesh, const std::vector<Point>& screen, double sw, double sh);

@@ -1,8 +1,9 @@
-// A hash map from an undirected edge (forest.h's edge_key) to the up to two LOD-cut nodes on it,
-// with open addressing and linear probing in one flat array. LodCut does a few lookups per split
-// and every view starts from a copy of the coarsest cut: a flat array copies with one memcpy and
-// probes without chasing the per-element allocations of std::unordered_map (which made the cut
-// ~a fifth of a pan's time).
+// A hash map from 64-bit keys to small values, with open addressing and linear probing in one
+// flat array: `EdgeMap`, from an undirected edge (forest.h's edge_key) to the up to two LOD-cut
+// nodes on it, and LodCut::mesh's forest vertex → mesh vertex numbering. LodCut does a few
+// lookups per split and every view starts from a copy of the coarsest cut: a flat array copies
+// with one memcpy and probes without chasing the per-element allocations of std::unordered_map
+// (which made the cut ~a fifth of a pan's time, and numbering the cut's vertices with it a tenth).
 #pragma once
 
 #include <array>
@@ -11,21 +12,21 @@
 
 namespace zoomwarp::warp {
 
-class EdgeMap {
+template <class Value>
+class FlatMap {
  public:
-  using Nodes = std::array<int, 2>;
-
-  // The nodes on `key`, or null.
-  Nodes* find(std::uint64_t key) {
+  // The value of `key`, or null.
+  Value* find(std::uint64_t key) {
+    if (keys_.empty()) return nullptr;
     for (std::size_t i = slot(key);; i = (i + 1) & mask_) {
       if (keys_[i] == kEmpty) return nullptr;
       if (keys_[i] == key) return &values_[i];
     }
   }
-  const Nodes* find(std::uint64_t key) const { return const_cast<EdgeMap*>(this)->find(key); }
+  const Value* find(std::uint64_t key) const { return const_cast<FlatMap*>(this)->find(key); }
 
   // The entry for `key`, made with `value` if missing; second: whether it was made.
-  std::pair<Nodes*, bool> emplace(std::uint64_t key, const Nodes& value) {
+  std::pair<Value*, bool> emplace(std::uint64_t key, const Value& value) {
     if (2 * (size_ + 1) > keys_.size()) grow();
     std::size_t i = slot(key);
     for (; keys_[i] != kEmpty; i = (i + 1) & mask_)
@@ -53,8 +54,13 @@ class EdgeMap {
 
   std::size_t size() const { return size_; }
 
+  // Room for n entries without growing.
+  void reserve(std::size_t n) {
+    while (keys_.size() < 2 * n) grow();
+  }
+
  private:
-  static constexpr std::uint64_t kEmpty = ~std::uint64_t(0);  // no edge has this key
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t(0);  // no edge or vertex id has this key
 
   std::size_t slot(std::uint64_t key) const {
     return std::size_t((key * 0x9E3779B97F4A7C15ull) >> 20) & mask_;  // Fibonacci hashing
@@ -62,7 +68,7 @@ class EdgeMap {
 
   void grow() {
     std::vector<std::uint64_t> keys(std::max<std::size_t>(64, 2 * keys_.size()), kEmpty);
-    std::vector<Nodes> values(keys.size());
+    std::vector<Value> values(keys.size());
     keys.swap(keys_), values.swap(values_);
     mask_ = keys_.size() - 1, size_ = 0;
     for (std::size_t i = 0; i < keys.size(); ++i)
@@ -70,8 +76,10 @@ class EdgeMap {
   }
 
   std::vector<std::uint64_t> keys_;
-  std::vector<Nodes> values_;
+  std::vector<Value> values_;
   std::size_t mask_ = 0, size_ = 0;
 };
+
+using EdgeMap = FlatMap<std::array<int, 2>>;  // edge → the up to two nodes on it
 
 }  // namespace zoomwarp::warp

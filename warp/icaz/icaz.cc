@@ -4,10 +4,11 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
-#include <unordered_map>
 
 #include "warp/core/limits.h"
+#include "warp/core/triangle_locator.h"
 #include "warp/core/uniform_zoom.h"
+#include "warp/icaz/edge_map.h"
 #include "warp/icaz/lod_cut.h"
 
 namespace zoomwarp::warp {
@@ -22,7 +23,36 @@ double place_on_axis(double c, double view, double target, double scale) {
   return std::clamp(c - view / 2, 0.0, target - view);
 }
 
-// The triangles whose screen bounding box overlaps the screen.
+// The affine map of a triangle onto its warped image, p ↦ A p + t: where the coarse warp puts a
+// forest vertex (through its root triangle), and how much it magnifies the root's area.
+struct AffineMap {
+  double a = 1, b = 0, c = 0, d = 1, tx = 0, ty = 0;
+
+  Point operator()(const Point& p) const { return {a * p.x + b * p.y + tx, c * p.x + d * p.y + ty}; }
+  double area_ratio() const { return a * d - b * c; }
+};
+
+// The map taking triangle (s0, s1, s2) to (w0, w1, w2): A = [w1 − w0, w2 − w0] [s1 − s0, s2 − s0]⁻¹.
+AffineMap triangle_map(const Point& s0, const Point& s1, const Point& s2, const Point& w0, const Point& w1,
+                       const Point& w2) {
+  const double e = s1.x - s0.x, f = s2.x - s0.x, g = s1.y - s0.y, h = s2.y - s0.y, det = e * h - f * g;
+  const double i00 = h / det, i01 = -f / det, i10 = -g / det, i11 = e / det;  // [s1 − s0, s2 − s0]⁻¹
+  const double p = w1.x - w0.x, q = w2.x - w0.x, r = w1.y - w0.y, u = w2.y - w0.y;
+  AffineMap m;
+  m.a = p * i00 + q * i10, m.b = p * i01 + q * i11, m.c = r * i00 + u * i10, m.d = r * i01 + u * i11;
+  m.tx = w0.x - m.a * s0.x - m.b * s0.y, m.ty = w0.y - m.c * s0.x - m.d * s0.y;
+  return m;
+}
+
+// Keeps a cache under 64 entries by dropping the least recently used.
+template <class Cache>
+void make_room(Cache& cache) {
+  if (cache.size() < 64) return;
+  cache.erase(std::min_element(cache.begin(), cache.end(), [](const auto& a, const auto& b) {
+    return a.second.last_used < b.second.last_used;
+  }));
+}
+
 // Vertex chains of each line in a refined mesh (its end points are those of the coarse chain).
 std::vector<std::vector<int>> line_chains(const Mesh& mesh, const CoarseMesh& coarse) {
   std::vector<std::vector<int>> out;
@@ -87,15 +117,17 @@ Submesh submesh(const Mesh& mesh, const std::vector<char>& chosen) {
 // too, so the visible part stays straight while the cost of a view no longer grows with the
 // total length of the lines.
 std::vector<std::vector<int>> local_line_runs(const std::vector<std::vector<int>>& chains, const Submesh& local) {
-  std::unordered_map<int, int> index;
-  for (int i = 0; i < int(local.vertex.size()); ++i) index.emplace(local.vertex[i], i);
   std::vector<std::vector<int>> runs;
+  if (chains.empty()) return runs;
+  FlatMap<int> index;  // mesh vertex → submesh vertex
+  index.reserve(local.vertex.size());
+  for (int i = 0; i < int(local.vertex.size()); ++i) index.emplace(std::uint32_t(local.vertex[i]), i);
   for (const auto& chain : chains) {
     std::vector<int> run;
     for (std::size_t k = 0; k <= chain.size(); ++k) {
-      const auto it = k < chain.size() ? index.find(chain[k]) : index.end();
-      if (it != index.end()) {
-        run.push_back(it->second);
+      const int* found = k < chain.size() ? index.find(std::uint32_t(chain[k])) : nullptr;
+      if (found) {
+        run.push_back(*found);
         continue;
       }
       if (run.size() >= 2) runs.push_back(run);
@@ -106,6 +138,11 @@ std::vector<std::vector<int>> local_line_runs(const std::vector<std::vector<int>
 }
 
 }  // namespace
+
+struct Icaz::CoarseWarp {
+  std::vector<Point> positions;  // of the coarsest mesh's vertices
+  std::vector<AffineMap> maps;   // of its triangles (the forest's roots)
+};
 
 Icaz::Icaz(ImageModel model, const IcazOptions& options)
     : model_(std::move(model)),
@@ -130,7 +167,9 @@ std::size_t Icaz::memory_bytes() {
   std::size_t coarse = 0;
   {
     std::lock_guard lock(coarse_mu_);
-    for (const auto& [size, cached] : coarse_cache_) coarse += cached.positions.capacity() * sizeof(Point);
+    for (const auto& [size, cached] : coarse_cache_)
+      coarse += cached.warp->positions.capacity() * sizeof(Point) + cached.warp->maps.capacity() * sizeof(AffineMap);
+    for (const auto& [k, cached] : anchors_) coarse += cached.positions.capacity() * sizeof(Point);
   }
   std::shared_lock lock(forest_mu_);
   const ImageModel& m = model_;
@@ -172,20 +211,74 @@ WarpOptions Icaz::tolerance_for(const ZoomGeometry& g, const StopToken* stop) {
   return o;
 }
 
-std::vector<Point> Icaz::coarse_positions(const ZoomGeometry& g, WarpResult* stats, const StopToken* stop) {
+std::shared_ptr<const Icaz::CoarseWarp> Icaz::coarse_warp(const ZoomGeometry& g, WarpResult* stats,
+                                                          const StopToken* stop) {
   const auto key = std::make_pair(std::llround(g.target_width * 1000), std::llround(g.target_height * 1000));
   std::lock_guard lock(coarse_mu_);
   if (auto it = coarse_cache_.find(key); it != coarse_cache_.end()) {
     it->second.last_used = ++coarse_clock_;
-    return it->second.positions;
+    return it->second.warp;
   }
-  *stats = coarse_.solve(g.target_width, g.target_height, tolerance_for(g, stop));
-  if (coarse_cache_.size() >= 64)
-    coarse_cache_.erase(std::min_element(coarse_cache_.begin(), coarse_cache_.end(), [](const auto& a, const auto& b) {
-      return a.second.last_used < b.second.last_used;
-    }));
-  coarse_cache_.emplace(key, CachedWarp{stats->positions, ++coarse_clock_});
-  return stats->positions;
+  *stats = coarse_.solve(g.target_width, g.target_height, tolerance_for(g, stop),
+                         coarse_start(g.target_width, g.target_height, stop));
+  auto warp = std::make_shared<CoarseWarp>();
+  warp->positions = stats->positions;
+  const Mesh& roots = model_.coarse.mesh;
+  warp->maps.reserve(roots.triangles.size());
+  for (const Triangle& t : roots.triangles)
+    warp->maps.push_back(triangle_map(roots.vertices[t[0]], roots.vertices[t[1]], roots.vertices[t[2]],
+                                      warp->positions[t[0]], warp->positions[t[1]], warp->positions[t[2]]));
+  make_room(coarse_cache_);
+  coarse_cache_.emplace(key, CachedCoarse{warp, ++coarse_clock_});
+  return warp;
+}
+
+// Every zoom level asks for a new target size, and from the affine stretch the coarse warp needs
+// 6–8 local–global iterations (14 for a 4:1 panorama on a portrait screen). Started instead from
+// the warps at the two anchor aspects around the target's — a geometric grid of aspects 5 %
+// apart through the image's own, same area — each scaled to the target and the two blended
+// linearly in log aspect, it needs 1 (world map, boats, a 4:1 panorama and a tall interior on
+// 480×360 and 360×640; within 0.05 screen px of the warp from the affine stretch; a 10 % grid
+// needed 1–2 there but up to 4 on the 315 MP mosaic, whose target pixels are small). Nested
+// iteration across zoom levels rather than resolutions [ICAZ §6.2]. Anchors depend on nothing
+// but the image, so a view stays a function of its request whatever was asked before; each is
+// solved once (from the affine stretch, to 0.01 px) and kept like a cached warp. The target at
+// the image's aspect (z = 1) is anchor 0 itself, whose start is the identity: still exact.
+// Where an anchor needed the fold-over guard (a 4:1 panorama on a portrait screen near z = 0),
+// its reweighted warp is no nearer the answer than the affine stretch, which is used instead.
+std::vector<Point> Icaz::coarse_start(double tw, double th, const StopToken* stop) {
+  const double u = std::log((tw / th) / (model_.width / model_.height)) / kAnchorStep;
+  const double k = std::floor(u), t = u - k;
+  std::vector<Point> start(model_.coarse.mesh.vertices.size());
+  for (int side = 0; side < 2; ++side) {
+    const double weight = side ? t : 1 - t;
+    if (weight == 0) continue;
+    const int index = int(k) + side;
+    const CachedWarp& warp = anchor(index, stop);
+    if (warp.guarded) return {};
+    const double sx = weight * tw / anchor_width(index), sy = weight * th / anchor_height(index);
+    for (std::size_t i = 0; i < start.size(); ++i)
+      start[i].x += sx * warp.positions[i].x, start[i].y += sy * warp.positions[i].y;
+  }
+  return start;
+}
+
+double Icaz::anchor_width(int k) const { return model_.width * std::exp(k * kAnchorStep / 2); }
+double Icaz::anchor_height(int k) const { return model_.height * std::exp(-k * kAnchorStep / 2); }
+
+const Icaz::CachedWarp& Icaz::anchor(int k, const StopToken* stop) {
+  if (auto it = anchors_.find(k); it != anchors_.end()) {
+    it->second.last_used = ++coarse_clock_;
+    return it->second;
+  }
+  WarpOptions o;
+  o.tolerance = kAnchorTolerance;
+  o.fixed_line_normals = true;
+  o.stop = stop;
+  WarpResult r = coarse_.solve(anchor_width(k), anchor_height(k), o);
+  make_room(anchors_);
+  const bool guarded = r.guard_rounds > 0 || r.affine_blend > 0;
+  return anchors_.emplace(k, CachedWarp{std::move(r.positions), ++coarse_clock_, guarded}).first->second;
 }
 
 // Runs work(false) holding the forest lock shared; if it needs the forest to grow, runs
@@ -234,7 +327,8 @@ View Icaz::view_in(const ViewRequest& req, bool grow) {
   const Point centre{std::clamp(req.cx, 0.0, model_.width), std::clamp(req.cy, 0.0, model_.height)};
 
   // Coarse level: warp, then place the viewing area on the view centre, inside the image.
-  const std::vector<Point> coarse = coarse_positions(g, &out.coarse_stats, req.stop);
+  const std::shared_ptr<const CoarseWarp> coarse_warped = coarse_warp(g, &out.coarse_stats, req.stop);
+  const std::vector<Point>& coarse = coarse_warped->positions;
   check_stop(req.stop);
   auto place = [&](const Point& c) {
     return Point{place_on_axis(c.x, g.view_width, g.target_width, g.screen_scale),
@@ -243,18 +337,8 @@ View Icaz::view_in(const ViewRequest& req, bool grow) {
   Point origin = place(locate(model_.coarse.mesh, coarse, centre));
 
   // Warped position of any forest vertex through its root triangle's affine map.
-  const Mesh& roots = model_.coarse.mesh;
-  auto warped_by_coarse = [&](int v) {
-    const auto& t = roots.triangles[forest_.root_of_vertex(v)];
-    const auto l = barycentric(forest_.vertices()[v], roots.vertices[t[0]], roots.vertices[t[1]], roots.vertices[t[2]]);
-    return combine(l, coarse[t[0]], coarse[t[1]], coarse[t[2]]);
-  };
-  // Area magnification of each root under the coarse warp.
-  auto root_stretch = [&](int r) {
-    const auto& t = roots.triangles[r];
-    return signed_area2(coarse[t[0]], coarse[t[1]], coarse[t[2]]) /
-           signed_area2(roots.vertices[t[0]], roots.vertices[t[1]], roots.vertices[t[2]]);
-  };
+  const std::vector<AffineMap>& root_map = coarse_warped->maps;
+  auto warped_by_coarse = [&](int v) { return root_map[forest_.root_of_vertex(v)](forest_.vertices()[v]); };
 
   // Refinement: split what touches the viewing area (with a margin of one screen triangle) and
   // is larger on screen than the threshold. A cap bounds the work whatever the input.
@@ -265,7 +349,7 @@ View Icaz::view_in(const ViewRequest& req, bool grow) {
                                                             options_.max_screen_triangles);
   const double margin = std::sqrt(max_area) / g.screen_scale;
   auto wants_split = [&](int node) {
-    if (forest_.area(node) * std::max(root_stretch(forest_.root_of(node)), 0.0) * s2 <= max_area) return false;
+    if (forest_.area(node) * std::max(root_map[forest_.root_of(node)].area_ratio(), 0.0) * s2 <= max_area) return false;
     double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
     for (int v : forest_.corners(node)) {
       const Point p = warped_by_coarse(v);
@@ -341,16 +425,16 @@ Geomorph Icaz::geomorph_in(const View& from, const View& to, const StopToken* st
   // Split, coarsest first, every node that is a strict ancestor of a node of either cut; the
   // dependents that refine() adds keep the result conforming.
   std::vector<int> ancestors;
-  std::vector<char> seen(std::size_t(forest_.node_count()), 0);
+  FlatMap<int> depth;  // of each ancestor, measured once (not per comparison)
+  depth.reserve(from.nodes.size() + to.nodes.size());
   for (const View* v : {&from, &to})
     for (int n : v->nodes)
-      for (int p = forest_.parent(n); p >= 0 && !seen[p]; p = forest_.parent(p)) seen[p] = 1, ancestors.push_back(p);
-  auto depth = [&](int n) {
-    int d = 0;
-    for (; n >= 0; n = forest_.parent(n)) ++d;
-    return d;
-  };
-  std::sort(ancestors.begin(), ancestors.end(), [&](int a, int b) { return depth(a) < depth(b); });
+      for (int p = forest_.parent(n); p >= 0 && depth.emplace(std::uint32_t(p), 0).second; p = forest_.parent(p))
+        ancestors.push_back(p);
+  for (int a : ancestors)
+    for (int p = a; p >= 0; p = forest_.parent(p)) ++*depth.find(std::uint32_t(a));
+  std::sort(ancestors.begin(), ancestors.end(),
+            [&](int a, int b) { return *depth.find(std::uint32_t(a)) < *depth.find(std::uint32_t(b)); });
   LodCut cut = root_cut_;
   cut.set_growable(grow);
   for (int n : ancestors) cut.refine(n);
@@ -361,13 +445,17 @@ Geomorph Icaz::geomorph_in(const View& from, const View& to, const StopToken* st
   // A vertex a view has keeps that view's position; one it lacks (finer than its cut) is placed
   // by the affine map of the view's triangle holding it — exactly where that view draws it.
   auto positions = [&](const View& v) {
-    std::unordered_map<int, int> index;
-    for (int i = 0; i < int(v.forest_vertex.size()); ++i) index.emplace(v.forest_vertex[i], i);
+    FlatMap<int> index;  // forest vertex → the view's vertex
+    index.reserve(v.forest_vertex.size());
+    for (int i = 0; i < int(v.forest_vertex.size()); ++i) index.emplace(std::uint32_t(v.forest_vertex[i]), i);
+    const TriangleLocator where(v.source);
     std::vector<Point> out;
+    out.reserve(g.forest_vertex.size());
     for (std::size_t i = 0; i < g.forest_vertex.size(); ++i) {
       if (i % 256 == 0) check_stop(stop);
-      auto it = index.find(g.forest_vertex[i]);
-      out.push_back(it != index.end() ? v.screen[it->second] : locate(v.source, v.screen, g.source.vertices[i]));
+      const Point& p = g.source.vertices[i];
+      const int* found = index.find(std::uint32_t(g.forest_vertex[i]));
+      out.push_back(found ? v.screen[*found] : locate(v.source, v.screen, p, where.find(p)));
     }
     return out;
   };

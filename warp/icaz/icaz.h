@@ -2,7 +2,8 @@
 //
 //   1. zoom geometry: target size and viewing area from z (zoom_curve.h);
 //   2. coarse warp of the coarsest mesh to the target size (cached per target size, so panning at
-//      a fixed zoom skips it);
+//      a fixed zoom skips it), started from the warps at the two anchor aspects around the
+//      target's (see coarse_start in icaz.cc), so that a zoom action needs one or two iterations;
 //   3. the viewing area is centred on the view centre's place in the coarse warp, clamped inside
 //      the warped image (no black bands);
 //   4. the LOD cut is refined where, judged by the coarse warp, triangles touch the viewing area and
@@ -50,8 +51,9 @@ struct IcazOptions {
 //    geomorphs and memory_bytes() hold it shared, so views of one image run in parallel. A view
 //    that needs nodes not made yet (lazy levels of a very large image, seen the first time) is
 //    redone holding it exclusively — which is also when lazy nodes are forgotten past the cap;
-//  - the coarse-warp cache (least recently used, 64 target sizes): a mutex, held while a missing
-//    entry is solved (a single flight; CHOLMOD's solve on the shared factor is not reentrant).
+//  - the coarse-warp cache (least recently used, 64 target sizes) and the anchor warps its
+//    solves start from (64, likewise): a mutex, held while a missing entry is solved (a single
+//    flight; CHOLMOD's solve on the shared factor is not reentrant).
 class Icaz {
  public:
   explicit Icaz(ImageModel model, const IcazOptions& options = {});
@@ -86,10 +88,24 @@ class Icaz {
   struct CachedWarp {
     std::vector<Point> positions;
     std::uint64_t last_used = 0;
+    bool guarded = false;  // the fold-over guard reweighted it (anchors only)
+  };
+  struct CoarseWarp;  // a coarse warp with each coarsest triangle's affine map (icaz.cc)
+  struct CachedCoarse {
+    std::shared_ptr<const CoarseWarp> warp;
+    std::uint64_t last_used = 0;
   };
 
   static WarpOptions tolerance_for(const ZoomGeometry& g, const StopToken* stop);
-  std::vector<Point> coarse_positions(const ZoomGeometry& g, WarpResult* stats, const StopToken* stop);
+  std::shared_ptr<const CoarseWarp> coarse_warp(const ZoomGeometry& g, WarpResult* stats, const StopToken* stop);
+  // The coarse warp's start for a target size (empty: the affine stretch), and the anchor warps
+  // it is made of (coarse_mu_ held). Anchor k is the image's aspect × e^(k · kAnchorStep) at the
+  // image's area.
+  static constexpr double kAnchorStep = 0.05, kAnchorTolerance = 0.01;  // log aspect; target px
+  std::vector<Point> coarse_start(double target_width, double target_height, const StopToken* stop);
+  const CachedWarp& anchor(int k, const StopToken* stop);
+  double anchor_width(int k) const;
+  double anchor_height(int k) const;
   // `grow`: the caller holds forest_mu_ exclusively and the forest and node means may grow;
   // otherwise it holds it shared and a missing node or mean throws ForestGrowthNeeded.
   double node_mean(int node, bool grow);
@@ -110,8 +126,9 @@ class Icaz {
   LodCut root_cut_;  // the coarsest mesh as a cut: every view's refinement starts from a copy
   std::vector<double> node_mean_;  // per forest node, NaN until computed
 
-  std::mutex coarse_mu_;  // guards the coarse cache and coarse_'s solves
-  std::map<std::pair<long long, long long>, CachedWarp> coarse_cache_;  // by target size (1/1000 px)
+  std::mutex coarse_mu_;  // guards the two caches below and coarse_'s solves
+  std::map<std::pair<long long, long long>, CachedCoarse> coarse_cache_;  // by target size (1/1000 px)
+  std::map<int, CachedWarp> anchors_;  // coarse warps at the anchor aspects, by grid index
   std::uint64_t coarse_clock_ = 0;
 };
 

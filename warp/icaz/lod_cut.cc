@@ -1,7 +1,6 @@
 #include "warp/icaz/lod_cut.h"
 
 #include <stdexcept>
-#include <unordered_map>
 
 namespace zoomwarp::warp {
 
@@ -77,18 +76,23 @@ std::vector<int> LodCut::nodes() const {
 
 Mesh LodCut::mesh(std::vector<int>* forest_vertex, std::vector<int>* node_of_triangle) const {
   Mesh m;
-  std::unordered_map<int, int> local;
+  const std::vector<int> active = nodes();
+  FlatMap<int> local;  // forest vertex → mesh vertex
+  local.reserve(active.size() / 2 + 64);  // a triangulated disc has about half as many vertices
   std::vector<int> ids;
-  for (int n : nodes()) {
+  ids.reserve(active.size() / 2 + 64);
+  m.vertices.reserve(ids.capacity()), m.triangles.reserve(active.size());
+  if (node_of_triangle) node_of_triangle->reserve(node_of_triangle->size() + active.size());
+  for (int n : active) {
     Triangle t;
     for (int k = 0; k < 3; ++k) {
       const int v = forest_.corners(n)[k];
-      auto [it, fresh] = local.emplace(v, int(ids.size()));
+      auto [index, fresh] = local.emplace(std::uint32_t(v), int(ids.size()));
       if (fresh) {
         ids.push_back(v);
         m.vertices.push_back(forest_.vertices()[v]);
       }
-      t[k] = it->second;
+      t[k] = *index;
     }
     m.triangles.push_back(t);
     if (node_of_triangle) node_of_triangle->push_back(n);
