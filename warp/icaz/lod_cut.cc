@@ -78,9 +78,12 @@ Mesh LodCut::mesh(std::vector<int>* forest_vertex, std::vector<int>* node_of_tri
   Mesh m;
   const std::vector<int> active = nodes();
   FlatMap<int> local;  // forest vertex → mesh vertex
-  local.reserve(active.size() / 2 + 64);  // a triangulated disc has about half as many vertices
+  // A triangulated disc has (triangles + boundary vertices) / 2 + 1 vertices: room for a
+  // boundary of up to a quarter of the triangles.
+  const std::size_t vertices = active.size() * 5 / 8 + 64;
+  local.reserve(vertices);
   std::vector<int> ids;
-  ids.reserve(active.size() / 2 + 64);
+  ids.reserve(vertices);
   m.vertices.reserve(ids.capacity()), m.triangles.reserve(active.size());
   if (node_of_triangle) node_of_triangle->reserve(node_of_triangle->size() + active.size());
   for (int n : active) {
