@@ -219,8 +219,16 @@ std::shared_ptr<const Icaz::CoarseWarp> Icaz::coarse_warp(const ZoomGeometry& g,
     it->second.last_used = ++coarse_clock_;
     return it->second.warp;
   }
-  *stats = coarse_.solve(g.target_width, g.target_height, tolerance_for(g, stop),
-                         coarse_start(g.target_width, g.target_height, stop));
+  const WarpOptions options = tolerance_for(g, stop);
+  bool close_enough = false;
+  const std::vector<Point> start = coarse_start(g.target_width, g.target_height, options.tolerance, stop, &close_enough);
+  if (close_enough) {  // taken as it is (its boundary set exactly), if it folds nothing
+    WarpOptions as_is = options;
+    as_is.max_iterations = 0, as_is.fold_guard = false;
+    *stats = coarse_.solve(g.target_width, g.target_height, as_is, start);
+    stats->converged = stats->inverted == 0;
+  }
+  if (!close_enough || !stats->converged) *stats = coarse_.solve(g.target_width, g.target_height, options, start);
   auto warp = std::make_shared<CoarseWarp>();
   warp->positions = stats->positions;
   const Mesh& roots = model_.coarse.mesh;
@@ -239,17 +247,27 @@ std::shared_ptr<const Icaz::CoarseWarp> Icaz::coarse_warp(const ZoomGeometry& g,
 // apart through the image's own, same area — each scaled to the target and the two blended
 // linearly in log aspect, it needs 1 (world map, boats, a 4:1 panorama and a tall interior on
 // 480×360 and 360×640; within 0.05 screen px of the warp from the affine stretch; a 10 % grid
-// needed 1–2 there but up to 4 on the 315 MP mosaic, whose target pixels are small). Nested
-// iteration across zoom levels rather than resolutions [ICAZ §6.2]. Anchors depend on nothing
-// but the image, so a view stays a function of its request whatever was asked before; each is
-// solved once (from the affine stretch, to 0.01 px) and kept like a cached warp. The target at
-// the image's aspect (z = 1) is anchor 0 itself, whose start is the identity: still exact.
-// Where an anchor needed the fold-over guard (a 4:1 panorama on a portrait screen near z = 0),
-// its reweighted warp is no nearer the answer than the affine stretch, which is used instead.
-std::vector<Point> Icaz::coarse_start(double tw, double th, const StopToken* stop) {
-  const double u = std::log((tw / th) / (model_.width / model_.height)) / kAnchorStep;
+// needed 1–2 there but up to 4 on the 315 MP mosaic, whose target pixels are small) — and often
+// none: the blend strays from the answer most at the middle between two anchors, so one
+// iteration from there is measured once per pair (anchor_gap), and where it moved less than half
+// the view's tolerance the blend is the coarse warp as it is (`close_enough`). Nested iteration
+// across zoom levels rather than resolutions [ICAZ §6.2]. Anchors depend on nothing but the
+// image, so a view stays a function of its request whatever was asked before; each is solved
+// once (from the affine stretch, to 0.01 px) and kept like a cached warp. The target at the
+// image's aspect (z = 1) is anchor 0 itself, whose start is the identity: still exact. Where an
+// anchor needed the fold-over guard (a 4:1 panorama on a portrait screen near z = 0), its
+// reweighted warp is no nearer the answer than the affine stretch, which is used instead.
+std::vector<Point> Icaz::coarse_start(double tw, double th, double tolerance, const StopToken* stop,
+                                      bool* close_enough) {
+  const double u = std::log((tw / th) / (model_.width / model_.height)) / kAnchorStep, k = std::floor(u);
+  std::vector<Point> start = anchor_blend(u, tw, th, stop);
+  *close_enough = !start.empty() && (u == k ? kAnchorTolerance : anchor_gap(int(k), stop)) <= tolerance / 2;
+  return start;
+}
+
+std::vector<Point> Icaz::anchor_blend(double u, double tw, double th, const StopToken* stop) {
   const double k = std::floor(u), t = u - k;
-  std::vector<Point> start(model_.coarse.mesh.vertices.size());
+  std::vector<Point> out(model_.coarse.mesh.vertices.size());
   for (int side = 0; side < 2; ++side) {
     const double weight = side ? t : 1 - t;
     if (weight == 0) continue;
@@ -257,10 +275,22 @@ std::vector<Point> Icaz::coarse_start(double tw, double th, const StopToken* sto
     const CachedWarp& warp = anchor(index, stop);
     if (warp.guarded) return {};
     const double sx = weight * tw / anchor_width(index), sy = weight * th / anchor_height(index);
-    for (std::size_t i = 0; i < start.size(); ++i)
-      start[i].x += sx * warp.positions[i].x, start[i].y += sy * warp.positions[i].y;
+    for (std::size_t i = 0; i < out.size(); ++i) out[i].x += sx * warp.positions[i].x, out[i].y += sy * warp.positions[i].y;
   }
-  return start;
+  return out;
+}
+
+double Icaz::anchor_gap(int k, const StopToken* stop) {
+  if (const double gap = anchor(k, stop).gap; !std::isnan(gap)) return gap;
+  const double tw = model_.width * std::exp((k + 0.5) * kAnchorStep / 2), th = model_.height * std::exp(-(k + 0.5) * kAnchorStep / 2);
+  const std::vector<Point> middle = anchor_blend(k + 0.5, tw, th, stop);
+  WarpOptions o;
+  o.max_iterations = 1, o.fold_guard = false, o.fixed_line_normals = true, o.stop = stop;
+  const WarpResult step = coarse_.solve(tw, th, o, middle);
+  double gap = 0;
+  for (std::size_t i = 0; i < middle.size(); ++i)
+    gap = std::max(gap, std::hypot(step.positions[i].x - middle[i].x, step.positions[i].y - middle[i].y));
+  return anchors_.find(k)->second.gap = gap;
 }
 
 double Icaz::anchor_width(int k) const { return model_.width * std::exp(k * kAnchorStep / 2); }

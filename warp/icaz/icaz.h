@@ -14,6 +14,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -89,6 +90,7 @@ class Icaz {
     std::vector<Point> positions;
     std::uint64_t last_used = 0;
     bool guarded = false;  // the fold-over guard reweighted it (anchors only)
+    double gap = std::numeric_limits<double>::quiet_NaN();  // anchor_gap to the next anchor, once known
   };
   struct CoarseWarp;  // a coarse warp with each coarsest triangle's affine map (icaz.cc)
   struct CachedCoarse {
@@ -98,11 +100,16 @@ class Icaz {
 
   static WarpOptions tolerance_for(const ZoomGeometry& g, const StopToken* stop);
   std::shared_ptr<const CoarseWarp> coarse_warp(const ZoomGeometry& g, WarpResult* stats, const StopToken* stop);
-  // The coarse warp's start for a target size (empty: the affine stretch), and the anchor warps
-  // it is made of (coarse_mu_ held). Anchor k is the image's aspect × e^(k · kAnchorStep) at the
-  // image's area.
+  // The coarse warp's start for a target size (empty: the affine stretch) and whether it is
+  // within `tolerance` of the answer as it is; the anchor warps it is made of, blended at u grid
+  // steps from the image's aspect; how far one iteration moves their blend midway between anchor
+  // k and k + 1 (all with coarse_mu_ held). Anchor k is the image's aspect × e^(k · kAnchorStep)
+  // at the image's area.
   static constexpr double kAnchorStep = 0.05, kAnchorTolerance = 0.01;  // log aspect; target px
-  std::vector<Point> coarse_start(double target_width, double target_height, const StopToken* stop);
+  std::vector<Point> coarse_start(double target_width, double target_height, double tolerance, const StopToken* stop,
+                                  bool* close_enough);
+  std::vector<Point> anchor_blend(double u, double target_width, double target_height, const StopToken* stop);
+  double anchor_gap(int k, const StopToken* stop);
   const CachedWarp& anchor(int k, const StopToken* stop);
   double anchor_width(int k) const;
   double anchor_height(int k) const;
