@@ -3,7 +3,8 @@
 //   1. zoom geometry: target size and viewing area from z (zoom_curve.h);
 //   2. coarse warp of the coarsest mesh to the target size (cached per target size, so panning at
 //      a fixed zoom skips it), started from the warps at the two anchor aspects around the
-//      target's (see coarse_start in icaz.cc), so that a zoom action needs one or two iterations;
+//      target's (see coarse_start in icaz.cc), so that a zoom action needs at most one iteration
+//      (mostly none);
 //   3. the viewing area is centred on the view centre's place in the coarse warp, clamped inside
 //      the warped image (no black bands);
 //   4. the LOD cut is refined where, judged by the coarse warp, triangles touch the viewing area and
