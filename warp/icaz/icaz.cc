@@ -250,7 +250,9 @@ std::shared_ptr<const Icaz::CoarseWarp> Icaz::coarse_warp(const ZoomGeometry& g,
 // needed 1–2 there but up to 4 on the 315 MP mosaic, whose target pixels are small) — and often
 // none: the blend strays from the answer most at the middle between two anchors, so one
 // iteration from there is measured once per pair (anchor_gap), and where it moved less than half
-// the view's tolerance the blend is the coarse warp as it is (`close_enough`). Nested iteration
+// the view's tolerance the blend is the coarse warp as it is (`close_enough`). Where it moved
+// more (large images near z = 1, where the tolerance in target px is smallest), the grid is
+// halved, up to twice (anchors 1.25 % apart), before one iteration is taken. Nested iteration
 // across zoom levels rather than resolutions [ICAZ §6.2]. Anchors depend on nothing but the
 // image, so a view stays a function of its request whatever was asked before; each is solved
 // once (from the affine stretch, to 0.01 px) and kept like a cached warp. The target at the
@@ -259,19 +261,26 @@ std::shared_ptr<const Icaz::CoarseWarp> Icaz::coarse_warp(const ZoomGeometry& g,
 // reweighted warp is no nearer the answer than the affine stretch, which is used instead.
 std::vector<Point> Icaz::coarse_start(double tw, double th, double tolerance, const StopToken* stop,
                                       bool* close_enough) {
-  const double u = std::log((tw / th) / (model_.width / model_.height)) / kAnchorStep, k = std::floor(u);
-  std::vector<Point> start = anchor_blend(u, tw, th, stop);
-  *close_enough = !start.empty() && (u == k ? kAnchorTolerance : anchor_gap(int(k), stop)) <= tolerance / 2;
+  const double u = std::log((tw / th) / (model_.width / model_.height)) / kFinestAnchorStep;
+  std::vector<Point> start;
+  *close_enough = false;
+  for (int level = 0; level <= kAnchorLevels && !*close_enough; ++level) {
+    const int stride = 1 << (kAnchorLevels - level);
+    const double below = stride * std::floor(u / stride);
+    start = anchor_blend(u, stride, tw, th, stop);
+    if (start.empty()) break;
+    *close_enough = (u == below ? kAnchorTolerance : anchor_gap(int(below), level, stop)) <= tolerance / 2;
+  }
   return start;
 }
 
-std::vector<Point> Icaz::anchor_blend(double u, double tw, double th, const StopToken* stop) {
-  const double k = std::floor(u), t = u - k;
+std::vector<Point> Icaz::anchor_blend(double u, int stride, double tw, double th, const StopToken* stop) {
+  const double below = stride * std::floor(u / stride), t = (u - below) / stride;
   std::vector<Point> out(model_.coarse.mesh.vertices.size());
   for (int side = 0; side < 2; ++side) {
     const double weight = side ? t : 1 - t;
     if (weight == 0) continue;
-    const int index = int(k) + side;
+    const int index = int(below) + side * stride;
     const CachedWarp& warp = anchor(index, stop);
     if (warp.guarded) return {};
     const double sx = weight * tw / anchor_width(index), sy = weight * th / anchor_height(index);
@@ -280,24 +289,27 @@ std::vector<Point> Icaz::anchor_blend(double u, double tw, double th, const Stop
   return out;
 }
 
-double Icaz::anchor_gap(int k, const StopToken* stop) {
-  if (const double gap = anchor(k, stop).gap; !std::isnan(gap)) return gap;
-  const double tw = model_.width * std::exp((k + 0.5) * kAnchorStep / 2), th = model_.height * std::exp(-(k + 0.5) * kAnchorStep / 2);
-  const std::vector<Point> middle = anchor_blend(k + 0.5, tw, th, stop);
+double Icaz::anchor_gap(int j, int level, const StopToken* stop) {
+  if (const double gap = anchor(j, stop).gap[level]; !std::isnan(gap)) return gap;
+  const int stride = 1 << (kAnchorLevels - level);
+  const double middle_u = j + 0.5 * stride;
+  const double tw = model_.width * std::exp(middle_u * kFinestAnchorStep / 2);
+  const double th = model_.height * std::exp(-middle_u * kFinestAnchorStep / 2);
+  const std::vector<Point> middle = anchor_blend(middle_u, stride, tw, th, stop);
   WarpOptions o;
   o.max_iterations = 1, o.fold_guard = false, o.fixed_line_normals = true, o.stop = stop;
   const WarpResult step = coarse_.solve(tw, th, o, middle);
   double gap = 0;
   for (std::size_t i = 0; i < middle.size(); ++i)
     gap = std::max(gap, std::hypot(step.positions[i].x - middle[i].x, step.positions[i].y - middle[i].y));
-  return anchors_.find(k)->second.gap = gap;
+  return anchors_.find(j)->second.gap[level] = gap;
 }
 
-double Icaz::anchor_width(int k) const { return model_.width * std::exp(k * kAnchorStep / 2); }
-double Icaz::anchor_height(int k) const { return model_.height * std::exp(-k * kAnchorStep / 2); }
+double Icaz::anchor_width(int j) const { return model_.width * std::exp(j * kFinestAnchorStep / 2); }
+double Icaz::anchor_height(int j) const { return model_.height * std::exp(-j * kFinestAnchorStep / 2); }
 
-const Icaz::CachedWarp& Icaz::anchor(int k, const StopToken* stop) {
-  if (auto it = anchors_.find(k); it != anchors_.end()) {
+const Icaz::CachedWarp& Icaz::anchor(int j, const StopToken* stop) {
+  if (auto it = anchors_.find(j); it != anchors_.end()) {
     it->second.last_used = ++coarse_clock_;
     return it->second;
   }
@@ -305,10 +317,12 @@ const Icaz::CachedWarp& Icaz::anchor(int k, const StopToken* stop) {
   o.tolerance = kAnchorTolerance;
   o.fixed_line_normals = true;
   o.stop = stop;
-  WarpResult r = coarse_.solve(anchor_width(k), anchor_height(k), o);
+  WarpResult r = coarse_.solve(anchor_width(j), anchor_height(j), o);
   make_room(anchors_);
   const bool guarded = r.guard_rounds > 0 || r.affine_blend > 0;
-  return anchors_.emplace(k, CachedWarp{std::move(r.positions), ++coarse_clock_, guarded}).first->second;
+  CachedWarp entry{std::move(r.positions), ++coarse_clock_, guarded};
+  entry.gap.fill(std::numeric_limits<double>::quiet_NaN());
+  return anchors_.emplace(j, std::move(entry)).first->second;
 }
 
 // Runs work(false) holding the forest lock shared; if it needs the forest to grow, runs

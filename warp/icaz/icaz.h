@@ -14,8 +14,8 @@
 //      the fine result.
 #pragma once
 
+#include <array>
 #include <cstdint>
-#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -91,7 +91,7 @@ class Icaz {
     std::vector<Point> positions;
     std::uint64_t last_used = 0;
     bool guarded = false;  // the fold-over guard reweighted it (anchors only)
-    double gap = std::numeric_limits<double>::quiet_NaN();  // anchor_gap to the next anchor, once known
+    std::array<double, 3> gap{};  // anchor_gap at each level (NaN until measured; anchors only)
   };
   struct CoarseWarp;  // a coarse warp with each coarsest triangle's affine map (icaz.cc)
   struct CachedCoarse {
@@ -102,18 +102,22 @@ class Icaz {
   static WarpOptions tolerance_for(const ZoomGeometry& g, const StopToken* stop);
   std::shared_ptr<const CoarseWarp> coarse_warp(const ZoomGeometry& g, WarpResult* stats, const StopToken* stop);
   // The coarse warp's start for a target size (empty: the affine stretch) and whether it is
-  // within `tolerance` of the answer as it is; the anchor warps it is made of, blended at u grid
-  // steps from the image's aspect; how far one iteration moves their blend midway between anchor
-  // k and k + 1 (all with coarse_mu_ held). Anchor k is the image's aspect × e^(k · kAnchorStep)
-  // at the image's area.
-  static constexpr double kAnchorStep = 0.05, kAnchorTolerance = 0.01;  // log aspect; target px
+  // within `tolerance` of the answer as it is; the anchor warps it is made of, blended at u
+  // finest-grid steps from the image's aspect between anchors `stride` steps apart; how far one
+  // iteration moves their blend midway between anchor j and the next one of a level (all with
+  // coarse_mu_ held). Anchor j is the image's aspect × e^(j · kFinestAnchorStep) at the image's
+  // area; level 0 uses every fourth, level 1 every second, level 2 each.
+  static constexpr int kAnchorLevels = 2;
+  static constexpr double kAnchorStep = 0.05;  // log aspect, level 0
+  static constexpr double kFinestAnchorStep = kAnchorStep / (1 << kAnchorLevels);
+  static constexpr double kAnchorTolerance = 0.01;  // target px
   std::vector<Point> coarse_start(double target_width, double target_height, double tolerance, const StopToken* stop,
                                   bool* close_enough);
-  std::vector<Point> anchor_blend(double u, double target_width, double target_height, const StopToken* stop);
-  double anchor_gap(int k, const StopToken* stop);
-  const CachedWarp& anchor(int k, const StopToken* stop);
-  double anchor_width(int k) const;
-  double anchor_height(int k) const;
+  std::vector<Point> anchor_blend(double u, int stride, double target_width, double target_height, const StopToken* stop);
+  double anchor_gap(int j, int level, const StopToken* stop);
+  const CachedWarp& anchor(int j, const StopToken* stop);
+  double anchor_width(int j) const;
+  double anchor_height(int j) const;
   // `grow`: the caller holds forest_mu_ exclusively and the forest and node means may grow;
   // otherwise it holds it shared and a missing node or mean throws ForestGrowthNeeded.
   double node_mean(int node, bool grow);
