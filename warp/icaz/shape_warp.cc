@@ -480,7 +480,10 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
     for (std::size_t i = 0; i < p.size(); ++i) p[i] = {v[2 * i], v[2 * i + 1]};
     return p;
   };
-  std::vector<Eigen::VectorXd> dg, df;
+  // The last kWindow differences of steps (G) and of residuals (F), one per column in the order
+  // they fill the ring (least squares does not care which column is which); `history` of them.
+  Eigen::MatrixXd dg(n2, kWindow), df(n2, kWindow);
+  int history = 0, next_column = 0;
   Eigen::VectorXd g_prev, f_prev;
   const std::vector<Point> start = r.positions;
   const auto fixed = fast && options.max_iterations > 0 ? m.fixed_rhs(start) : std::pair<Eigen::VectorXd, Eigen::VectorXd>{};
@@ -521,15 +524,14 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
       else m.solve_decoupled(step, scales, fixed);
       const Eigen::VectorXd u = stack(r.positions), g = stack(step), f = g - u;
       if (g_prev.size() == n2) {
-        dg.push_back(g - g_prev), df.push_back(f - f_prev);
-        if (int(dg.size()) > kWindow) dg.erase(dg.begin()), df.erase(df.begin());
+        dg.col(next_column) = g - g_prev, df.col(next_column) = f - f_prev;
+        next_column = (next_column + 1) % kWindow, history = std::min(history + 1, kWindow);
       }
       g_prev = g, f_prev = f;
       r.positions = step;
       scales_current = false;
-      if (!dg.empty()) {
-        Eigen::MatrixXd F(n2, df.size()), G(n2, dg.size());
-        for (std::size_t k = 0; k < df.size(); ++k) F.col(k) = df[k], G.col(k) = dg[k];
+      if (history > 0) {
+        const auto F = df.leftCols(history), G = dg.leftCols(history);
         // The least-squares coefficients from the k × k normal equations (k ≤ 5) rather than a
         // QR of the n × k history: the same steps on 440 views of 4 images (1e-11 px) at a
         // tenth of a solve less; an ill-conditioned history gives at worst a step the safeguard
@@ -542,7 +544,7 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
           r.positions = std::move(accelerated), scales = std::move(accelerated_scales);
           energy = accelerated_energy, scales_current = true;
         } else {
-          dg.clear(), df.clear();
+          history = next_column = 0;
         }
       }
     } else if (m.n_free_x + m.n_free_y > 0) {
