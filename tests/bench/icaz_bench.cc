@@ -60,7 +60,7 @@ void BM_Zoom(benchmark::State& state, int which) {
   const double z = state.range(0) / 100.0;
   int i = 0;
   std::size_t vertices = 0;
-  double iterations = 0, coarse_iterations = 0, guard_rounds = 0, coarse_solves = 0;
+  double iterations = 0, coarse_iterations = 0, guard_rounds = 0, coarse_computed = 0;
   for (auto _ : state) {
     warp::ViewRequest r;
     const double step = 1e-5 * (i++ % 1000);
@@ -69,12 +69,12 @@ void BM_Zoom(benchmark::State& state, int which) {
     const warp::View v = s.icaz->view(r);
     vertices = v.source.vertices.size();
     iterations += v.fine_stats.iterations, guard_rounds += v.fine_stats.guard_rounds;
-    coarse_iterations += v.coarse_stats.iterations, coarse_solves += v.coarse_stats.iterations > 0;
+    coarse_iterations += v.coarse_stats.iterations, coarse_computed += v.coarse_stats.converged;  // not a cache hit
   }
   state.counters["vertices"] = double(vertices);
   state.counters["fine_iterations"] = benchmark::Counter(iterations, benchmark::Counter::kAvgIterations);
   state.counters["coarse_iterations"] = benchmark::Counter(coarse_iterations, benchmark::Counter::kAvgIterations);
-  state.counters["coarse_solved"] = benchmark::Counter(coarse_solves, benchmark::Counter::kAvgIterations);
+  state.counters["coarse_computed"] = benchmark::Counter(coarse_computed, benchmark::Counter::kAvgIterations);
   state.counters["guard_rounds"] = benchmark::Counter(guard_rounds, benchmark::Counter::kAvgIterations);
   state.SetLabel(s.name);
 }

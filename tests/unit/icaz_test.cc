@@ -394,12 +394,14 @@ TEST(IcazNestedIteration, TheFineLevelFromTheCoarseResultNeedsFewerIterations) {
 
 // Nested iteration across zoom levels: a zoom action's coarse warp starts from the warps at the
 // two anchor aspects around its target's (icaz.cc, coarse_start) instead of the affine stretch,
-// and must end where the affine start does, in one or two iterations. With a maximum
-// triangle area no coarsest triangle reaches nothing is refined, so a view's positions are its
-// coarse warp: each is compared with the coarse warp solved here from the affine stretch to the
-// same tolerance (0.05 screen px a step), at z = 0 on screens of five aspects (a fresh engine:
-// every coarse warp is solved). Measured: within 0.026 screen px; 1 iteration per view, 70
-// from the affine stretch over the 10 views.
+// and must end where the affine start does — here with no iteration at all: midway between
+// these anchors one iteration moved their blend by at most 0.44 of half the tolerance, so the
+// blend is taken as it is (icaz.cc, anchor_gap). With a maximum triangle area no coarsest
+// triangle reaches nothing is refined, so a view's positions are its coarse warp: each is
+// compared with the coarse warp solved here from the affine stretch to the same tolerance
+// (0.05 screen px a step), at z = 0 on screens of five aspects (a fresh engine: every coarse
+// warp is computed). Measured: within 0.026 screen px; 0 iterations against 70 from the affine
+// stretch (1 per view before the blend was taken as it is).
 TEST(IcazCoarseStart, AZoomActionStartsNearItsAnswerAndEndsWhereTheAffineStartDoes) {
   int anchored_total = 0, affine_total = 0;
   double worst = 0;
@@ -426,7 +428,7 @@ TEST(IcazCoarseStart, AZoomActionStartsNearItsAnswerAndEndsWhereTheAffineStartDo
       }
       EXPECT_LT(moved, 0.1) << file << " " << sw << "x" << sh;
       EXPECT_TRUE(v.coarse_stats.converged);
-      EXPECT_LE(v.coarse_stats.iterations, 2) << file << " " << sw << "x" << sh;
+      EXPECT_EQ(v.coarse_stats.iterations, 0) << file << " " << sw << "x" << sh << ": the blend not taken as it is";
       worst = std::max(worst, moved);
       anchored_total += v.coarse_stats.iterations, affine_total += affine.iterations;
     }

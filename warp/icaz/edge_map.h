@@ -6,6 +6,7 @@
 // (which made the cut ~a fifth of a pan's time, and numbering the cut's vertices with it a tenth).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -56,7 +57,9 @@ class FlatMap {
 
   // Room for n entries without growing.
   void reserve(std::size_t n) {
-    while (keys_.size() < 2 * n) grow();
+    std::size_t capacity = std::max<std::size_t>(64, keys_.size());
+    while (capacity < 2 * n) capacity *= 2;
+    if (capacity > keys_.size()) rehash(capacity);
   }
 
  private:
@@ -66,8 +69,10 @@ class FlatMap {
     return std::size_t((key * 0x9E3779B97F4A7C15ull) >> 20) & mask_;  // Fibonacci hashing
   }
 
-  void grow() {
-    std::vector<std::uint64_t> keys(std::max<std::size_t>(64, 2 * keys_.size()), kEmpty);
+  void grow() { rehash(std::max<std::size_t>(64, 2 * keys_.size())); }
+
+  void rehash(std::size_t capacity) {  // a power of two
+    std::vector<std::uint64_t> keys(capacity, kEmpty);
     std::vector<Value> values(keys.size());
     keys.swap(keys_), values.swap(values_);
     mask_ = keys_.size() - 1, size_ = 0;

@@ -219,8 +219,16 @@ std::shared_ptr<const Icaz::CoarseWarp> Icaz::coarse_warp(const ZoomGeometry& g,
     it->second.last_used = ++coarse_clock_;
     return it->second.warp;
   }
-  *stats = coarse_.solve(g.target_width, g.target_height, tolerance_for(g, stop),
-                         coarse_start(g.target_width, g.target_height, stop));
+  const WarpOptions options = tolerance_for(g, stop);
+  bool close_enough = false;
+  const std::vector<Point> start = coarse_start(g.target_width, g.target_height, options.tolerance, stop, &close_enough);
+  if (close_enough) {  // taken as it is (its boundary set exactly), if it folds nothing
+    WarpOptions as_is = options;
+    as_is.max_iterations = 0, as_is.fold_guard = false;
+    *stats = coarse_.solve(g.target_width, g.target_height, as_is, start);
+    stats->converged = stats->inverted == 0;
+  }
+  if (!close_enough || !stats->converged) *stats = coarse_.solve(g.target_width, g.target_height, options, start);
   auto warp = std::make_shared<CoarseWarp>();
   warp->positions = stats->positions;
   const Mesh& roots = model_.coarse.mesh;
@@ -239,35 +247,69 @@ std::shared_ptr<const Icaz::CoarseWarp> Icaz::coarse_warp(const ZoomGeometry& g,
 // apart through the image's own, same area — each scaled to the target and the two blended
 // linearly in log aspect, it needs 1 (world map, boats, a 4:1 panorama and a tall interior on
 // 480×360 and 360×640; within 0.05 screen px of the warp from the affine stretch; a 10 % grid
-// needed 1–2 there but up to 4 on the 315 MP mosaic, whose target pixels are small). Nested
-// iteration across zoom levels rather than resolutions [ICAZ §6.2]. Anchors depend on nothing
-// but the image, so a view stays a function of its request whatever was asked before; each is
-// solved once (from the affine stretch, to 0.01 px) and kept like a cached warp. The target at
-// the image's aspect (z = 1) is anchor 0 itself, whose start is the identity: still exact.
-// Where an anchor needed the fold-over guard (a 4:1 panorama on a portrait screen near z = 0),
-// its reweighted warp is no nearer the answer than the affine stretch, which is used instead.
-std::vector<Point> Icaz::coarse_start(double tw, double th, const StopToken* stop) {
-  const double u = std::log((tw / th) / (model_.width / model_.height)) / kAnchorStep;
-  const double k = std::floor(u), t = u - k;
-  std::vector<Point> start(model_.coarse.mesh.vertices.size());
-  for (int side = 0; side < 2; ++side) {
-    const double weight = side ? t : 1 - t;
-    if (weight == 0) continue;
-    const int index = int(k) + side;
-    const CachedWarp& warp = anchor(index, stop);
-    if (warp.guarded) return {};
-    const double sx = weight * tw / anchor_width(index), sy = weight * th / anchor_height(index);
-    for (std::size_t i = 0; i < start.size(); ++i)
-      start[i].x += sx * warp.positions[i].x, start[i].y += sy * warp.positions[i].y;
+// needed 1–2 there but up to 4 on the 315 MP mosaic, whose target pixels are small) — and often
+// none: the blend strays from the answer most at the middle between two anchors, so one
+// iteration from there is measured once per pair (anchor_gap), and where it moved less than half
+// the view's tolerance the blend is the coarse warp as it is (`close_enough`). Where it moved
+// more (large images near z = 1, where the tolerance in target px is smallest), the grid is
+// halved, up to twice (anchors 1.25 % apart), before one iteration is taken. Nested iteration
+// across zoom levels rather than resolutions [ICAZ §6.2]. Anchors depend on nothing but the
+// image, so a view stays a function of its request whatever was asked before; each is solved
+// once (from the affine stretch, to 0.01 px) and kept like a cached warp. The target at the
+// image's aspect (z = 1) is anchor 0 itself, whose start is the identity: still exact. Where an
+// anchor needed the fold-over guard (a 4:1 panorama on a portrait screen near z = 0), its
+// reweighted warp is no nearer the answer than the affine stretch, which is used instead.
+std::vector<Point> Icaz::coarse_start(double tw, double th, double tolerance, const StopToken* stop,
+                                      bool* close_enough) {
+  const double u = std::log((tw / th) / (model_.width / model_.height)) / kFinestAnchorStep;
+  std::vector<Point> start;
+  *close_enough = false;
+  for (int level = 0; level <= kAnchorLevels && !*close_enough; ++level) {
+    const int stride = 1 << (kAnchorLevels - level);
+    const double below = stride * std::floor(u / stride);
+    start = anchor_blend(u, stride, tw, th, stop);
+    if (start.empty()) break;
+    *close_enough = (u == below ? kAnchorTolerance : anchor_gap(int(below), level, stop)) <= tolerance / 2;
   }
   return start;
 }
 
-double Icaz::anchor_width(int k) const { return model_.width * std::exp(k * kAnchorStep / 2); }
-double Icaz::anchor_height(int k) const { return model_.height * std::exp(-k * kAnchorStep / 2); }
+std::vector<Point> Icaz::anchor_blend(double u, int stride, double tw, double th, const StopToken* stop) {
+  const double below = stride * std::floor(u / stride), t = (u - below) / stride;
+  std::vector<Point> out(model_.coarse.mesh.vertices.size());
+  for (int side = 0; side < 2; ++side) {
+    const double weight = side ? t : 1 - t;
+    if (weight == 0) continue;
+    const int index = int(below) + side * stride;
+    const CachedWarp& warp = anchor(index, stop);
+    if (warp.guarded) return {};
+    const double sx = weight * tw / anchor_width(index), sy = weight * th / anchor_height(index);
+    for (std::size_t i = 0; i < out.size(); ++i) out[i].x += sx * warp.positions[i].x, out[i].y += sy * warp.positions[i].y;
+  }
+  return out;
+}
 
-const Icaz::CachedWarp& Icaz::anchor(int k, const StopToken* stop) {
-  if (auto it = anchors_.find(k); it != anchors_.end()) {
+double Icaz::anchor_gap(int j, int level, const StopToken* stop) {
+  if (const double gap = anchor(j, stop).gap[level]; !std::isnan(gap)) return gap;
+  const int stride = 1 << (kAnchorLevels - level);
+  const double middle_u = j + 0.5 * stride;
+  const double tw = model_.width * std::exp(middle_u * kFinestAnchorStep / 2);
+  const double th = model_.height * std::exp(-middle_u * kFinestAnchorStep / 2);
+  const std::vector<Point> middle = anchor_blend(middle_u, stride, tw, th, stop);
+  WarpOptions o;
+  o.max_iterations = 1, o.fold_guard = false, o.fixed_line_normals = true, o.stop = stop;
+  const WarpResult step = coarse_.solve(tw, th, o, middle);
+  double gap = 0;
+  for (std::size_t i = 0; i < middle.size(); ++i)
+    gap = std::max(gap, std::hypot(step.positions[i].x - middle[i].x, step.positions[i].y - middle[i].y));
+  return anchors_.find(j)->second.gap[level] = gap;
+}
+
+double Icaz::anchor_width(int j) const { return model_.width * std::exp(j * kFinestAnchorStep / 2); }
+double Icaz::anchor_height(int j) const { return model_.height * std::exp(-j * kFinestAnchorStep / 2); }
+
+const Icaz::CachedWarp& Icaz::anchor(int j, const StopToken* stop) {
+  if (auto it = anchors_.find(j); it != anchors_.end()) {
     it->second.last_used = ++coarse_clock_;
     return it->second;
   }
@@ -275,10 +317,12 @@ const Icaz::CachedWarp& Icaz::anchor(int k, const StopToken* stop) {
   o.tolerance = kAnchorTolerance;
   o.fixed_line_normals = true;
   o.stop = stop;
-  WarpResult r = coarse_.solve(anchor_width(k), anchor_height(k), o);
+  WarpResult r = coarse_.solve(anchor_width(j), anchor_height(j), o);
   make_room(anchors_);
   const bool guarded = r.guard_rounds > 0 || r.affine_blend > 0;
-  return anchors_.emplace(k, CachedWarp{std::move(r.positions), ++coarse_clock_, guarded}).first->second;
+  CachedWarp entry{std::move(r.positions), ++coarse_clock_, guarded};
+  entry.gap.fill(std::numeric_limits<double>::quiet_NaN());
+  return anchors_.emplace(j, std::move(entry)).first->second;
 }
 
 // Runs work(false) holding the forest lock shared; if it needs the forest to grow, runs

@@ -3,7 +3,8 @@
 //   1. zoom geometry: target size and viewing area from z (zoom_curve.h);
 //   2. coarse warp of the coarsest mesh to the target size (cached per target size, so panning at
 //      a fixed zoom skips it), started from the warps at the two anchor aspects around the
-//      target's (see coarse_start in icaz.cc), so that a zoom action needs one or two iterations;
+//      target's (see coarse_start in icaz.cc), so that a zoom action needs at most one iteration
+//      (mostly none);
 //   3. the viewing area is centred on the view centre's place in the coarse warp, clamped inside
 //      the warped image (no black bands);
 //   4. the LOD cut is refined where, judged by the coarse warp, triangles touch the viewing area and
@@ -13,6 +14,7 @@
 //      the fine result.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -89,6 +91,7 @@ class Icaz {
     std::vector<Point> positions;
     std::uint64_t last_used = 0;
     bool guarded = false;  // the fold-over guard reweighted it (anchors only)
+    std::array<double, 3> gap{};  // anchor_gap at each level (NaN until measured; anchors only)
   };
   struct CoarseWarp;  // a coarse warp with each coarsest triangle's affine map (icaz.cc)
   struct CachedCoarse {
@@ -98,14 +101,23 @@ class Icaz {
 
   static WarpOptions tolerance_for(const ZoomGeometry& g, const StopToken* stop);
   std::shared_ptr<const CoarseWarp> coarse_warp(const ZoomGeometry& g, WarpResult* stats, const StopToken* stop);
-  // The coarse warp's start for a target size (empty: the affine stretch), and the anchor warps
-  // it is made of (coarse_mu_ held). Anchor k is the image's aspect × e^(k · kAnchorStep) at the
-  // image's area.
-  static constexpr double kAnchorStep = 0.05, kAnchorTolerance = 0.01;  // log aspect; target px
-  std::vector<Point> coarse_start(double target_width, double target_height, const StopToken* stop);
-  const CachedWarp& anchor(int k, const StopToken* stop);
-  double anchor_width(int k) const;
-  double anchor_height(int k) const;
+  // The coarse warp's start for a target size (empty: the affine stretch) and whether it is
+  // within `tolerance` of the answer as it is; the anchor warps it is made of, blended at u
+  // finest-grid steps from the image's aspect between anchors `stride` steps apart; how far one
+  // iteration moves their blend midway between anchor j and the next one of a level (all with
+  // coarse_mu_ held). Anchor j is the image's aspect × e^(j · kFinestAnchorStep) at the image's
+  // area; level 0 uses every fourth, level 1 every second, level 2 each.
+  static constexpr int kAnchorLevels = 2;
+  static constexpr double kAnchorStep = 0.05;  // log aspect, level 0
+  static constexpr double kFinestAnchorStep = kAnchorStep / (1 << kAnchorLevels);
+  static constexpr double kAnchorTolerance = 0.01;  // target px
+  std::vector<Point> coarse_start(double target_width, double target_height, double tolerance, const StopToken* stop,
+                                  bool* close_enough);
+  std::vector<Point> anchor_blend(double u, int stride, double target_width, double target_height, const StopToken* stop);
+  double anchor_gap(int j, int level, const StopToken* stop);
+  const CachedWarp& anchor(int j, const StopToken* stop);
+  double anchor_width(int j) const;
+  double anchor_height(int j) const;
   // `grow`: the caller holds forest_mu_ exclusively and the forest and node means may grow;
   // otherwise it holds it shared and a missing node or mean throws ForestGrowthNeeded.
   double node_mean(int node, bool grow);

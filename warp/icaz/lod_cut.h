@@ -41,7 +41,7 @@ class LodCut {
 
  private:
   void activate(int node);
-  void deactivate(int node);
+  void split(int node);  // an active node by its children (refine() keeps the cut conforming)
   int across(int node, int a, int b) const;  // the other active node on edge (a, b), or -1
 
   std::array<int, 2> children(int node);
