@@ -77,8 +77,7 @@ const RetargetingMethod& retarget_zoom_method() {
       .name = "retarget-zoom",
       .summary = "the whole image warped once to the screen's aspect ratio on a uniform fine mesh (ICAZ's shape "
                  "energy), then zoomed uniformly",
-      .zoom = "0 shows the whole retargeted image, 1 shows it 1:1 (the plain crop when the screen has the image's "
-              "aspect ratio); the view centre is tracked through the warp",
+      .zoom = kZoomIntoTheRetargetedImage,
       .has_mesh = true,
       .magic = {},
       .precompute = {},
