@@ -70,13 +70,12 @@ std::vector<int> visible_triangles(const Mesh& mesh, const std::vector<Point>& s
   return out;
 }
 
-// Traditional zooming of a (possibly warped) image of size tw × th drawn by `warped`: uniform
-// scale from fit-to-screen (z = 0) to 1:1 (z = 1); the view centre goes to the screen centre,
-// clamped so that no blank shows along an axis where the image is larger than the screen, and
-// centred (letterboxed) along an axis where it is smaller.
-View uniform_zoom(const Mesh& source, const std::vector<Point>& warped, double tw, double th, const ViewRequest& r,
-                  const Point& centre_warped) {
-  View out;
+// Traditional zooming of a (possibly warped) image of size tw × th: uniform scale from
+// fit-to-screen (z = 0) to 1:1 (z = 1); the view centre goes to the screen centre, clamped so
+// that no blank shows along an axis where the image is larger than the screen, and centred
+// (letterboxed) along an axis where it is smaller.
+ZoomPlacement zoom_placement(double tw, double th, const ViewRequest& r, const Point& centre_warped) {
+  ZoomPlacement out;
   const double sw = r.screen_width, sh = r.screen_height, z = std::clamp(std::isfinite(r.zoom) ? r.zoom : 0.0, 0.0, 1.0);
   const double fit = std::min(sw / tw, sh / th);
   const double scale = r.curve == ZoomCurve::kLinear ? (1 - z) * fit + z : fit * std::pow(1 / fit, z);
@@ -88,20 +87,34 @@ View uniform_zoom(const Mesh& source, const std::vector<Point>& warped, double t
     *clamped |= clamped_offset != offset;
     return clamped_offset;
   };
-  const double ox = axis(centre_warped.x, tw, sw, &out.centre_clamped), oy = axis(centre_warped.y, th, sh, &out.centre_clamped);
+  out.scale = scale;
+  out.ox = axis(centre_warped.x, tw, sw, &out.centre_clamped), out.oy = axis(centre_warped.y, th, sh, &out.centre_clamped);
+  return out;
+}
+
+View uniform_zoom(const Mesh& source, const std::vector<Point>& warped, double tw, double th, const ViewRequest& r,
+                  const Point& centre_warped) {
+  View out;
+  const ZoomPlacement place = zoom_placement(tw, th, r, centre_warped);
+  const double sw = r.screen_width, sh = r.screen_height, scale = place.scale;
+  out.centre_clamped = place.centre_clamped;
   out.geometry = {tw, th, sw / scale, sh / scale, scale};
-  out.view_x = -ox / scale, out.view_y = -oy / scale;
+  out.view_x = -place.ox / scale, out.view_y = -place.oy / scale;
   out.source = source;
   out.warped = warped;
-  for (const Point& p : warped) out.screen.push_back({p.x * scale + ox, p.y * scale + oy});
+  out.screen.reserve(warped.size());
+  for (const Point& p : warped) out.screen.push_back(place.on_screen(p));
   out.visible = visible_triangles(source, out.screen, sw, sh);
   return out;
 }
 
+Point request_centre(const ViewRequest& r, double width, double height) {
+  return {std::clamp(r.cx, 0.0, width), std::clamp(r.cy, 0.0, height)};
+}
+
 View uniform_zoom_of_warp(const Mesh& source, const std::vector<Point>& warped, double tw, double th,
                           const ViewRequest& r, double width, double height) {
-  const Point centre{std::clamp(r.cx, 0.0, width), std::clamp(r.cy, 0.0, height)};
-  return uniform_zoom(source, warped, tw, th, r, locate(source, warped, centre));
+  return uniform_zoom(source, warped, tw, th, r, locate(source, warped, request_centre(r, width, height)));
 }
 
 }  // namespace zoomwarp::warp
