@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
 
@@ -57,15 +58,20 @@ void check_view_request(const ViewRequest& r) {
     throw std::invalid_argument("screen size out of range");
 }
 
+// A triangle's screen bounding box misses the screen iff all three vertices lie on the far side
+// of one screen edge: with one bit per edge per vertex (Cohen–Sutherland outcodes), iff the AND
+// of its vertices' codes is not 0. The codes are computed once per vertex and fit in L1, so the
+// loop over triangles reads three bytes each instead of six doubles scattered over the mesh.
 std::vector<int> visible_triangles(const Mesh& mesh, const std::vector<Point>& screen, double sw, double sh) {
+  std::vector<std::uint8_t> code(screen.size());
+  for (std::size_t v = 0; v < screen.size(); ++v) {
+    const Point& p = screen[v];
+    code[v] = std::uint8_t((p.x <= 0) | (p.x >= sw) << 1 | (p.y <= 0) << 2 | (p.y >= sh) << 3);
+  }
   std::vector<int> out;
   for (int f = 0; f < int(mesh.triangles.size()); ++f) {
-    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
-    for (int v : mesh.triangles[f]) {
-      x0 = std::min(x0, screen[v].x), x1 = std::max(x1, screen[v].x);
-      y0 = std::min(y0, screen[v].y), y1 = std::max(y1, screen[v].y);
-    }
-    if (x1 > 0 && x0 < sw && y1 > 0 && y0 < sh) out.push_back(f);
+    const Triangle& t = mesh.triangles[f];
+    if ((code[t[0]] & code[t[1]] & code[t[2]]) == 0) out.push_back(f);
   }
   return out;
 }
