@@ -151,21 +151,42 @@ std::vector<std::uint8_t> pixel_levels(const InverseMap& map, const ZoomPlacemen
   cv::warpAffine(nodes, fineness, to_node, cv::Size(at.width, at.height), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
                  cv::BORDER_REPLICATE);
   std::vector<std::uint8_t> out(std::size_t(at.width) * at.height);
-  const double base = std::log2(1 / place.scale) + 1e-9;
+  const float base = float(std::log2(1 / place.scale) + 1e-9);
   const float* f = fineness.ptr<float>(0);
-  for (std::size_t n = 0; n < out.size(); ++n) out[n] = std::uint8_t(std::clamp(int(std::floor(base + f[n])), 0, levels - 1));
+  for (std::size_t n = 0; n < out.size(); ++n) {
+    // ⌊x⌋ by truncation and a compare (std::floor is emulated without SSE4.1, see render.cc).
+    const float x = base + f[n];
+    const int k = int(x) - (x < float(int(x)));
+    out[n] = std::uint8_t(std::clamp(k, 0, levels - 1));
+  }
   return out;
 }
 
-// Source box of the pixels drawn from `level` (u0, v0, u1, v1), empty (u0 > u1) if none.
-std::array<float, 4> level_box(const ScreenPositions& at, const std::vector<std::uint8_t>& level_of, int level) {
-  std::array<float, 4> box{1e30f, 1e30f, -1e30f, -1e30f};
-  for (std::size_t n = 0; n < level_of.size(); ++n) {
-    if (level_of[n] != level) continue;
-    box[0] = std::min(box[0], at.uv[2 * n]), box[2] = std::max(box[2], at.uv[2 * n]);
-    box[1] = std::min(box[1], at.uv[2 * n + 1]), box[3] = std::max(box[3], at.uv[2 * n + 1]);
+// Per level, the source box of the pixels drawn from it and how many they are (one pass).
+struct LevelUse {
+  float u0 = 1e30f, v0 = 1e30f, u1 = -1e30f, v1 = -1e30f;
+  std::size_t pixels = 0;
+  void merge(const LevelUse& o) {
+    u0 = std::min(u0, o.u0), v0 = std::min(v0, o.v0), u1 = std::max(u1, o.u1), v1 = std::max(v1, o.v1);
+    pixels += o.pixels;
   }
-  return box;
+};
+std::vector<LevelUse> level_uses(const ScreenPositions& at, const std::vector<std::uint8_t>& level_of, int levels) {
+  std::vector<LevelUse> uses(levels);
+  // Runs of one level are long (a level changes where the warp's stretch crosses a power of 2):
+  // each run is gathered in registers and merged once.
+  for (std::size_t n = 0; n < level_of.size();) {
+    const std::uint8_t level = level_of[n];
+    LevelUse run;
+    const std::size_t start = n;
+    for (; n < level_of.size() && level_of[n] == level; ++n) {
+      const float u = at.uv[2 * n], v = at.uv[2 * n + 1];
+      run.u0 = std::min(run.u0, u), run.u1 = std::max(run.u1, u), run.v0 = std::min(run.v0, v), run.v1 = std::max(run.v1, v);
+    }
+    run.pixels = n - start;
+    uses[level].merge(run);
+  }
+  return uses;
 }
 
 // The pixels of `level` remapped from its patch into `target` (the drawn rectangle); `all`: every
@@ -174,13 +195,14 @@ void draw_level(const ScreenPositions& at, const std::vector<std::uint8_t>& leve
                 const LevelPatch& patch, cv::Mat& target) {
   // Source positions → the patch's pixel grid (centres at integer + 0.5), as render_mesh maps them;
   // other levels' pixels sample anything valid and the mask keeps them out.
-  const double k = patch.scale, dx = -0.5 - double(patch.x0), dy = -0.5 - double(patch.y0);
+  // In floats: a patch is at most 16 384 px wide, so their 24 bits keep 1/1000 px.
+  const float k = float(patch.scale), dx = float(-0.5 - double(patch.x0)), dy = float(-0.5 - double(patch.y0));
   cv::Mat positions(at.height, at.width, CV_32FC2);
   float* p = positions.ptr<float>(0);
   for (std::size_t n = 0; n < level_of.size(); ++n) {
     const bool mine = level_of[n] == level;
-    p[2 * n] = mine ? float(at.uv[2 * n] * k + dx) : 0.f;
-    p[2 * n + 1] = mine ? float(at.uv[2 * n + 1] * k + dy) : 0.f;
+    p[2 * n] = mine ? at.uv[2 * n] * k + dx : 0.f;
+    p[2 * n + 1] = mine ? at.uv[2 * n + 1] * k + dy : 0.f;
   }
   const tiles::Raster& px = patch.pixels;
   const cv::Mat level_pixels(px.height, px.width, CV_8UC(px.channels), const_cast<std::uint8_t*>(px.pixels.data()),
@@ -205,21 +227,23 @@ tiles::Raster render_through_map(const InverseMap& map, const ZoomPlacement& pla
   const ScreenPositions at = screen_positions(map, place, sw, sh);
   if (at.uv.empty()) return out;
   std::vector<std::uint8_t> level_of = pixel_levels(map, place, at, m.levels);
+  std::vector<LevelUse> uses = level_uses(at, level_of, m.levels);
   // A level whose patch does not fit hands its pixels to the next coarser one (checked in turn).
   for (int level = 0; level + 1 < m.levels; ++level) {
-    const auto box = level_box(at, level_of, level);
-    if (box[0] > box[2] || patch_fits(m, level, box[2] - box[0], box[3] - box[1], sw, sh)) continue;
+    LevelUse& use = uses[level];
+    if (use.pixels == 0 || patch_fits(m, level, use.u1 - use.u0, use.v1 - use.v0, sw, sh)) continue;
     for (std::uint8_t& l : level_of) l = l == level ? std::uint8_t(level + 1) : l;
+    uses[level + 1].merge(use);
+    use = LevelUse{};
   }
   cv::Mat screen(sh, sw, CV_8UC(m.channels), out.pixels.data(), out.row_bytes());
   cv::Mat target = screen(cv::Rect(at.x0, at.y0, at.width, at.height));
   for (int level = 0; level < m.levels; ++level) {
-    const auto box = level_box(at, level_of, level);
-    if (box[0] > box[2]) continue;
+    const LevelUse& use = uses[level];
+    if (use.pixels == 0) continue;
     check_stop(stop);
-    const LevelPatch patch = read_patch(image, reader, level, box[0], box[1], box[2], box[3]);
-    const bool all = std::all_of(level_of.begin(), level_of.end(), [level](std::uint8_t l) { return l == level; });
-    draw_level(at, level_of, level, all, patch, target);
+    const LevelPatch patch = read_patch(image, reader, level, use.u0, use.v0, use.u1, use.v1);
+    draw_level(at, level_of, level, use.pixels == level_of.size(), patch, target);
   }
   return out;
 }
