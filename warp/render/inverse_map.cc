@@ -1,9 +1,8 @@
 #include "warp/render/inverse_map.h"
 
 #include <algorithm>
-#include <cmath>
 #include <array>
-#include <numeric>
+#include <cmath>
 
 #include <opencv2/imgproc.hpp>
 
