@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <map>
 
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "warp/render/level_patch.h"
@@ -62,6 +64,52 @@ struct Group {
 // coarser level instead (a little softer, never wrong and never unbounded).
 constexpr long long kMaxPatchSide = 16384;
 long long max_patch_pixels(int sw, int sh) { return 4LL * sw * sh + (1LL << 20); }
+
+// A patch position in cv::remap's fixed-point form: whole pixels (x, y) and the fraction's index
+// into its bilinear table, 1/INTER_TAB_SIZE px per step — computed as remap computes it from
+// float maps (OpenCV imgwarp.cpp, RemapInvoker: cvRound(position · INTER_TAB_SIZE), shifted and
+// masked), so the screen is bit for bit what float maps gave, without remap converting them
+// block by block or the maps taking 8 bytes a pixel.
+inline void to_fixed_point(float u, float v, std::int16_t* whole, std::uint16_t* fraction) {
+  const int iu = cvRound(u * float(cv::INTER_TAB_SIZE)), iv = cvRound(v * float(cv::INTER_TAB_SIZE));
+  whole[0] = cv::saturate_cast<std::int16_t>(iu >> cv::INTER_BITS);
+  whole[1] = cv::saturate_cast<std::int16_t>(iv >> cv::INTER_BITS);
+  fraction[0] = std::uint16_t((iv & (cv::INTER_TAB_SIZE - 1)) * cv::INTER_TAB_SIZE + (iu & (cv::INTER_TAB_SIZE - 1)));
+}
+
+// One row span of a triangle, pixels xs … xs + count − 1 (entries 0 … count − 1 of the outputs): the patch
+// position of pixel centre px is u = (u0 + ux·px) + u_row, v likewise (u_row: the row's term),
+// in doubles, then float, then fixed point as above. Four pixels at a time with OpenCV's
+// universal intrinsics — the same operations in the same order (no FMA on the x86-64
+// baseline), so bit for bit the scalar result; the scan was the largest part of a viewport's
+// CPU time, and -O2 (RelWithDebInfo) does not vectorise it.
+void write_span(int xs, int count, double u0, double ux, double u_row, double v0, double vx, double v_row,
+                std::int16_t* whole, std::uint16_t* fraction) {
+  int k = 0;
+#if CV_SIMD128_64F
+  const cv::v_float64x2 vu0 = cv::v_setall_f64(u0), vux = cv::v_setall_f64(ux), vur = cv::v_setall_f64(u_row);
+  const cv::v_float64x2 vv0 = cv::v_setall_f64(v0), vvx = cv::v_setall_f64(vx), vvr = cv::v_setall_f64(v_row);
+  const cv::v_float64x2 step01(0, 1), step23(2, 3);
+  const cv::v_float32x4 tab = cv::v_setall_f32(float(cv::INTER_TAB_SIZE));
+  const cv::v_int32x4 mask = cv::v_setall_s32(cv::INTER_TAB_SIZE - 1);
+  for (; k + 4 <= count; k += 4) {
+    const cv::v_float64x2 centre = cv::v_setall_f64(xs + k + 0.5), p01 = centre + step01, p23 = centre + step23;
+    const cv::v_float32x4 u = cv::v_cvt_f32((vu0 + vux * p01) + vur, (vu0 + vux * p23) + vur);
+    const cv::v_float32x4 v = cv::v_cvt_f32((vv0 + vvx * p01) + vvr, (vv0 + vvx * p23) + vvr);
+    const cv::v_int32x4 iu = cv::v_round(u * tab), iv = cv::v_round(v * tab);
+    const cv::v_int16x8 xy = cv::v_pack(iu >> cv::INTER_BITS, iv >> cv::INTER_BITS);  // x0..x3, y0..y3
+    cv::v_int16x8 interleaved, unused;
+    cv::v_zip(xy, cv::v_rotate_right<4>(xy), interleaved, unused);  // x0 y0 x1 y1 …
+    cv::v_store(whole + 2 * k, interleaved);
+    const cv::v_int32x4 index = ((iv & mask) << cv::INTER_BITS) | (iu & mask);
+    cv::v_store_low(fraction + k, cv::v_reinterpret_as_u16(cv::v_pack(index, index)));
+  }
+#endif
+  for (; k < count; ++k) {
+    const double px = xs + k + 0.5;
+    to_fixed_point(float((u0 + ux * px) + u_row), float((v0 + vx * px) + v_row), whole + 2 * k, fraction + k);
+  }
+}
 
 void coarsen_oversized_groups(std::map<int, Group>& groups, const tiles::Manifest& m, int sw, int sh) {
   for (auto it = groups.begin(); it != groups.end();) {
@@ -164,7 +212,10 @@ tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEn
       }
     if (bx1 < bx0 || by1 < by0) continue;
     const int w = bx1 - bx0 + 1, h = by1 - by0 + 1;
-    cv::Mat map_x(h, w, CV_32F), map_y(h, w, CV_32F), covered(h, w, CV_8U, cv::Scalar(0));
+    // The positions go straight into remap's own fixed-point form (below), zero where nothing is
+    // drawn: an uncovered pixel samples patch pixel (0, 0), and the mask keeps it out.
+    cv::Mat whole(h, w, CV_16SC2, cv::Scalar::all(0)), fraction(h, w, CV_16UC1, cv::Scalar(0));
+    cv::Mat covered(h, w, CV_8U, cv::Scalar(0));
     for (std::size_t i = 0; i < g.triangles.size(); ++i) {
       // The token reads the clock: once per triangle was ~0.7 ms of a 30 000-triangle view.
       if (i % 256 == 0) check_stop(stop);
@@ -198,14 +249,14 @@ tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEn
       const std::array<double, 3> k = {sign * ax0, sign * ax1, -sign * (ax0 + ax1)};
       const std::array<double, 3> inv_k = {k[0] != 0 ? 1 / k[0] : 0, k[1] != 0 ? 1 / k[1] : 0, k[2] != 0 ? 1 / k[2] : 0};
       for (int y = y0; y <= y1; ++y) {
-        float* row_x = map_x.ptr<float>(y - by0);
-        float* row_y = map_y.ptr<float>(y - by0);
+        std::int16_t* row_whole = whole.ptr<std::int16_t>(y - by0);
+        std::uint16_t* row_fraction = fraction.ptr<std::uint16_t>(y - by0);
         std::uint8_t* row_covered = covered.ptr<std::uint8_t>(y - by0);
         const double py = y + 0.5;
         const double c0 = a00 + ay0 * py, c1 = a01 + ay1 * py;
         // The row's span: pixel centres px where every edge function is ≥ −eps, solved from
         // each edge's affine form (an edge parallel to the row holds for all of it or none).
-        // Within it no pixel needs testing: the loop below has no branch (GCC vectorises it at -O3).
+        // Within it no pixel needs testing (write_span).
         double lo = x0 + 0.5, hi = x1 + 0.5;
         bool empty = false;
         const std::array<double, 3> offset = {c0, c1, area - c0 - c1};
@@ -217,24 +268,22 @@ tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEn
         }
         if (empty || !(lo <= hi)) continue;
         const int xs = int(std::ceil(lo - 0.5)), xe = int(std::floor(hi - 0.5));
-        for (int x = xs; x <= xe; ++x) {
-          const double px = x + 0.5;
-          row_x[x - bx0] = float(u0 + ux * px + uy * py);
-          row_y[x - bx0] = float(v0 + vx * px + vy * py);
-          row_covered[x - bx0] = 1;
-        }
+        if (xe < xs) continue;  // no pixel centre between lo and hi
+        write_span(xs, xe - xs + 1, u0, ux, uy * py, v0, vx, vy * py, row_whole + 2 * (xs - bx0), row_fraction + (xs - bx0));
+        std::fill(row_covered + (xs - bx0), row_covered + (xe - bx0) + 1, std::uint8_t(1));
       }
     }
-    // Uncovered pixels sample anything valid; the mask keeps them out.
-    const cv::Mat uncovered = covered == 0;
-    map_x.setTo(0, uncovered);
-    map_y.setTo(0, uncovered);
     const tiles::Raster& px = patch.pixels;
     const cv::Mat level_pixels(px.height, px.width, CV_8UC(px.channels), const_cast<std::uint8_t*>(px.pixels.data()),
                                px.row_bytes());
+    cv::Mat target = screen(cv::Rect(bx0, by0, w, h));
+    if (cv::countNonZero(covered) == w * h) {  // every pixel drawn from this level: no mask needed
+      cv::remap(level_pixels, target, whole, fraction, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+      continue;
+    }
     cv::Mat resampled;
-    cv::remap(level_pixels, resampled, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-    resampled.copyTo(screen(cv::Rect(bx0, by0, w, h)), covered);
+    cv::remap(level_pixels, resampled, whole, fraction, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+    resampled.copyTo(target, covered);
   }
   return out;
 }
