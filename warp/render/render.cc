@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <map>
 
 #include <opencv2/core/hal/intrin.hpp>
@@ -77,14 +78,14 @@ inline void to_fixed_point(float u, float v, std::int16_t* whole, std::uint16_t*
   fraction[0] = std::uint16_t((iv & (cv::INTER_TAB_SIZE - 1)) * cv::INTER_TAB_SIZE + (iu & (cv::INTER_TAB_SIZE - 1)));
 }
 
-// One row span of a triangle, pixels xs … xs + count − 1 (entries 0 … count − 1 of the outputs): the patch
-// position of pixel centre px is u = (u0 + ux·px) + u_row, v likewise (u_row: the row's term),
-// in doubles, then float, then fixed point as above. Four pixels at a time with OpenCV's
+// One row span of a triangle, pixels xs … xs + count − 1 (entries 0 … count − 1 of the outputs),
+// marked covered: the patch position of pixel centre px is u = (u0 + ux·px) + u_row, v likewise
+// (u_row: the row's term), in doubles, then float, then fixed point as above. Four pixels at a time with OpenCV's
 // universal intrinsics — the same operations in the same order (no FMA on the x86-64
 // baseline), so bit for bit the scalar result; the scan was the largest part of a viewport's
 // CPU time, and -O2 (RelWithDebInfo) does not vectorise it.
 void write_span(int xs, int count, double u0, double ux, double u_row, double v0, double vx, double v_row,
-                std::int16_t* whole, std::uint16_t* fraction) {
+                std::int16_t* whole, std::uint16_t* fraction, std::uint8_t* covered) {
   int k = 0;
 #if CV_SIMD128_64F
   const cv::v_float64x2 vu0 = cv::v_setall_f64(u0), vux = cv::v_setall_f64(ux), vur = cv::v_setall_f64(u_row);
@@ -103,11 +104,13 @@ void write_span(int xs, int count, double u0, double ux, double u_row, double v0
     cv::v_store(whole + 2 * k, interleaved);
     const cv::v_int32x4 index = ((iv & mask) << cv::INTER_BITS) | (iu & mask);
     cv::v_store_low(fraction + k, cv::v_reinterpret_as_u16(cv::v_pack(index, index)));
+    std::memcpy(covered + k, "\1\1\1\1", 4);  // one store, not a memset call per row
   }
 #endif
   for (; k < count; ++k) {
     const double px = xs + k + 0.5;
     to_fixed_point(float((u0 + ux * px) + u_row), float((v0 + vx * px) + v_row), whole + 2 * k, fraction + k);
+    covered[k] = 1;
   }
 }
 
@@ -269,8 +272,8 @@ tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEn
         if (empty || !(lo <= hi)) continue;
         const int xs = int(std::ceil(lo - 0.5)), xe = int(std::floor(hi - 0.5));
         if (xe < xs) continue;  // no pixel centre between lo and hi
-        write_span(xs, xe - xs + 1, u0, ux, uy * py, v0, vx, vy * py, row_whole + 2 * (xs - bx0), row_fraction + (xs - bx0));
-        std::fill(row_covered + (xs - bx0), row_covered + (xe - bx0) + 1, std::uint8_t(1));
+        write_span(xs, xe - xs + 1, u0, ux, uy * py, v0, vx, vy * py, row_whole + 2 * (xs - bx0), row_fraction + (xs - bx0),
+                   row_covered + (xs - bx0));
       }
     }
     const tiles::Raster& px = patch.pixels;
