@@ -59,7 +59,9 @@ rounds; ratios are ours/peer. tests/bench/README.md explains how to read them.
 
 Installs what is missing with apt-get (as root, or through sudo): ${packages[*]}.
 Needs zoomwarp built (scripts/build.sh zoomwarp); uses icaz_bench for the engine's own time if it
-is built (scripts/build.sh icaz_bench), else that cell says so.
+is built (scripts/build.sh icaz_bench), else that cell says so. To measure the build the container
+ships: CMAKE_BUILD_TYPE=Release BUILD_DIR=build-release scripts/build.sh zoomwarp icaz_bench, then
+--zoomwarp build-release/bin/zoomwarp --icaz-bench build-release/bin/icaz_bench.
 
 options:
   --duration SEC        length of each measured wrk run (default $duration)
@@ -616,7 +618,11 @@ machine() {
   commit=$(git -C "$repo_dir" rev-parse --short HEAD 2>/dev/null || echo unknown)
   git -C "$repo_dir" diff --quiet HEAD 2>/dev/null || commit+=" (with uncommitted changes)"
   echo "- machine: $(lscpu | sed -n 's/^Model name: *//p' | head -n 1), $(nproc) cores, $(awk '/MemTotal/ { printf "%.1f GB", $2 / 1048576 }' /proc/meminfo) RAM, kernel $(uname -r)"
-  echo "- versions: zoomwarp $commit, $("$nginx_bin" -v 2>&1 | sed 's#.*/##; s#^#nginx #'), iipsrv $(dpkg-query -W -f='${Version}' iipimage-server) (Debian iipimage-server), $(vips --version), $(wrk -v 2>&1 | head -n 1 | awk '{ print $1, $2 }')"
+  # The build type of the binary measured (the container ships Release; scripts/build.sh makes
+  # RelWithDebInfo unless CMAKE_BUILD_TYPE says otherwise).
+  local build_type
+  build_type=$(sed -n 's/^CMAKE_BUILD_TYPE:[A-Z]*=//p' "$(dirname "$zoomwarp_bin")/../CMakeCache.txt" 2>/dev/null)
+  echo "- versions: zoomwarp $commit (${build_type:-unknown} build), $("$nginx_bin" -v 2>&1 | sed 's#.*/##; s#^#nginx #'), iipsrv $(dpkg-query -W -f='${Version}' iipimage-server) (Debian iipimage-server), $(vips --version), $(wrk -v 2>&1 | head -n 1 | awk '{ print $1, $2 }')"
 }
 
 report() {

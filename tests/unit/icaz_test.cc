@@ -492,11 +492,25 @@ TEST(IcazZoomCurve, InteriorPointsFollowThePapersInterpolation) {
   EXPECT_NEAR(g1.screen_scale, 1, 1e-12);
 }
 
-}  // namespace
-}  // namespace zoomwarp
 
-namespace zoomwarp {
-namespace {
+// Two views of the boats photo (with its lines) at zoom 0.3 and `to_zoom`, centred apart, and the
+// geomorph between them [ICAZ §5.3].
+struct GeomorphCase {
+  std::shared_ptr<warp::Icaz> icaz;
+  warp::View from, to;
+  warp::Geomorph geomorph;
+};
+GeomorphCase geomorph_case(double to_zoom) {
+  GeomorphCase c;
+  c.icaz = engine("boats_lake_sunset.jpg", true);
+  const double W = c.icaz->model().width, H = c.icaz->model().height;
+  warp::ViewRequest a, b;
+  a.zoom = 0.3, a.cx = 0.3 * W, a.cy = 0.6 * H;
+  b.zoom = to_zoom, b.cx = 0.7 * W, b.cy = 0.4 * H;
+  c.from = c.icaz->view(a), c.to = c.icaz->view(b);
+  c.geomorph = c.icaz->geomorph(c.from, c.to);
+  return c;
+}
 
 // Geomorphing [ICAZ §5.3]: the common refinement of two views' cuts holds every vertex of both,
 // and its two position sets draw each view exactly — a grid of source points lands through the
@@ -504,13 +518,10 @@ namespace {
 // triangles — with neither end folded. So a client interpolating from one to the other starts
 // and ends on the views themselves, without a pop.
 TEST(IcazGeomorph, EachEndDrawsItsViewExactly) {
-  auto icaz = engine("boats_lake_sunset.jpg", true);
-  const double W = icaz->model().width, H = icaz->model().height;
-  warp::ViewRequest a, b;
-  a.zoom = 0.3, a.cx = 0.3 * W, a.cy = 0.6 * H;
-  b.zoom = 0.7, b.cx = 0.7 * W, b.cy = 0.4 * H;
-  const warp::View va = icaz->view(a), vb = icaz->view(b);
-  const warp::Geomorph g = icaz->geomorph(va, vb);
+  const GeomorphCase c = geomorph_case(0.7);
+  const double W = c.icaz->model().width, H = c.icaz->model().height;
+  const warp::View &va = c.from, &vb = c.to;
+  const warp::Geomorph& g = c.geomorph;
   std::set<int> common(g.forest_vertex.begin(), g.forest_vertex.end());
   for (const auto* v : {&va, &vb})
     for (int f : v->forest_vertex) ASSERT_TRUE(common.count(f)) << "a view's vertex is missing from the common refinement";
@@ -532,11 +543,6 @@ TEST(IcazGeomorph, EachEndDrawsItsViewExactly) {
   }
 }
 
-}  // namespace
-}  // namespace zoomwarp
-
-namespace zoomwarp {
-namespace {
 
 // Geomorphing places each vertex a view lacks through the view's triangle holding it, found by a
 // grid (TriangleLocator) instead of a scan over all triangles: on real meshes — two views' cuts,
@@ -545,13 +551,11 @@ namespace {
 // on every edge (its midpoint and a quarter along), points inside, and points on and just
 // outside the image's border.
 TEST(IcazGeomorph, TheGridLocatesWhatTheScanLocates) {
-  auto icaz = engine("boats_lake_sunset.jpg", true);
+  const GeomorphCase c = geomorph_case(0.8);
+  const auto& icaz = c.icaz;
   const double W = icaz->model().width, H = icaz->model().height;
-  warp::ViewRequest a, b;
-  a.zoom = 0.3, a.cx = 0.3 * W, a.cy = 0.6 * H;
-  b.zoom = 0.8, b.cx = 0.7 * W, b.cy = 0.4 * H;
-  const warp::View va = icaz->view(a), vb = icaz->view(b);
-  const warp::Geomorph g = icaz->geomorph(va, vb);
+  const warp::View &va = c.from, &vb = c.to;
+  const warp::Geomorph& g = c.geomorph;
   std::mt19937 rng(11);
   int points = 0;
   for (const warp::Mesh* mesh : {&va.source, &vb.source, &g.source, &icaz->model().coarse.mesh}) {
@@ -601,11 +605,6 @@ TEST(IcazBaselines, TraditionalLetterboxesThenCrops) {
   EXPECT_TRUE(v1.centre_clamped);
 }
 
-}  // namespace
-}  // namespace zoomwarp
-
-namespace zoomwarp {
-namespace {
 
 TEST(IcazBadInput, NonFiniteOrOutOfRangeRequestsAreRefused) {
   auto icaz = engine("boats_lake_sunset.jpg", false);

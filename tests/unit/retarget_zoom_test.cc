@@ -9,9 +9,12 @@
 
 #include "tests/support/images.h"
 #include "tests/support/server_process.h"
+#include "tiles/ingest.h"
+#include "tiles/pyramid_reader.h"
 #include "warp/core/stop_token.h"
 #include "warp/meshing/coarse_mesh.h"
 #include "warp/methods/retarget_zoom/retarget_zoom.h"
+#include "warp/render/render.h"
 
 namespace zoomwarp {
 namespace {
@@ -165,6 +168,34 @@ TEST(RetargetZoom, RefusesBadRequestsAndStops) {
   EXPECT_THROW(rz.view(r), warp::Stopped);
   r.stop = nullptr;
   EXPECT_NO_THROW(rz.view(r)) << "a stopped view leaves the engine usable";
+}
+
+// /viewport draws straight from the kept mesh and warp (RetargetZoom::render) rather than from a
+// View: it must show exactly the picture of the view /mesh describes, zoomed out (every triangle,
+// each a few screen pixels), zoomed in with the centre clamped at a corner, and portrait.
+TEST(RetargetZoom, ItsViewportIsItsViewRendered) {
+  testing::TempDir dir;
+  tiles::Store store(dir.path() + "/store");
+  tiles::ingest_image(store, testing::samples_dir() + "/boats_lake_sunset.jpg", "boats", {});
+  const auto entry = store.find("boats");
+  ASSERT_TRUE(entry);
+  tiles::PyramidReader reader(64 << 20);
+  warp::RetargetZoom rz(boats(), boats().significance);
+  struct Case {
+    double zoom, cx, cy;
+    int sw, sh;
+  };
+  for (const Case c : {Case{0, 1280, 800, 480, 360}, Case{0.3, 700, 400, 480, 360}, Case{0.7, 2500, 1550, 480, 360},
+                       Case{1, 10, 10, 480, 360}, Case{0.2, 1900, 900, 360, 640}}) {
+    SCOPED_TRACE(::testing::Message() << "zoom " << c.zoom << " screen " << c.sw << "×" << c.sh);
+    warp::ViewRequest r;
+    r.zoom = c.zoom, r.cx = c.cx, r.cy = c.cy, r.screen_width = c.sw, r.screen_height = c.sh;
+    const tiles::Raster viewport = rz.render(r, *entry, reader);
+    const tiles::Raster of_view = warp::render_view(rz.view(r), c.sw, c.sh, *entry, reader);
+    ASSERT_EQ(viewport.width, c.sw);
+    ASSERT_EQ(viewport.height, c.sh);
+    EXPECT_TRUE(viewport.pixels == of_view.pixels);
+  }
 }
 
 }  // namespace

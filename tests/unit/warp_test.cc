@@ -10,6 +10,7 @@
 #include <random>
 #include <unordered_map>
 
+#include "warp/core/uniform_zoom.h"
 #include "warp/meshing/coarse_mesh.h"
 #include "warp/icaz/edge_map.h"
 #include "warp/icaz/shape_warp.h"
@@ -151,6 +152,31 @@ double bend(const std::vector<int>& chain, const std::vector<Point>& p) {
 
 // EdgeMap against std::unordered_map under a random mix of inserts and erases (erase shifts
 // entries back, which is where open addressing goes wrong if it does).
+TEST(VisibleTriangles, AreThoseWhoseScreenBoxMeetsTheScreen) {
+  // Vertices on a grid around a 48×36 screen, its edges included: triangles inside, across,
+  // lying along an edge (no area on screen: not visible) and wholly outside.
+  constexpr double kW = 48, kH = 36;
+  const std::vector<double> xs = {-20, -1, 0, 1, 24, 47, 48, 49, 70}, ys = {-20, -1, 0, 1, 18, 35, 36, 37, 60};
+  warp::Mesh mesh;
+  for (double y : ys)
+    for (double x : xs) mesh.vertices.push_back({x, y});
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> pick(0, int(mesh.vertices.size()) - 1);
+  for (int f = 0; f < 4000; ++f) mesh.triangles.push_back({pick(rng), pick(rng), pick(rng)});
+  std::vector<int> expected;
+  for (int f = 0; f < int(mesh.triangles.size()); ++f) {
+    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+    for (int v : mesh.triangles[f]) {
+      x0 = std::min(x0, mesh.vertices[v].x), x1 = std::max(x1, mesh.vertices[v].x);
+      y0 = std::min(y0, mesh.vertices[v].y), y1 = std::max(y1, mesh.vertices[v].y);
+    }
+    if (x1 > 0 && x0 < kW && y1 > 0 && y0 < kH) expected.push_back(f);
+  }
+  ASSERT_GT(expected.size(), 1000u);
+  ASSERT_LT(expected.size(), 3500u);
+  EXPECT_EQ(warp::visible_triangles(mesh, mesh.vertices, kW, kH), expected);
+}
+
 TEST(EdgeMap, BehavesLikeAMap) {
   warp::EdgeMap map;
   std::unordered_map<std::uint64_t, std::array<int, 2>> reference;

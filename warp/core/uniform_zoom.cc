@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
 
@@ -57,26 +58,30 @@ void check_view_request(const ViewRequest& r) {
     throw std::invalid_argument("screen size out of range");
 }
 
+// A triangle's screen bounding box misses the screen iff all three vertices lie on the far side
+// of one screen edge: with one bit per edge per vertex (Cohen–Sutherland outcodes), iff the AND
+// of its vertices' codes is not 0. The codes are computed once per vertex and fit in L1, so the
+// loop over triangles reads three bytes each instead of six doubles scattered over the mesh.
 std::vector<int> visible_triangles(const Mesh& mesh, const std::vector<Point>& screen, double sw, double sh) {
+  std::vector<std::uint8_t> code(screen.size());
+  for (std::size_t v = 0; v < screen.size(); ++v) {
+    const Point& p = screen[v];
+    code[v] = std::uint8_t((p.x <= 0) | (p.x >= sw) << 1 | (p.y <= 0) << 2 | (p.y >= sh) << 3);
+  }
   std::vector<int> out;
   for (int f = 0; f < int(mesh.triangles.size()); ++f) {
-    double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
-    for (int v : mesh.triangles[f]) {
-      x0 = std::min(x0, screen[v].x), x1 = std::max(x1, screen[v].x);
-      y0 = std::min(y0, screen[v].y), y1 = std::max(y1, screen[v].y);
-    }
-    if (x1 > 0 && x0 < sw && y1 > 0 && y0 < sh) out.push_back(f);
+    const Triangle& t = mesh.triangles[f];
+    if ((code[t[0]] & code[t[1]] & code[t[2]]) == 0) out.push_back(f);
   }
   return out;
 }
 
-// Traditional zooming of a (possibly warped) image of size tw × th drawn by `warped`: uniform
-// scale from fit-to-screen (z = 0) to 1:1 (z = 1); the view centre goes to the screen centre,
-// clamped so that no blank shows along an axis where the image is larger than the screen, and
-// centred (letterboxed) along an axis where it is smaller.
-View uniform_zoom(const Mesh& source, const std::vector<Point>& warped, double tw, double th, const ViewRequest& r,
-                  const Point& centre_warped) {
-  View out;
+// Traditional zooming of a (possibly warped) image of size tw × th: uniform scale from
+// fit-to-screen (z = 0) to 1:1 (z = 1); the view centre goes to the screen centre, clamped so
+// that no blank shows along an axis where the image is larger than the screen, and centred
+// (letterboxed) along an axis where it is smaller.
+ZoomPlacement zoom_placement(double tw, double th, const ViewRequest& r, const Point& centre_warped) {
+  ZoomPlacement out;
   const double sw = r.screen_width, sh = r.screen_height, z = std::clamp(std::isfinite(r.zoom) ? r.zoom : 0.0, 0.0, 1.0);
   const double fit = std::min(sw / tw, sh / th);
   const double scale = r.curve == ZoomCurve::kLinear ? (1 - z) * fit + z : fit * std::pow(1 / fit, z);
@@ -88,20 +93,34 @@ View uniform_zoom(const Mesh& source, const std::vector<Point>& warped, double t
     *clamped |= clamped_offset != offset;
     return clamped_offset;
   };
-  const double ox = axis(centre_warped.x, tw, sw, &out.centre_clamped), oy = axis(centre_warped.y, th, sh, &out.centre_clamped);
+  out.scale = scale;
+  out.ox = axis(centre_warped.x, tw, sw, &out.centre_clamped), out.oy = axis(centre_warped.y, th, sh, &out.centre_clamped);
+  return out;
+}
+
+View uniform_zoom(const Mesh& source, const std::vector<Point>& warped, double tw, double th, const ViewRequest& r,
+                  const Point& centre_warped) {
+  View out;
+  const ZoomPlacement place = zoom_placement(tw, th, r, centre_warped);
+  const double sw = r.screen_width, sh = r.screen_height, scale = place.scale;
+  out.centre_clamped = place.centre_clamped;
   out.geometry = {tw, th, sw / scale, sh / scale, scale};
-  out.view_x = -ox / scale, out.view_y = -oy / scale;
+  out.view_x = -place.ox / scale, out.view_y = -place.oy / scale;
   out.source = source;
   out.warped = warped;
-  for (const Point& p : warped) out.screen.push_back({p.x * scale + ox, p.y * scale + oy});
+  out.screen.reserve(warped.size());
+  for (const Point& p : warped) out.screen.push_back(place.on_screen(p));
   out.visible = visible_triangles(source, out.screen, sw, sh);
   return out;
 }
 
+Point request_centre(const ViewRequest& r, double width, double height) {
+  return {std::clamp(r.cx, 0.0, width), std::clamp(r.cy, 0.0, height)};
+}
+
 View uniform_zoom_of_warp(const Mesh& source, const std::vector<Point>& warped, double tw, double th,
                           const ViewRequest& r, double width, double height) {
-  const Point centre{std::clamp(r.cx, 0.0, width), std::clamp(r.cy, 0.0, height)};
-  return uniform_zoom(source, warped, tw, th, r, locate(source, warped, centre));
+  return uniform_zoom(source, warped, tw, th, r, locate(source, warped, request_centre(r, width, height)));
 }
 
 }  // namespace zoomwarp::warp

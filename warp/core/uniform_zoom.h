@@ -40,6 +40,18 @@ Point locate(const Mesh& mesh, const std::vector<Point>& warped, const Point& p,
 // The triangles of `mesh` whose screen bounding box meets the screen [0, sw] × [0, sh].
 std::vector<int> visible_triangles(const Mesh& mesh, const std::vector<Point>& screen, double sw, double sh);
 
+// Where traditional zoom puts warped point q on the screen: q·scale + (ox, oy) — the placement
+// uniform_zoom computes, for a caller that needs the screen positions without a View.
+struct ZoomPlacement {
+  double scale = 1, ox = 0, oy = 0;
+  bool centre_clamped = false;
+  Point on_screen(const Point& q) const { return {q.x * scale + ox, q.y * scale + oy}; }
+};
+ZoomPlacement zoom_placement(double tw, double th, const ViewRequest& r, const Point& centre_warped);
+
+// The request's view centre clamped to a width × height image.
+Point request_centre(const ViewRequest& r, double width, double height);
+
 // The View of image `warped` (a warp of `source` onto [0, tw] × [0, th]) under traditional zoom:
 // scale from min(sw/tw, sh/th) at z = 0 to 1 at z = 1 along the request's curve; the view
 // centre (`centre_warped`, warped pixels) goes to the screen centre, clamped so that no blank

@@ -62,6 +62,12 @@ struct RetargetingMethod {
       load;
 };
 
+// `zoom` of the methods that retarget the whole image once to the screen's aspect ratio and then
+// zoom into the result uniformly (mp, patch, polyfem, retarget-zoom).
+inline constexpr std::string_view kZoomIntoTheRetargetedImage =
+    "0 shows the whole retargeted image, 1 shows it 1:1 (the plain crop when the screen has the image's aspect "
+    "ratio); the view centre is tracked through the warp";
+
 // Every registered method, in the order the viewer and `zoomwarp compare --methods all` list them.
 std::span<const RetargetingMethod* const> retargeting_methods();
 

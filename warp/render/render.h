@@ -18,4 +18,11 @@ namespace zoomwarp::warp {
 tiles::Raster render_view(const View& view, int screen_width, int screen_height, const tiles::ImageEntry& image,
                           tiles::PyramidReader& reader, const StopToken* stop = nullptr);
 
+// render_view of a non-uniform view given by its parts: `source` (image pixels), its vertices'
+// `screen` positions and the `visible` triangles — for a method that keeps its mesh and need not
+// copy it into a View per request (methods/retarget_zoom/).
+tiles::Raster render_mesh(const Mesh& source, const std::vector<Point>& screen, const std::vector<int>& visible,
+                          int screen_width, int screen_height, const tiles::ImageEntry& image,
+                          tiles::PyramidReader& reader, const StopToken* stop = nullptr);
+
 }  // namespace zoomwarp::warp

@@ -87,8 +87,7 @@ const RetargetingMethod& mp_method() {
       .name = "mp",
       .summary = "mesh parametrization [Guo09]: salient objects scaled rigidly, the rest stretched toward ideal "
                  "per-row and per-column lengths, detected and curator lines kept straight, then zoomed uniformly",
-      .zoom = "0 shows the whole retargeted image, 1 shows it 1:1 (the plain crop when the screen has the image's "
-              "aspect ratio); the view centre is tracked through the warp",
+      .zoom = kZoomIntoTheRetargetedImage,
       .has_mesh = true,
       .magic = {'Z', 'W', 'M', 'P', 'M', 'D', 'L', '1'},
       .reads_lines = true,

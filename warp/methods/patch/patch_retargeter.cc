@@ -65,8 +65,7 @@ const RetargetingMethod& patch_method() {
       .summary = "patch-based warping [Lin13]: colour-homogeneous patches on a 20-px quad grid, significant patches "
                  "kept similar, the rest scaled linearly, grid lines axis-aligned; any screen aspect is one "
                  "combination of two precomputed solves, then zoomed uniformly",
-      .zoom = "0 shows the whole retargeted image, 1 shows it 1:1 (the plain crop when the screen has the image's "
-              "aspect ratio); the view centre is tracked through the warp",
+      .zoom = kZoomIntoTheRetargetedImage,
       .has_mesh = true,
       .magic = {'Z', 'W', 'P', 'A', 'T', 'C', 'H', '1'},
       .reads_lines = true,

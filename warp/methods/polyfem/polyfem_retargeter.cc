@@ -273,8 +273,7 @@ const RetargetingMethod& polyfem_method() {
       .summary = "polygonal finite elements [PolyFEM]: ~200 saliency-adaptive convex cells with quadratic serendipity "
                  "elements, E_T = ∫ s|J − I|² solved once per axis so that any aspect is one combination (L-BFGS "
                  "with per-cell rollback where that would fold), then zoomed uniformly",
-      .zoom = "0 shows the whole retargeted image, 1 shows it 1:1 (the plain crop when the screen has the image's "
-              "aspect ratio); the view centre is tracked through the warp",
+      .zoom = kZoomIntoTheRetargetedImage,
       .has_mesh = true,
       .magic = {'Z', 'W', 'P', 'F', 'E', 'M', '1', 0},
       .reads_lines = false,

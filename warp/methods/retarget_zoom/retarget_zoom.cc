@@ -6,6 +6,7 @@
 #include "warp/core/uniform_zoom.h"
 #include "warp/core/zoom_curve.h"
 #include "warp/meshing/coarse_mesh.h"
+#include "warp/render/render.h"
 
 namespace zoomwarp::warp {
 
@@ -38,30 +39,48 @@ double finest_stored_leaf_area(const ImageModel& model) {
 RetargetZoom::RetargetZoom(const ImageModel& model, const SignificanceMap& saliency)
     : width_(model.width), height_(model.height), warp_(make_warp(model, saliency)) {}
 
-std::vector<Point> RetargetZoom::warped(double tw, double th, WarpResult* stats, const StopToken* stop) {
+RetargetZoom::Positions RetargetZoom::warped(double tw, double th, WarpResult* stats, const StopToken* stop) {
   const auto key = std::make_pair(std::llround(tw * 1000), std::llround(th * 1000));
   std::lock_guard lock(mu_);
-  if (const std::vector<Point>* cached = cache_.find(key)) return *cached;
+  if (const Positions* cached = cache_.find(key)) return *cached;
   // 0.05 px of the retargeted image: zoom 1 shows it 1:1, so no view sees the residual larger.
   WarpOptions options;
   options.tolerance = 0.05;
   options.fixed_line_normals = true;
   options.stop = stop;
   *stats = warp_.solve(tw, th, options);
-  return cache_.put(key, stats->positions);
+  Positions solved = std::make_shared<const std::vector<Point>>(std::move(stats->positions));
+  stats->positions.clear();
+  return cache_.put(key, std::move(solved));
+}
+
+RetargetZoom::Warped RetargetZoom::warped_view(const ViewRequest& r) {
+  check_view_request(r);
+  check_stop(r.stop);
+  Warped out;
+  // The z = 0 target of ICAZ: the screen's aspect ratio, the image's area [ICAZ §5.1].
+  out.geometry = zoom_geometry(width_, height_, r.screen_width, r.screen_height, 0, r.curve);
+  out.positions = warped(out.geometry.target_width, out.geometry.target_height, &out.stats, r.stop);
+  const Point centre = request_centre(r, width_, height_);
+  out.centre = locate(mesh(), *out.positions, centre, locator_.find(centre));
+  return out;
 }
 
 View RetargetZoom::view(const ViewRequest& r) {
-  check_view_request(r);
-  check_stop(r.stop);
-  // The z = 0 target of ICAZ: the screen's aspect ratio, the image's area [ICAZ §5.1].
-  const ZoomGeometry g = zoom_geometry(width_, height_, r.screen_width, r.screen_height, 0, r.curve);
-  WarpResult stats;
-  const std::vector<Point> positions = warped(g.target_width, g.target_height, &stats, r.stop);
-  View v = uniform_zoom_of_warp(mesh(), positions, g.target_width, g.target_height, r, width_, height_);
-  stats.positions.clear();  // `warped` has them
-  v.coarse_stats = std::move(stats);
+  Warped w = warped_view(r);
+  View v = uniform_zoom(mesh(), *w.positions, w.geometry.target_width, w.geometry.target_height, r, w.centre);
+  v.coarse_stats = std::move(w.stats);
   return v;
+}
+
+tiles::Raster RetargetZoom::render(const ViewRequest& r, const tiles::ImageEntry& image, tiles::PyramidReader& reader) {
+  const Warped w = warped_view(r);
+  const ZoomPlacement place = zoom_placement(w.geometry.target_width, w.geometry.target_height, r, w.centre);
+  std::vector<Point> screen;
+  screen.reserve(w.positions->size());
+  for (const Point& q : *w.positions) screen.push_back(place.on_screen(q));
+  const std::vector<int> visible = visible_triangles(mesh(), screen, r.screen_width, r.screen_height);
+  return render_mesh(mesh(), screen, visible, r.screen_width, r.screen_height, image, reader, r.stop);
 }
 
 std::size_t RetargetZoom::memory_bytes() {
@@ -77,8 +96,7 @@ const RetargetingMethod& retarget_zoom_method() {
       .name = "retarget-zoom",
       .summary = "the whole image warped once to the screen's aspect ratio on a uniform fine mesh (ICAZ's shape "
                  "energy), then zoomed uniformly",
-      .zoom = "0 shows the whole retargeted image, 1 shows it 1:1 (the plain crop when the screen has the image's "
-              "aspect ratio); the view centre is tracked through the warp",
+      .zoom = kZoomIntoTheRetargetedImage,
       .has_mesh = true,
       .magic = {},
       .precompute = {},

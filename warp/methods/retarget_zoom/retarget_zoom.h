@@ -16,16 +16,22 @@
 // warp is the identity, so zoom 1 is the plain crop.
 //
 // A view lists every triangle of the mesh that touches the screen: at zoom 0, all of them.
+// render() draws the same triangles as render_view(view()) straight from the mesh and the cached
+// warp (no copy of either per request), and finds the view centre's triangle with a
+// TriangleLocator built at load instead of a scan of every triangle.
 //
 // Thread safety: view(), render() and memory_bytes() may be called concurrently; the mesh and
 // factorization are read-only, the cache is under a mutex held while a missing size is solved
 // (single flight; CHOLMOD's solve on the shared factor is not reentrant).
 #pragma once
 
+#include <memory>
 #include <mutex>
 #include <utility>
 #include <vector>
 
+#include "warp/core/triangle_locator.h"
+#include "warp/core/uniform_zoom.h"
 #include "warp/icaz/image_model.h"
 #include "warp/icaz/shape_warp.h"
 #include "warp/methods/recent_cache.h"
@@ -44,20 +50,34 @@ class RetargetZoom : public Retargeter {
   RetargetZoom(const ImageModel& model, const SignificanceMap& saliency);
 
   View view(const ViewRequest& request) override;
+  tiles::Raster render(const ViewRequest& request, const tiles::ImageEntry& image,
+                       tiles::PyramidReader& reader) override;
   std::size_t memory_bytes() override;
 
   // The uniform mesh (image pixels).
   const Mesh& mesh() const { return warp_.mesh(); }
 
  private:
+  using Positions = std::shared_ptr<const std::vector<Point>>;
+
+  // A request's warp and where its view centre lands in it: what view() and render() share.
+  struct Warped {
+    ZoomGeometry geometry;
+    Positions positions;
+    Point centre;     // warped pixels
+    WarpResult stats;  // of the solve, if this request made it (positions left empty)
+  };
+  Warped warped_view(const ViewRequest& r);
+
   // The warp onto target_width × target_height, from the cache or solved now.
-  std::vector<Point> warped(double target_width, double target_height, WarpResult* stats, const StopToken* stop);
+  Positions warped(double target_width, double target_height, WarpResult* stats, const StopToken* stop);
 
   const double width_, height_;
   const ShapeWarp warp_;
+  const TriangleLocator locator_{warp_.mesh()};
   std::mutex mu_;  // guards the cache and warp_'s solves
-  RecentCache<std::pair<long long, long long>, std::vector<Point>> cache_{  // by size (1/1000 px)
-      kCachedSizes, [](const std::vector<Point>& p) { return p.capacity() * sizeof(Point); }};
+  RecentCache<std::pair<long long, long long>, Positions> cache_{  // by size (1/1000 px)
+      kCachedSizes, [](const Positions& p) { return p->capacity() * sizeof(Point); }};
 };
 
 // The area bound of the uniform mesh for `model`: the largest leaf among the forest's kept nodes.
