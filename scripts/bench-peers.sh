@@ -132,6 +132,9 @@ parse_args() {
   fi
   [ -f "$photo" ] || die "no such photo: $photo"
   [ -x "$zoomwarp_bin" ] || die "zoomwarp binary not found at $zoomwarp_bin (scripts/build.sh zoomwarp)"
+  # The tree's version before --out (perhaps a tracked file) is emptied for writing.
+  zoomwarp_version=$(git -C "$repo_dir" rev-parse --short HEAD 2>/dev/null || echo unknown)
+  git -C "$repo_dir" diff --quiet HEAD 2>/dev/null || zoomwarp_version+=" (with uncommitted changes)"
   if [ -n "$out_file" ]; then : >"$out_file" || die "cannot write $out_file"; fi
 }
 
@@ -614,15 +617,12 @@ details_row() {
 }
 
 machine() {
-  local commit
-  commit=$(git -C "$repo_dir" rev-parse --short HEAD 2>/dev/null || echo unknown)
-  git -C "$repo_dir" diff --quiet HEAD 2>/dev/null || commit+=" (with uncommitted changes)"
   echo "- machine: $(lscpu | sed -n 's/^Model name: *//p' | head -n 1), $(nproc) cores, $(awk '/MemTotal/ { printf "%.1f GB", $2 / 1048576 }' /proc/meminfo) RAM, kernel $(uname -r)"
   # The build type of the binary measured (the container ships Release; scripts/build.sh makes
   # RelWithDebInfo unless CMAKE_BUILD_TYPE says otherwise).
   local build_type
   build_type=$(sed -n 's/^CMAKE_BUILD_TYPE:[A-Z]*=//p' "$(dirname "$zoomwarp_bin")/../CMakeCache.txt" 2>/dev/null)
-  echo "- versions: zoomwarp $commit (${build_type:-unknown} build), $("$nginx_bin" -v 2>&1 | sed 's#.*/##; s#^#nginx #'), iipsrv $(dpkg-query -W -f='${Version}' iipimage-server) (Debian iipimage-server), $(vips --version), $(wrk -v 2>&1 | head -n 1 | awk '{ print $1, $2 }')"
+  echo "- versions: zoomwarp $zoomwarp_version (${build_type:-unknown} build), $("$nginx_bin" -v 2>&1 | sed 's#.*/##; s#^#nginx #'), iipsrv $(dpkg-query -W -f='${Version}' iipimage-server) (Debian iipimage-server), $(vips --version), $(wrk -v 2>&1 | head -n 1 | awk '{ print $1, $2 }')"
 }
 
 report() {

@@ -17,7 +17,11 @@ namespace zoomwarp::tiles {
 namespace {
 
 std::string encode_jpeg(const Raster& in, int quality) {
-  const Raster flat = flatten_alpha(in);
+  // Alpha is composited away first; an opaque raster (every view) is compressed as it is, not
+  // copied.
+  const bool alpha = in.channels == 2 || in.channels == 4;
+  const Raster composited = alpha ? flatten_alpha(in) : Raster();
+  const Raster& flat = alpha ? composited : in;
   // A compressor per thread: creating one costs more than compressing a small tile.
   thread_local std::unique_ptr<void, int (*)(tjhandle)> tj(tjInitCompress(), tjDestroy);
   if (!tj) throw std::runtime_error("cannot start the JPEG encoder");

@@ -169,6 +169,19 @@ OpenSource open_source(const std::string& path, const SourceLimits& limits) {
   return s;
 }
 
+// Rows [y0, y1) of the source's first `channels` channels as 8-bit, packed. A source that is
+// already that (8-bit JPEGs, PNGs, TIFFs with all their channels) is decoded straight into `out`
+// by the format's reader: OpenImageIO 2.4's read_scanlines takes its converting path even then,
+// allocating a 64 MB buffer per call (mapped afresh, so its pages fault in again every 16 rows)
+// and copying the rows out of it — for the 127 MP test image, 529 such calls moved 380 MB
+// through fresh pages on the decoding thread, the pyramid's critical path (tiles/README.md).
+bool read_rows(OIIO::ImageInput& in, int y0, int y1, int channels, std::uint8_t* out) {
+  const OIIO::ImageSpec& spec = in.spec();
+  if (spec.format == OIIO::TypeDesc::UINT8 && spec.channelformats.empty() && channels == spec.nchannels)
+    return in.read_native_scanlines(0, 0, y0, y1, 0, out);
+  return in.read_scanlines(0, 0, y0, y1, 0, 0, channels, OIIO::TypeDesc::UINT8, out);
+}
+
 void check_read(OIIO::ImageInput& in, bool ok) {
   // libjpeg reports a truncated file as a warning and pads it grey; OIIO passes that on as an
   // error message even when the read "succeeds", so both are treated as corrupt input.
@@ -209,15 +222,14 @@ PyramidInfo build_pyramid(const std::string& path, const std::string& out_dir,
 
   if (info.source_orientation == 1) {
     // Decoded straight into level 0's strip when the stored layout is the source's (8-bit RGB or
-    // RGBA); otherwise through a small buffer, mapped to RGB(A). Small chunks either way:
-    // OpenImageIO allocates conversion buffers proportional to the chunk.
+    // RGBA); otherwise through a small buffer, mapped to RGB(A). Small chunks either way.
     const int chunk = 16;
     const bool direct = rc == ch;
     std::vector<std::uint8_t> buf(direct ? 0 : std::size_t(chunk) * sw * rc);
     for (int y = 0; y < sh;) {
       const int n = std::min({chunk, sh - y, level0.rows_free()});
       std::uint8_t* rows = level0.free_rows();
-      check_read(in, in.read_scanlines(0, 0, y, y + n, 0, 0, rc, OIIO::TypeDesc::UINT8, direct ? rows : buf.data()));
+      check_read(in, read_rows(in, y, y + n, rc, direct ? rows : buf.data()));
       if (!direct)
         for (int r = 0; r < n; ++r)
           to_stored(buf.data() + std::size_t(r) * sw * rc, rc, sw, ch, rows + std::size_t(r) * sw * ch);

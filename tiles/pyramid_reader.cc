@@ -40,10 +40,23 @@ Raster PyramidReader::read_level(const ImageEntry& image, int level, Rect r) {
   const long long t = m.tile_size;
   impl_->lookups += ((r.x + r.w - 1) / t - r.x / t + 1) * ((r.y + r.h - 1) / t - r.y / t + 1);
   Raster out(int(r.w), int(r.h), m.channels);
-  OIIO::ustring file(image.level_path(level));
-  if (!impl_->cache->get_pixels(file, 0, 0, int(r.x), int(r.x + r.w), int(r.y), int(r.y + r.h), 0,
-                                1, OIIO::TypeDesc::UINT8, out.pixels.data()))
-    throw std::runtime_error("cannot read " + file.string() + ": " + impl_->cache->geterror());
+  const OIIO::ustring file(image.level_path(level));
+  OIIO::ImageCache& cache = *impl_->cache;
+  OIIO::ImageCache::Perthread* thread = cache.get_perthread_info();
+  OIIO::ImageCache::ImageHandle* handle = cache.get_image_handle(file, thread);
+  // One stored tile at a time: asked for a region several tiles wide, get_pixels walks it row by
+  // row, and each row crossing tiles misses the per-thread tile microcache and searches the main
+  // cache again (a 480×360 view's patch: thousands of searches instead of a dozen).
+  const OIIO::stride_t row = OIIO::stride_t(out.row_bytes());
+  for (long long ty = r.y / t * t; ty < r.y + r.h; ty += t)
+    for (long long tx = r.x / t * t; tx < r.x + r.w; tx += t) {
+      const long long x0 = std::max(tx, r.x), x1 = std::min(tx + t, r.x + r.w);
+      const long long y0 = std::max(ty, r.y), y1 = std::min(ty + t, r.y + r.h);
+      std::uint8_t* first = out.pixels.data() + (y0 - r.y) * row + (x0 - r.x) * m.channels;
+      if (!handle || !cache.get_pixels(handle, thread, 0, 0, int(x0), int(x1), int(y0), int(y1), 0, 1, 0, m.channels,
+                                       OIIO::TypeDesc::UINT8, first, m.channels, row, OIIO::AutoStride))
+        throw std::runtime_error("cannot read " + file.string() + ": " + cache.geterror());
+    }
   return out;
 }
 

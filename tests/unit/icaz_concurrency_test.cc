@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <future>
 #include <limits>
 #include <random>
 #include <thread>
@@ -117,6 +118,38 @@ TEST(IcazConcurrency, LazyForestGrowsUnderParallelViews) {
     }
   }
   EXPECT_NO_THROW(icaz.geomorph(results[0][1], results[1][2]));
+}
+
+// The engines' memory budget asks memory_bytes() on every request (api/warp_engines.h), so it
+// must answer while a view holds the coarse-cache lock for a solve. The hook holds the solve
+// until memory_bytes() has answered on another thread: a memory_bytes() that waited for the lock
+// would wait for the hook, which gives up only after a generous safety timeout — the test fails.
+TEST(IcazMemory, MemoryBytesAnswersWhileACoarseSolveHoldsTheLock) {
+  std::promise<void> solving, answered;
+  std::shared_future<void> answered_future = answered.get_future().share();
+  std::atomic<bool> held = false, answered_during_solve = false;
+  warp::IcazOptions options;
+  options.before_coarse_solve = [&] {
+    if (held.exchange(true)) return;  // hold the first solve only
+    solving.set_value();
+    answered_during_solve = answered_future.wait_for(std::chrono::seconds(60)) == std::future_status::ready;
+  };
+  warp::Icaz icaz(boats_model(), options);
+  const std::size_t before = icaz.memory_bytes();
+  warp::ViewRequest r;
+  r.zoom = 0.5, r.cx = 1000, r.cy = 700;
+  std::thread viewer([&] { icaz.view(r); });
+  solving.get_future().wait();
+  std::size_t during = 0;
+  std::thread asker([&] {
+    during = icaz.memory_bytes();
+    answered.set_value();
+  });
+  asker.join();
+  viewer.join();
+  EXPECT_TRUE(answered_during_solve) << "memory_bytes() waited for the coarse solve";
+  EXPECT_EQ(during, before) << "nothing was cached yet";
+  EXPECT_GT(icaz.memory_bytes(), before) << "the coarse warp and its anchors count once cached";
 }
 
 TEST(IcazStop, AnExpiredTokenStopsTheView) {

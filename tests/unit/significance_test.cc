@@ -6,6 +6,7 @@
 #include "tests/support/server_process.h"
 #include "warp/meshing/coarse_mesh.h"
 #include "warp/icaz/shape_warp.h"
+#include "warp/saliency/gbvs.h"
 #include "warp/saliency/significance.h"
 
 namespace zoomwarp {
@@ -51,6 +52,18 @@ TEST(Significance, FacesAreFullySignificant) {
   warp::SignificanceOptions none;
   none.face_cascade = "";
   EXPECT_TRUE(warp::detect_faces(img, none.face_cascade).empty());
+}
+
+// Ingest's analysis finds the faces once and hands them to every saliency kind: the maps are
+// those each kind makes finding them itself, with no cascade needed a second time.
+TEST(Significance, FacesGivenMakeTheSameMapsAsFacesFound) {
+  const tiles::Raster img = testing::load_image(testing::samples_dir() + "/astronaut_portrait.png");
+  warp::SignificanceOptions given;
+  given.faces = warp::detect_faces(img, given.face_cascade);
+  ASSERT_FALSE(given.faces->empty()) << "the astronaut's face";
+  given.face_cascade = "";
+  EXPECT_EQ(warp::compute_significance(img, 512, given).values, warp::compute_significance(img, 512).values);
+  EXPECT_EQ(warp::gbvs_significance(img, 512, given).values, warp::gbvs_significance(img, 512).values);
 }
 
 TEST(Significance, PaintingAndTriangleWeights) {

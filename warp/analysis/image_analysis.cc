@@ -168,18 +168,24 @@ std::vector<MethodFileTiming> write_image_analysis(const tiles::ImageEntry& imag
                                                    const SignificanceOptions& significance, int threads) {
   tiles::PyramidReader reader(32 << 20);  // its own small cache: staged files are about to move
   const tiles::Raster analysis = read_reduced_image(image, reader);
-  // The model, the detected lines and the GBVS map read only the analysis image: made at once.
-  // The methods' precomputations read all three (the lines and the GBVS map from their files).
+  // The faces and the detected lines read only the analysis image; the model and the GBVS map
+  // read it and the faces, found once for both (a detection costs as much as either map). The
+  // methods' precomputations read all of it (the lines and the GBVS map from their files).
+  const int jobs_at_once = analysis_threads(threads, analysis);
+  SignificanceOptions with_faces = significance;
+  const std::function<void()> inputs[] = {
+      [&] { with_faces.faces = detect_faces(analysis, significance.face_cascade); },
+      [&] { write_detected_lines(image, reader); },
+  };
+  tiles::run_jobs(inputs, jobs_at_once);
   ImageModel model;
   const std::function<void()> maps[] = {
       [&] {
-        model = make_image_model(analysis, image.manifest.width, image.manifest.height, {}, {}, {}, significance);
+        model = make_image_model(analysis, image.manifest.width, image.manifest.height, {}, {}, {}, with_faces);
         write_image_model(image.dir, model);
       },
-      [&] { write_detected_lines(image, reader); },
-      [&] { write_gbvs_map(image.dir, gbvs_significance(analysis, image.manifest.width, significance)); },
+      [&] { write_gbvs_map(image.dir, gbvs_significance(analysis, image.manifest.width, with_faces)); },
   };
-  const int jobs_at_once = analysis_threads(threads, analysis);
   tiles::run_jobs(maps, jobs_at_once);
   return write_method_files(image.dir, image, reader, model, kSaliencies, MethodSelection::kAll, jobs_at_once);
 }

@@ -159,24 +159,29 @@ Icaz::Icaz(ImageModel model, const IcazOptions& options)
     const double mean = node_mean(r, true);
     sig_lo_ = std::min(sig_lo_, mean), sig_hi_ = std::max(sig_hi_, mean);
   }
+  const ImageModel& m = model_;
+  model_bytes_ = m.significance.values.capacity() * sizeof(float) + m.forest.memory_bytes() +
+                 m.node_mean.capacity() * sizeof(float) + m.coarse.mesh.vertices.capacity() * sizeof(Point) +
+                 m.coarse.mesh.triangles.capacity() * sizeof(Triangle);
+  count_forest_bytes();
 }
 
 Icaz::~Icaz() = default;
 
-std::size_t Icaz::memory_bytes() {
-  std::size_t coarse = 0;
-  {
-    std::lock_guard lock(coarse_mu_);
-    for (const auto& [size, cached] : coarse_cache_)
-      coarse += cached.warp->positions.capacity() * sizeof(Point) + cached.warp->maps.capacity() * sizeof(AffineMap);
-    for (const auto& [k, cached] : anchors_) coarse += cached.positions.capacity() * sizeof(Point);
-  }
-  std::shared_lock lock(forest_mu_);
-  const ImageModel& m = model_;
-  return m.significance.values.capacity() * sizeof(float) + m.forest.memory_bytes() +
-         m.node_mean.capacity() * sizeof(float) + m.coarse.mesh.vertices.capacity() * sizeof(Point) +
-         m.coarse.mesh.triangles.capacity() * sizeof(Triangle) + forest_.memory_bytes() +
-         node_mean_.capacity() * sizeof(double) + coarse;
+std::size_t Icaz::memory_bytes() const noexcept {
+  return model_bytes_ + forest_bytes_.load(std::memory_order_relaxed) + coarse_bytes_.load(std::memory_order_relaxed);
+}
+
+void Icaz::count_forest_bytes() {
+  forest_bytes_.store(forest_.memory_bytes() + node_mean_.capacity() * sizeof(double), std::memory_order_relaxed);
+}
+
+void Icaz::count_coarse_bytes() {
+  std::size_t bytes = 0;
+  for (const auto& [size, cached] : coarse_cache_)
+    bytes += cached.warp->positions.capacity() * sizeof(Point) + cached.warp->maps.capacity() * sizeof(AffineMap);
+  for (const auto& [k, cached] : anchors_) bytes += cached.positions.capacity() * sizeof(Point);
+  coarse_bytes_.store(bytes, std::memory_order_relaxed);
 }
 
 double Icaz::node_mean(int node, bool grow) {
@@ -219,6 +224,7 @@ std::shared_ptr<const Icaz::CoarseWarp> Icaz::coarse_warp(const ZoomGeometry& g,
     it->second.last_used = ++coarse_clock_;
     return it->second.warp;
   }
+  if (options_.before_coarse_solve) options_.before_coarse_solve();
   const WarpOptions options = tolerance_for(g, stop);
   bool close_enough = false;
   const std::vector<Point> start = coarse_start(g.target_width, g.target_height, options.tolerance, stop, &close_enough);
@@ -238,6 +244,7 @@ std::shared_ptr<const Icaz::CoarseWarp> Icaz::coarse_warp(const ZoomGeometry& g,
                                       warp->positions[t[0]], warp->positions[t[1]], warp->positions[t[2]]));
   make_room(coarse_cache_);
   coarse_cache_.emplace(key, CachedCoarse{warp, ++coarse_clock_});
+  count_coarse_bytes();
   return warp;
 }
 
@@ -322,7 +329,9 @@ const Icaz::CachedWarp& Icaz::anchor(int j, const StopToken* stop) {
   const bool guarded = r.guard_rounds > 0 || r.affine_blend > 0;
   CachedWarp entry{std::move(r.positions), ++coarse_clock_, guarded};
   entry.gap.fill(std::numeric_limits<double>::quiet_NaN());
-  return anchors_.emplace(j, std::move(entry)).first->second;
+  const CachedWarp& stored = anchors_.emplace(j, std::move(entry)).first->second;
+  count_coarse_bytes();
+  return stored;
 }
 
 // Runs work(false) holding the forest lock shared; if it needs the forest to grow, runs
@@ -337,6 +346,10 @@ auto Icaz::with_forest(Work work) {
     }
   }
   std::unique_lock lock(forest_mu_);
+  struct Recount {  // the forest may have grown or shrunk, also if work throws
+    Icaz* self;
+    ~Recount() { self->count_forest_bytes(); }
+  } recount{this};
   if (forest_.node_count() > options_.max_forest_nodes) {
     forest_.forget_lazy_nodes();
     node_mean_.resize(std::size_t(forest_.kept_nodes()));

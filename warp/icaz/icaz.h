@@ -15,7 +15,9 @@
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -45,17 +47,22 @@ struct IcazOptions {
   // screens up to 1920×1080 at the requested 500 px² and bounds a 4096×4096 view (limits.h) to
   // the cost of a full-HD one.
   int max_screen_triangles = 4096;
+  // Called with the coarse-cache lock held, just before a coarse warp missing from the cache is
+  // solved: lets a test hold a solve in progress (IcazMemory). Empty in the product.
+  std::function<void()> before_coarse_solve;
 };
 
 // Thread-safe: every public member may be called from several threads at once. The model and the coarsest mesh's factorization are
 // read-only after construction; only caches change, each under its own lock:
-//  - the forest's lazy nodes and their means, and the forest epoch: a std::shared_mutex. Views,
-//    geomorphs and memory_bytes() hold it shared, so views of one image run in parallel. A view
+//  - the forest's lazy nodes and their means, and the forest epoch: a std::shared_mutex. Views and
+//    geomorphs hold it shared, so views of one image run in parallel. A view
 //    that needs nodes not made yet (lazy levels of a very large image, seen the first time) is
 //    redone holding it exclusively — which is also when lazy nodes are forgotten past the cap;
 //  - the coarse-warp cache (least recently used, 64 target sizes) and the anchor warps its
 //    solves start from (64, likewise): a mutex, held while a missing entry is solved (a single
 //    flight; CHOLMOD's solve on the shared factor is not reentrant).
+// memory_bytes() takes neither lock: it reads byte counts kept in atomics, updated by whoever
+// changes the caches while holding their lock.
 class Icaz {
  public:
   explicit Icaz(ImageModel model, const IcazOptions& options = {});
@@ -83,8 +90,11 @@ class Icaz {
 
   const ImageModel& model() const { return model_; }
 
-  // Bytes held: the model, the forest with its lazy nodes, node means, cached coarse warps.
-  std::size_t memory_bytes();
+  // Bytes held: the model, the forest with its lazy nodes, node means, cached coarse and anchor
+  // warps. Asked on every request (the engines' memory budget, /metrics), so it never waits for a
+  // view or a coarse solve in progress: it takes no lock (the Retargeter contract,
+  // warp/methods/retargeter.h). Counts as of the last completed change to a cache.
+  std::size_t memory_bytes() const noexcept;
 
  private:
   struct CachedWarp {
@@ -126,11 +136,17 @@ class Icaz {
   Geomorph geomorph_in(const View& from, const View& to, const StopToken* stop, bool grow);
   template <class Work>
   auto with_forest(Work work);
+  // Recount forest_bytes_ (caller holds forest_mu_ exclusively) and coarse_bytes_ (coarse_mu_).
+  void count_forest_bytes();
+  void count_coarse_bytes();
 
   const ImageModel model_;
   const IcazOptions options_;
   const ShapeWarp coarse_;
   double sig_lo_ = 0, sig_hi_ = 1;  // range of root means: maps significance to [w_min, 1]
+  std::size_t model_bytes_ = 0;     // the model's arrays, fixed after construction
+  std::atomic<std::size_t> forest_bytes_{0};  // forest_ and node_mean_, as of the last change
+  std::atomic<std::size_t> coarse_bytes_{0};  // coarse_cache_ and anchors_, as of the last change
 
   std::shared_mutex forest_mu_;  // guards the four members below
   Forest forest_;

@@ -3,8 +3,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <vector>
 
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "warp/render/level_patch.h"
@@ -188,16 +191,95 @@ struct OutputGrid {
   double scale = 1, centre = 0, x0 = 0, y0 = 0;
 };
 
-// Per covered pixel of `box` (screen pixels), its source position on `grid`: triangle by
-// triangle, one affine map each. Pixels no triangle covers keep covered = 0.
+// A patch position in cv::remap's fixed-point form: whole pixels (x, y) and the fraction's index
+// into its bilinear table, 1/INTER_TAB_SIZE px per step — computed as remap computes it from
+// float maps (OpenCV imgwarp.cpp, RemapInvoker: cvRound(position · INTER_TAB_SIZE), shifted and
+// masked), so the screen is bit for bit what float maps gave, without remap converting them
+// block by block or the maps taking 8 bytes a pixel.
+inline void to_fixed_point(float u, float v, std::int16_t* whole, std::uint16_t* fraction) {
+  const int iu = cvRound(u * float(cv::INTER_TAB_SIZE)), iv = cvRound(v * float(cv::INTER_TAB_SIZE));
+  whole[0] = cv::saturate_cast<std::int16_t>(iu >> cv::INTER_BITS);
+  whole[1] = cv::saturate_cast<std::int16_t>(iv >> cv::INTER_BITS);
+  fraction[0] = std::uint16_t((iv & (cv::INTER_TAB_SIZE - 1)) * cv::INTER_TAB_SIZE + (iu & (cv::INTER_TAB_SIZE - 1)));
+}
+
+// One row span of a triangle, pixels xs … xs + count − 1 (entries 0 … count − 1 of the outputs),
+// marked covered: the patch position of pixel centre px is u = (u0 + ux·px) + u_row, v likewise
+// (u_row: the row's term), in doubles, then float, then fixed point as above. Four pixels at a
+// time with OpenCV's universal intrinsics — the same operations in the same order (no FMA on the
+// x86-64 baseline), so bit for bit the scalar result; the scan was the largest part of a
+// viewport's CPU time, and -O2 (RelWithDebInfo) does not vectorise it.
+void write_span(int xs, int count, double u0, double ux, double u_row, double v0, double vx, double v_row,
+                std::int16_t* whole, std::uint16_t* fraction, std::uint8_t* covered) {
+  int k = 0;
+#if CV_SIMD128_64F
+  const cv::v_float64x2 vu0 = cv::v_setall_f64(u0), vux = cv::v_setall_f64(ux), vur = cv::v_setall_f64(u_row);
+  const cv::v_float64x2 vv0 = cv::v_setall_f64(v0), vvx = cv::v_setall_f64(vx), vvr = cv::v_setall_f64(v_row);
+  const cv::v_float64x2 step01(0, 1), step23(2, 3);
+  const cv::v_float32x4 tab = cv::v_setall_f32(float(cv::INTER_TAB_SIZE));
+  const cv::v_int32x4 mask = cv::v_setall_s32(cv::INTER_TAB_SIZE - 1);
+  for (; k + 4 <= count; k += 4) {
+    const cv::v_float64x2 centre = cv::v_setall_f64(xs + k + 0.5), p01 = centre + step01, p23 = centre + step23;
+    const cv::v_float32x4 u = cv::v_cvt_f32((vu0 + vux * p01) + vur, (vu0 + vux * p23) + vur);
+    const cv::v_float32x4 v = cv::v_cvt_f32((vv0 + vvx * p01) + vvr, (vv0 + vvx * p23) + vvr);
+    const cv::v_int32x4 iu = cv::v_round(u * tab), iv = cv::v_round(v * tab);
+    const cv::v_int16x8 xy = cv::v_pack(iu >> cv::INTER_BITS, iv >> cv::INTER_BITS);  // x0..x3, y0..y3
+    cv::v_int16x8 interleaved, unused;
+    cv::v_zip(xy, cv::v_rotate_right<4>(xy), interleaved, unused);  // x0 y0 x1 y1 …
+    cv::v_store(whole + 2 * k, interleaved);
+    const cv::v_int32x4 index = ((iv & mask) << cv::INTER_BITS) | (iu & mask);
+    cv::v_store_low(fraction + k, cv::v_reinterpret_as_u16(cv::v_pack(index, index)));
+    std::memcpy(covered + k, "\1\1\1\1", 4);  // one store, not a memset call per row
+  }
+#endif
+  for (; k < count; ++k) {
+    const double px = xs + k + 0.5;
+    to_fixed_point(float((u0 + ux * px) + u_row), float((v0 + vx * px) + v_row), whole + 2 * k, fraction + k);
+    covered[k] = 1;
+  }
+}
+
+// map_triangles' writers, one per kind of output: span(first, xs, count, u0, ux, u_row, v0, vx,
+// v_row) writes pixels xs … xs + count − 1 of one triangle row — entries first … first + count − 1
+// of the box's row-major arrays — whose grid position at pixel centre px is u = (u0 + ux·px) +
+// u_row, v likewise, and marks them covered.
+//
+// cv::remap's fixed-point maps of a level patch (write_span): what render_mesh remaps.
+struct FixedPointMaps {
+  std::int16_t* whole;
+  std::uint16_t* fraction;
+  std::uint8_t* covered;
+  void span(std::size_t first, int xs, int count, double u0, double ux, double u_row, double v0, double vx,
+            double v_row) const {
+    write_span(xs, count, u0, ux, u_row, v0, vx, v_row, whole + 2 * first, fraction + first, covered + first);
+  }
+};
+
+// Float positions, as they are (rasterise_inverse): the same doubles rounded once to float.
+struct FloatPositions {
+  float* u;
+  float* v;
+  std::uint8_t* covered;
+  void span(std::size_t first, int xs, int count, double u0, double ux, double u_row, double v0, double vx,
+            double v_row) const {
+    for (int k = 0; k < count; ++k) {
+      const double px = xs + k + 0.5;
+      u[first + k] = float((u0 + ux * px) + u_row);
+      v[first + k] = float((v0 + vx * px) + v_row);
+      covered[first + k] = 1;
+    }
+  }
+};
+
+// Per covered pixel of `box` (screen pixels), its source position on `grid`, handed to `out` (one
+// of the writers above) span by span: triangle by triangle, one affine map each. Pixels no
+// triangle covers are not written.
+template <typename Writer>
 void map_triangles(const Mesh& src, const std::vector<Point>& scr, const std::vector<int>& triangles,
-                   const OutputGrid& grid, const cv::Rect& box, cv::Mat& map_x, cv::Mat& map_y, cv::Mat& covered,
+                   const OutputGrid& grid, const cv::Rect& box, const Writer& out,
                    const StopToken* stop) {
   const int bx0 = box.x, by0 = box.y, bx1 = box.x + box.width - 1, by1 = box.y + box.height - 1;
-  // Row y − by0 of each map starts at its first element + (y − by0)·width (continuous Mats).
-  float* const map_x0 = map_x.ptr<float>(0);
-  float* const map_y0 = map_y.ptr<float>(0);
-  std::uint8_t* const covered0 = covered.ptr<std::uint8_t>(0);
+  // Row y − by0 of the outputs starts at entry (y − by0)·width.
   const std::size_t step = std::size_t(box.width);
   for (std::size_t i = 0; i < triangles.size(); ++i) {
     // The token reads the clock: once per triangle was ~0.7 ms of a 30 000-triangle view.
@@ -236,7 +318,7 @@ void map_triangles(const Mesh& src, const std::vector<Point>& scr, const std::ve
       const double c0 = a00 + ay0 * py, c1 = a01 + ay1 * py;
       // The row's span: pixel centres px where every edge function is ≥ −eps, solved from
       // each edge's affine form (an edge parallel to the row holds for all of it or none).
-      // Within it no pixel needs testing: the loop below has no branch (GCC vectorises it at -O3).
+      // Within it no pixel needs testing (write_span).
       double lo = x0 + 0.5, hi = x1 + 0.5;
       bool empty = false;
       const std::array<double, 3> offset = {c0, c1, area - c0 - c1};
@@ -249,16 +331,10 @@ void map_triangles(const Mesh& src, const std::vector<Point>& scr, const std::ve
       }
       if (empty || !(lo <= hi)) continue;
       const std::size_t row = std::size_t(y - by0) * step;
-      float* const row_x = map_x0 + row;
-      float* const row_y = map_y0 + row;
-      std::uint8_t* const row_covered = covered0 + row;
       const int xs = ceil_int(lo - 0.5), xe = floor_int(hi - 0.5);
-      for (int x = xs; x <= xe; ++x) {
-        const double px = x + 0.5;
-        row_x[x - bx0] = float(u0 + ux * px + uy * py);
-        row_y[x - bx0] = float(v0 + vx * px + vy * py);
-        row_covered[x - bx0] = 1;
-      }
+      if (xe < xs) continue;  // no pixel centre between lo and hi
+      const std::size_t first = row + std::size_t(xs - bx0);
+      out.span(first, xs, xe - xs + 1, u0, ux, uy * py, v0, vx, vy * py);
     }
   }
 }
@@ -295,23 +371,23 @@ tiles::Raster render_mesh(const Mesh& src, const std::vector<Point>& scr, const 
     const LevelPatch patch = read_patch(image, reader, level, g.u0, g.v0, g.u1, g.v1);
     const cv::Rect box = group_pixels(g, sw, sh);
     if (box.empty()) continue;
-    cv::Mat map_x(box.size(), CV_32F), map_y(box.size(), CV_32F), covered(box.size(), CV_8U, cv::Scalar(0));
+    // Zero where nothing is drawn: an uncovered pixel samples patch pixel (0, 0), the mask keeps it out.
+    cv::Mat whole(box.size(), CV_16SC2, cv::Scalar::all(0)), fraction(box.size(), CV_16UC1, cv::Scalar(0));
+    cv::Mat covered(box.size(), CV_8U, cv::Scalar(0));
     const OutputGrid patch_grid{patch.scale, 0.5, double(patch.x0), double(patch.y0)};
-    map_triangles(src, scr, g.triangles, patch_grid, box, map_x, map_y, covered, stop);
+    map_triangles(src, scr, g.triangles, patch_grid, box,
+                  FixedPointMaps{whole.ptr<std::int16_t>(0), fraction.ptr<std::uint16_t>(0), covered.ptr<std::uint8_t>(0)},
+                  stop);
     const tiles::Raster& px = patch.pixels;
     const cv::Mat level_pixels(px.height, px.width, CV_8UC(px.channels), const_cast<std::uint8_t*>(px.pixels.data()),
                                px.row_bytes());
     cv::Mat target = screen(box);
     if (cv::countNonZero(covered) == box.area()) {  // the usual case: straight into the screen
-      cv::remap(level_pixels, target, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+      cv::remap(level_pixels, target, whole, fraction, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
       continue;
     }
-    // Uncovered pixels sample anything valid; the mask keeps them out.
-    const cv::Mat uncovered = covered == 0;
-    map_x.setTo(0, uncovered);
-    map_y.setTo(0, uncovered);
     cv::Mat resampled;
-    cv::remap(level_pixels, resampled, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+    cv::remap(level_pixels, resampled, whole, fraction, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
     resampled.copyTo(target, covered);
   }
   return out;
@@ -326,8 +402,7 @@ void rasterise_inverse(const Mesh& src, const std::vector<Point>& grid, int cols
     const Triangle& t = src.triangles[f];
     if (signed_area2(grid[t[0]], grid[t[1]], grid[t[2]]) != 0) triangles.push_back(f);
   }
-  cv::Mat map_x(rows, cols, CV_32F, u), map_y(rows, cols, CV_32F, v), mask(rows, cols, CV_8U, covered);
-  map_triangles(src, grid, triangles, OutputGrid{}, cv::Rect(0, 0, cols, rows), map_x, map_y, mask, stop);
+  map_triangles(src, grid, triangles, OutputGrid{}, cv::Rect(0, 0, cols, rows), FloatPositions{u, v, covered}, stop);
 }
 
 }  // namespace zoomwarp::warp

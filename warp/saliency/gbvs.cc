@@ -209,7 +209,7 @@ SignificanceMap compute_gbvs(const tiles::Raster& image, int image_width, int ou
 
 SignificanceMap gbvs_significance(const tiles::Raster& image, int image_width, const SignificanceOptions& options) {
   SignificanceMap map = compute_gbvs(image, image_width, image.width, image.height);
-  paint_faces(map, detect_faces(image, options.face_cascade));
+  paint_faces(map, faces_of(image, options));
   return map;
 }
 

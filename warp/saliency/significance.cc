@@ -129,8 +129,12 @@ SignificanceMap compute_significance(const tiles::Raster& image, int image_width
   map.height = s.rows;
   map.scale = double(s.cols) / image_width;
   map.values.assign(s.begin<float>(), s.end<float>());
-  paint_faces(map, detect_faces(image, options.face_cascade));
+  paint_faces(map, faces_of(image, options));
   return map;
+}
+
+std::vector<tiles::Rect> faces_of(const tiles::Raster& image, const SignificanceOptions& options) {
+  return options.faces ? *options.faces : detect_faces(image, options.face_cascade);
 }
 
 void paint_faces(SignificanceMap& map, const std::vector<tiles::Rect>& faces) {

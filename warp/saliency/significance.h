@@ -9,6 +9,7 @@
 // keeps edges of salient things and fades texture in flat-saliency areas (sky, water, grass).
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,10 @@ inline constexpr const char* kDefaultFaceCascade = "/usr/share/opencv4/haarcasca
 struct SignificanceOptions {
   // Haar cascade for frontal faces; empty or missing: no face boost (find_face_cascade says why).
   std::string face_cascade = kDefaultFaceCascade;
+  // The faces of the image being analysed when they are already known (map pixels, as
+  // detect_faces finds them): ingest's analysis finds them once for every saliency kind, each
+  // detection costing as much as the rest of a map. Unset: found with face_cascade.
+  std::optional<std::vector<tiles::Rect>> faces;
 };
 
 // The face detector's cascade as found at start-up.
@@ -55,6 +60,9 @@ SignificanceMap compute_significance(const tiles::Raster& image, int image_width
 
 // Faces found (in map pixels) by the Haar cascade: exposed for tests and for the viewer.
 std::vector<tiles::Rect> detect_faces(const tiles::Raster& image, const std::string& cascade);
+
+// options.faces when set, else detect_faces(image, options.face_cascade).
+std::vector<tiles::Rect> faces_of(const tiles::Raster& image, const SignificanceOptions& options);
 
 // Sets each face box (map pixels, as detect_faces finds them in the image the map was made
 // from), enlarged by a fifth on each side, fully significant: every saliency kind gets it.
