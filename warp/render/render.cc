@@ -272,11 +272,11 @@ void map_triangles(const Mesh& src, const std::vector<Point>& scr, const std::ve
     const double ax0 = b.y - c.y, ay0 = c.x - b.x, a00 = b.x * c.y - b.y * c.x;
     const double ax1 = c.y - a.y, ay1 = a.x - c.x, a01 = a.y * (c.x - a.x) - a.x * (c.y - a.y);
     // Patch coordinates: u·scale − 0.5 − x0 with u affine in p.
-    const double ku = patch.scale / area, kv = patch.scale / area;
-    const double ux = ku * (ax0 * (sa.x - sc.x) + ax1 * (sb.x - sc.x)), uy = ku * (ay0 * (sa.x - sc.x) + ay1 * (sb.x - sc.x));
-    const double u0 = ku * (a00 * (sa.x - sc.x) + a01 * (sb.x - sc.x) + area * sc.x) - 0.5 - double(patch.x0);
-    const double vx = kv * (ax0 * (sa.y - sc.y) + ax1 * (sb.y - sc.y)), vy = kv * (ay0 * (sa.y - sc.y) + ay1 * (sb.y - sc.y));
-    const double v0 = kv * (a00 * (sa.y - sc.y) + a01 * (sb.y - sc.y) + area * sc.y) - 0.5 - double(patch.y0);
+    const double k_patch = patch.scale / area;
+    const double ux = k_patch * (ax0 * (sa.x - sc.x) + ax1 * (sb.x - sc.x)), uy = k_patch * (ay0 * (sa.x - sc.x) + ay1 * (sb.x - sc.x));
+    const double u0 = k_patch * (a00 * (sa.x - sc.x) + a01 * (sb.x - sc.x) + area * sc.x) - 0.5 - double(patch.x0);
+    const double vx = k_patch * (ax0 * (sa.y - sc.y) + ax1 * (sb.y - sc.y)), vy = k_patch * (ay0 * (sa.y - sc.y) + ay1 * (sb.y - sc.y));
+    const double v0 = k_patch * (a00 * (sa.y - sc.y) + a01 * (sb.y - sc.y) + area * sc.y) - 0.5 - double(patch.y0);
     // Per edge i, e_i·sign = k_i·px + sign·offset_i(py) with k_i = sign·slope_i; its reciprocal
     // is taken once per triangle, not per row.
     const std::array<double, 3> k = {sign * ax0, sign * ax1, -sign * (ax0 + ax1)};

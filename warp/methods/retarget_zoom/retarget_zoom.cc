@@ -76,9 +76,7 @@ View RetargetZoom::view(const ViewRequest& r) {
 tiles::Raster RetargetZoom::render(const ViewRequest& r, const tiles::ImageEntry& image, tiles::PyramidReader& reader) {
   const Warped w = warped_view(r);
   const ZoomPlacement place = zoom_placement(w.geometry.target_width, w.geometry.target_height, r, w.centre);
-  std::vector<Point> screen;
-  screen.reserve(w.positions->size());
-  for (const Point& q : *w.positions) screen.push_back(place.on_screen(q));
+  const std::vector<Point> screen = place.on_screen(*w.positions);
   const std::vector<int> visible = visible_triangles(mesh(), screen, r.screen_width, r.screen_height);
   return render_mesh(mesh(), screen, visible, r.screen_width, r.screen_height, image, reader, r.stop);
 }
