@@ -98,6 +98,13 @@ ZoomPlacement zoom_placement(double tw, double th, const ViewRequest& r, const P
   return out;
 }
 
+std::vector<Point> ZoomPlacement::on_screen(const std::vector<Point>& warped) const {
+  std::vector<Point> out;
+  out.reserve(warped.size());
+  for (const Point& q : warped) out.push_back(on_screen(q));
+  return out;
+}
+
 View uniform_zoom(const Mesh& source, const std::vector<Point>& warped, double tw, double th, const ViewRequest& r,
                   const Point& centre_warped) {
   View out;
@@ -108,8 +115,7 @@ View uniform_zoom(const Mesh& source, const std::vector<Point>& warped, double t
   out.view_x = -place.ox / scale, out.view_y = -place.oy / scale;
   out.source = source;
   out.warped = warped;
-  out.screen.reserve(warped.size());
-  for (const Point& p : warped) out.screen.push_back(place.on_screen(p));
+  out.screen = place.on_screen(warped);
   out.visible = visible_triangles(source, out.screen, sw, sh);
   return out;
 }

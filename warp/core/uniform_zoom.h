@@ -46,6 +46,7 @@ struct ZoomPlacement {
   double scale = 1, ox = 0, oy = 0;
   bool centre_clamped = false;
   Point on_screen(const Point& q) const { return {q.x * scale + ox, q.y * scale + oy}; }
+  std::vector<Point> on_screen(const std::vector<Point>& warped) const;
 };
 ZoomPlacement zoom_placement(double tw, double th, const ViewRequest& r, const Point& centre_warped);
 

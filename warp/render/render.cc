@@ -304,11 +304,11 @@ void map_triangles(const Mesh& src, const std::vector<Point>& scr, const std::ve
     const double ax0 = b.y - c.y, ay0 = c.x - b.x, a00 = b.x * c.y - b.y * c.x;
     const double ax1 = c.y - a.y, ay1 = a.x - c.x, a01 = a.y * (c.x - a.x) - a.x * (c.y - a.y);
     // Grid coordinates: u·scale − centre − x0 with u affine in p.
-    const double ku = grid.scale / area, kv = grid.scale / area;
-    const double ux = ku * (ax0 * (sa.x - sc.x) + ax1 * (sb.x - sc.x)), uy = ku * (ay0 * (sa.x - sc.x) + ay1 * (sb.x - sc.x));
-    const double u0 = ku * (a00 * (sa.x - sc.x) + a01 * (sb.x - sc.x) + area * sc.x) - grid.centre - grid.x0;
-    const double vx = kv * (ax0 * (sa.y - sc.y) + ax1 * (sb.y - sc.y)), vy = kv * (ay0 * (sa.y - sc.y) + ay1 * (sb.y - sc.y));
-    const double v0 = kv * (a00 * (sa.y - sc.y) + a01 * (sb.y - sc.y) + area * sc.y) - grid.centre - grid.y0;
+    const double k_grid = grid.scale / area;
+    const double ux = k_grid * (ax0 * (sa.x - sc.x) + ax1 * (sb.x - sc.x)), uy = k_grid * (ay0 * (sa.x - sc.x) + ay1 * (sb.x - sc.x));
+    const double u0 = k_grid * (a00 * (sa.x - sc.x) + a01 * (sb.x - sc.x) + area * sc.x) - grid.centre - grid.x0;
+    const double vx = k_grid * (ax0 * (sa.y - sc.y) + ax1 * (sb.y - sc.y)), vy = k_grid * (ay0 * (sa.y - sc.y) + ay1 * (sb.y - sc.y));
+    const double v0 = k_grid * (a00 * (sa.y - sc.y) + a01 * (sb.y - sc.y) + area * sc.y) - grid.centre - grid.y0;
     // Per edge i, e_i·sign = k_i·px + sign·offset_i(py) with k_i = sign·slope_i; its reciprocal
     // is taken once per triangle, not per row.
     const std::array<double, 3> k = {sign * ax0, sign * ax1, -sign * (ax0 + ax1)};

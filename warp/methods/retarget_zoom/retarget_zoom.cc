@@ -89,9 +89,7 @@ tiles::Raster RetargetZoom::render(const ViewRequest& r, const tiles::ImageEntry
     if (map_serves(map, place.scale))
       return render_through_map(map, place, r.screen_width, r.screen_height, image, reader, r.stop);
   }
-  std::vector<Point> screen;
-  screen.reserve(w.warp->positions().size());
-  for (const Point& q : w.warp->positions()) screen.push_back(place.on_screen(q));
+  const std::vector<Point> screen = place.on_screen(w.warp->positions());
   const std::vector<int> visible = visible_triangles(mesh(), screen, r.screen_width, r.screen_height);
   return render_mesh(mesh(), screen, visible, r.screen_width, r.screen_height, image, reader, r.stop);
 }
@@ -101,7 +99,8 @@ std::size_t RetargetZoom::memory_bytes() {
   // The factor is not exposed; a Cholesky factor of this planar Laplacian under AMD holds about
   // 30 nonzeros per vertex and axis (index + value).
   const std::size_t factor = m.vertices.size() * 2 * 30 * (sizeof(double) + sizeof(int));
-  return m.vertices.capacity() * sizeof(Point) + m.triangles.capacity() * sizeof(Triangle) + factor + cache_.bytes();
+  return m.vertices.capacity() * sizeof(Point) + m.triangles.capacity() * sizeof(Triangle) + factor + locator_.memory_bytes() +
+         cache_.bytes();
 }
 
 const RetargetingMethod& retarget_zoom_method() {
