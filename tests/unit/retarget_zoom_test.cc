@@ -6,14 +6,17 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <memory>
 
 #include "tests/support/images.h"
 #include "tests/support/server_process.h"
 #include "tiles/ingest.h"
 #include "tiles/pyramid_reader.h"
 #include "warp/core/stop_token.h"
+#include "warp/core/triangle_locator.h"
 #include "warp/meshing/coarse_mesh.h"
 #include "warp/methods/retarget_zoom/retarget_zoom.h"
+#include "warp/render/inverse_map.h"
 #include "warp/render/render.h"
 
 namespace zoomwarp {
@@ -170,32 +173,123 @@ TEST(RetargetZoom, RefusesBadRequestsAndStops) {
   EXPECT_NO_THROW(rz.view(r)) << "a stopped view leaves the engine usable";
 }
 
-// /viewport draws straight from the kept mesh and warp (RetargetZoom::render) rather than from a
-// View: it must show exactly the picture of the view /mesh describes, zoomed out (every triangle,
-// each a few screen pixels), zoomed in with the centre clamped at a corner, and portrait.
-TEST(RetargetZoom, ItsViewportIsItsViewRendered) {
+// A store with one sample ingested, and its RetargetZoom: what the /viewport tests draw from.
+struct Sample {
   testing::TempDir dir;
-  tiles::Store store(dir.path() + "/store");
-  tiles::ingest_image(store, testing::samples_dir() + "/boats_lake_sunset.jpg", "boats", {});
-  const auto entry = store.find("boats");
-  ASSERT_TRUE(entry);
-  tiles::PyramidReader reader(64 << 20);
-  warp::RetargetZoom rz(boats(), boats().significance);
+  tiles::Store store{dir.path() + "/store"};
+  std::shared_ptr<const tiles::ImageEntry> entry;
+  tiles::PyramidReader reader{64 << 20};
+  warp::RetargetZoom rz;
+
+  Sample(const std::string& file, const warp::ImageModel& model) : rz(model, model.significance) {
+    tiles::ingest_image(store, testing::samples_dir() + "/" + file, "sample", {});
+    entry = store.find("sample");
+  }
+};
+
+// Whether view v is beyond the inverse map's reach — a screen pixel smaller than its cells — so
+// RetargetZoom::render draws its triangles.
+bool zoomed_in_past_the_map(const warp::View& v) {
+  const warp::InverseMap grid =
+      warp::inverse_map_grid(v.geometry.target_width, v.geometry.target_height, warp::RetargetZoom::kMapNodes);
+  return !warp::grid_serves(grid, v.geometry.screen_scale);
+}
+
+// /viewport zoomed in (few, large triangles) draws straight from the kept mesh and warp
+// (RetargetZoom::render) rather than from a View: it must show exactly the picture of the view
+// /mesh describes — zoomed in half way, with the centre clamped at a corner, 1:1, and portrait.
+TEST(RetargetZoom, ItsZoomedInViewportIsItsViewRendered) {
+  Sample boats_sample("boats_lake_sunset.jpg", boats());
+  ASSERT_TRUE(boats_sample.entry);
   struct Case {
     double zoom, cx, cy;
     int sw, sh;
   };
-  for (const Case c : {Case{0, 1280, 800, 480, 360}, Case{0.3, 700, 400, 480, 360}, Case{0.7, 2500, 1550, 480, 360},
-                       Case{1, 10, 10, 480, 360}, Case{0.2, 1900, 900, 360, 640}}) {
+  for (const Case c : {Case{0.5, 700, 400, 480, 360}, Case{0.7, 2500, 1550, 480, 360}, Case{1, 10, 10, 480, 360},
+                       Case{0.6, 1900, 900, 360, 640}}) {
     SCOPED_TRACE(::testing::Message() << "zoom " << c.zoom << " screen " << c.sw << "×" << c.sh);
     warp::ViewRequest r;
     r.zoom = c.zoom, r.cx = c.cx, r.cy = c.cy, r.screen_width = c.sw, r.screen_height = c.sh;
-    const tiles::Raster viewport = rz.render(r, *entry, reader);
-    const tiles::Raster of_view = warp::render_view(rz.view(r), c.sw, c.sh, *entry, reader);
+    const warp::View v = boats_sample.rz.view(r);
+    ASSERT_TRUE(zoomed_in_past_the_map(v));
+    const tiles::Raster viewport = boats_sample.rz.render(r, *boats_sample.entry, boats_sample.reader);
+    const tiles::Raster of_view = warp::render_view(v, c.sw, c.sh, *boats_sample.entry, boats_sample.reader);
     ASSERT_EQ(viewport.width, c.sw);
     ASSERT_EQ(viewport.height, c.sh);
     EXPECT_TRUE(viewport.pixels == of_view.pixels);
   }
+}
+
+// The largest distance, in screen pixels, between a screen pixel centre p and where the map's
+// source position for p lands on screen through the triangle that holds p (its exact barycentric
+// source position lands on p itself), over the pixels the map path draws.
+double worst_screen_error(const warp::View& v, const warp::InverseMap& map, int sw, int sh) {
+  const double s = v.geometry.screen_scale;
+  const warp::ZoomPlacement place{s, -v.view_x * s, -v.view_y * s};
+  const warp::ScreenPositions at = warp::screen_positions(map, place, sw, sh);
+  const warp::Mesh on_screen{v.screen, v.source.triangles};
+  const warp::TriangleLocator locator(on_screen);
+  double worst = 0;
+  for (int j = 0; j < at.height; ++j)
+    for (int i = 0; i < at.width; ++i) {
+      const Point p{at.x0 + i + 0.5, at.y0 + j + 0.5};
+      const warp::MeshPoint exact = locator.find(p);
+      if (exact.triangle < 0) return 1e9;
+      const warp::Triangle& t = v.source.triangles[exact.triangle];
+      const std::size_t n = 2 * (std::size_t(j) * at.width + i);
+      const Point mapped{at.uv[n], at.uv[n + 1]};
+      const auto& src = v.source.vertices;
+      const Point back = warp::combine(warp::barycentric(mapped, src[t[0]], src[t[1]], src[t[2]]), v.screen[t[0]],
+                                       v.screen[t[1]], v.screen[t[2]]);
+      worst = std::max(worst, std::hypot(back.x - p.x, back.y - p.y));
+    }
+  return worst;
+}
+
+// /viewport zoomed out (a screen pixel spans a node of the warp's inverse map) is drawn through
+// the map: within 40 dB of the exact picture (render_view of its /mesh view) and its source
+// positions within a quarter of a screen pixel of the exact piecewise-linear inverse, from zoom 0
+// to the switch, landscape and portrait, centred and at the corners, on two images.
+TEST(RetargetZoom, ItsZoomedOutViewportIsItsViewRenderedWithinAQuarterPixel) {
+  int views = 0;
+  for (const char* file : {"boats_lake_sunset.jpg", "interior_wine_djembe_tall.jpg"}) {
+    const warp::ImageModel model = sample_model(file);
+    Sample sample(file, model);
+    ASSERT_TRUE(sample.entry);
+    for (auto [sw, sh] : {std::pair{480, 360}, std::pair{360, 640}}) {
+      warp::ViewRequest r;
+      r.screen_width = sw, r.screen_height = sh;
+      const warp::View zero = sample.rz.view(r);
+      const double tw = zero.geometry.target_width, th = zero.geometry.target_height;
+      const warp::InverseMap map = warp::build_inverse_map(zero.source, zero.warped, tw, th, warp::RetargetZoom::kMapNodes);
+      // The zoom of the switch on the geometric curve s(z) = s0·(1/s0)^z: the largest scale the map
+      // serves, where a screen pixel spans a node or its error reaches kMaxMapError screen px.
+      const double switch_scale = std::min({map.per_x, map.per_y, warp::kMaxMapError / map.max_error});
+      const double s0 = zero.geometry.screen_scale, switch_zoom = std::log(switch_scale / s0) / std::log(1 / s0);
+      std::printf("[ figures ] %s %d×%d: map %d×%d nodes, error %.2f warped px, switch at zoom %.3f\n", file, sw, sh,
+                  map.cols, map.rows, map.max_error, switch_zoom);
+      if (switch_zoom < 0) continue;  // a warp too strong for the map at this size: triangles at every zoom
+      for (double f : {0.0, 0.33, 0.66, 0.99})
+        for (Point c : {Point{model.width / 2, model.height / 2}, Point{0, 0}, Point{model.width, model.height}}) {
+          if (f == 0 && c.x != 0) continue;  // zoom 0 shows the whole image wherever the centre is
+          r.zoom = f * switch_zoom, r.cx = c.x, r.cy = c.y;
+          SCOPED_TRACE(::testing::Message() << file << " " << sw << "×" << sh << " zoom " << r.zoom << " centre " << c.x << "," << c.y);
+          const warp::View v = sample.rz.view(r);
+          ASSERT_TRUE(warp::map_serves(map, v.geometry.screen_scale));
+          const tiles::Raster viewport = sample.rz.render(r, *sample.entry, sample.reader);
+          const tiles::Raster exact = warp::render_view(v, sw, sh, *sample.entry, sample.reader);
+          ASSERT_EQ(viewport.width, sw);
+          ASSERT_EQ(viewport.height, sh);
+          const double psnr = testing::psnr(viewport, exact), error = worst_screen_error(v, map, sw, sh);
+          EXPECT_GE(psnr, 40);
+          EXPECT_LE(error, 0.25);
+          std::printf("[ figures ] %s %d×%d zoom %.3f: PSNR %.1f dB, worst position error %.3f screen px\n", file, sw, sh,
+                      r.zoom, psnr, error);
+          ++views;
+        }
+    }
+  }
+  EXPECT_GE(views, 20);
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 // must outlive it.
 #pragma once
 
+#include <cstddef>
 #include <vector>
 
 #include "warp/core/mesh.h"
@@ -27,6 +28,9 @@ class TriangleLocator {
 
   // locate_in(mesh, p).
   MeshPoint find(const Point& p) const;
+
+  // Bytes held by the grid (not the mesh it refers to).
+  std::size_t memory_bytes() const { return (start_.capacity() + triangles_.capacity()) * sizeof(int); }
 
  private:
   int cell_x(double x) const;

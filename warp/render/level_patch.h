@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <utility>
 
 #include "tiles/pyramid_reader.h"
 #include "tiles/raster.h"
@@ -17,6 +18,22 @@ namespace zoomwarp::warp {
 // has 2^-k of the full resolution; the coarsest one with 2^-k ≥ magnification, so nothing is
 // minified by more than 2× (no aliasing shimmer).
 int level_for(double magnification, int levels);
+
+// Along one axis of a screen showing an image at uniform `scale` from image position `origin` at
+// the screen's edge: the first and last screen pixel whose centre lies in the image,
+// (x + 0.5)/scale + origin ∈ [0, size], with a hair of tolerance as the triangles' edges have
+// (first > last if none).
+std::pair<int, int> covered_pixels(double origin, double size, double scale, int screen_size);
+
+// Whether a patch of `level` covering source_width × source_height image pixels (with read_patch's
+// spare pixels) is within the bounds a screen of sw × sh pixels may read: cv::remap reads
+// positions in 16-bit fixed point, so a side beyond 32 767 px would be clamped to the wrong
+// pixels (the bound is 16 384), and the patch's memory should follow the screen's (at most
+// 4× its pixels + 1 Mpx). Each triangle's own patch is at most ~4× its screen area (its level
+// minifies by less than 2× per axis), but a patch serving many triangles can be far larger when
+// they lie far apart in the source (a strongly warped view); such a patch is read from a coarser
+// level instead (a little softer, never wrong and never unbounded).
+bool patch_fits(const tiles::Manifest& m, int level, double source_width, double source_height, int sw, int sh);
 
 // Pixels of one pyramid level around a source rectangle, for bilinear sampling.
 struct LevelPatch {

@@ -35,6 +35,19 @@ void LevelPatch::sample(double u, double v, std::uint8_t* out) const {
   }
 }
 
+std::pair<int, int> covered_pixels(double origin, double size, double scale, int screen_size) {
+  const double lo = (0 - origin) * scale - 0.5 - 1e-9, hi = (size - origin) * scale - 0.5 + 1e-9;
+  return {std::max(0, int(std::ceil(lo))), std::min(screen_size - 1, int(std::floor(hi)))};
+}
+
+bool patch_fits(const tiles::Manifest& m, int level, double source_width, double source_height, int sw, int sh) {
+  constexpr double kMaxPatchSide = 16384;
+  const double max_pixels = 4.0 * sw * sh + (1 << 20);
+  const double scale = double(m.level_width(level)) / m.width;
+  const double side_x = source_width * scale + 3, side_y = source_height * scale + 3;
+  return side_x <= kMaxPatchSide && side_y <= kMaxPatchSide && side_x * side_y <= max_pixels;
+}
+
 LevelPatch read_patch(const tiles::ImageEntry& image, tiles::PyramidReader& reader, int level, double u0, double v0,
                       double u1, double v1) {
   const tiles::Manifest& m = image.manifest;
@@ -106,24 +119,12 @@ struct Group {
   }
 };
 
-// Bounds on one level patch. Each triangle's own patch is at most ~4× its screen area (its level
-// minifies by less than 2× per axis), but a group's bounding box can be far larger when its
-// triangles lie far apart in the source (a strongly warped view). cv::remap reads positions in
-// 16-bit fixed point, so a side beyond 32 767 px would be clamped to the wrong pixels; and the
-// patch's memory should follow the screen's. A group over either bound is drawn from the next
-// coarser level instead (a little softer, never wrong and never unbounded).
-constexpr long long kMaxPatchSide = 16384;
-long long max_patch_pixels(int sw, int sh) { return 4LL * sw * sh + (1LL << 20); }
-
-// `groups` is indexed by level; an empty group draws nothing.
+// `groups` is indexed by level; an empty group draws nothing. A group whose patch does not fit
+// (patch_fits) is drawn from the next coarser level.
 void coarsen_oversized_groups(std::vector<Group>& groups, const tiles::Manifest& m, int sw, int sh) {
   for (int level = 0; level + 1 < m.levels; ++level) {
     Group& g = groups[level];
-    if (g.triangles.empty()) continue;
-    const double scale = double(m.level_width(level)) / m.width;
-    const double side_x = (g.u1 - g.u0) * scale + 3, side_y = (g.v1 - g.v0) * scale + 3;
-    const bool oversized = side_x > kMaxPatchSide || side_y > kMaxPatchSide || side_x * side_y > max_patch_pixels(sw, sh);
-    if (!oversized) continue;
+    if (g.triangles.empty() || patch_fits(m, level, g.u1 - g.u0, g.v1 - g.v0, sw, sh)) continue;
     groups[level + 1].merge(g);  // checked in turn on the next pass of the loop
     g = Group{};
   }
@@ -138,14 +139,8 @@ void render_uniform(const View& view, int sw, int sh, const tiles::ImageEntry& i
   const tiles::Manifest& m = image.manifest;
   const double s = view.geometry.screen_scale;
   if (!(s > 0)) return;
-  // Screen columns (rows) whose centres lie in the image: (x + 0.5)/s + view_x ∈ [0, W], with a
-  // hair of tolerance as the triangles' edges have.
-  const auto covered = [s](double origin, double size, int screen_size) {
-    const double lo = (0 - origin) * s - 0.5 - 1e-9, hi = (size - origin) * s - 0.5 + 1e-9;
-    return std::pair{std::max(0, int(std::ceil(lo))), std::min(screen_size - 1, int(std::floor(hi)))};
-  };
-  const auto [x0, x1] = covered(view.view_x, m.width, sw);
-  const auto [y0, y1] = covered(view.view_y, m.height, sh);
+  const auto [x0, x1] = covered_pixels(view.view_x, m.width, s, sw);
+  const auto [y0, y1] = covered_pixels(view.view_y, m.height, s, sh);
   if (x1 < x0 || y1 < y0) return;
   const int level = level_for(s, m.levels);
   const LevelPatch patch = read_patch(image, reader, level, view.view_x + x0 / s, view.view_y + y0 / s,
@@ -188,6 +183,13 @@ cv::Rect group_pixels(const Group& g, int sw, int sh) {
   if (bx1 < bx0 || by1 < by0) return {};
   return {bx0, by0, bx1 - bx0 + 1, by1 - by0 + 1};
 }
+
+// Where map_triangles writes a source position (u, v): (u·scale − centre − x0, v·scale − centre − y0)
+// — a level patch's pixel grid ({patch.scale, 0.5, patch.x0, patch.y0}), or the source position
+// itself ({1, 0, 0, 0}).
+struct OutputGrid {
+  double scale = 1, centre = 0, x0 = 0, y0 = 0;
+};
 
 // A patch position in cv::remap's fixed-point form: whole pixels (x, y) and the fraction's index
 // into its bilinear table, 1/INTER_TAB_SIZE px per step — computed as remap computes it from
@@ -237,17 +239,47 @@ void write_span(int xs, int count, double u0, double ux, double u_row, double v0
   }
 }
 
-// Per covered pixel of `box` (screen pixels), its position in `patch` in remap's fixed-point form:
-// triangle by triangle, one affine map each. Pixels no triangle covers keep what they had (zero)
-// and covered = 0.
+// map_triangles' writers, one per kind of output: span(first, xs, count, u0, ux, u_row, v0, vx,
+// v_row) writes pixels xs … xs + count − 1 of one triangle row — entries first … first + count − 1
+// of the box's row-major arrays — whose grid position at pixel centre px is u = (u0 + ux·px) +
+// u_row, v likewise, and marks them covered.
+//
+// cv::remap's fixed-point maps of a level patch (write_span): what render_mesh remaps.
+struct FixedPointMaps {
+  std::int16_t* whole;
+  std::uint16_t* fraction;
+  std::uint8_t* covered;
+  void span(std::size_t first, int xs, int count, double u0, double ux, double u_row, double v0, double vx,
+            double v_row) const {
+    write_span(xs, count, u0, ux, u_row, v0, vx, v_row, whole + 2 * first, fraction + first, covered + first);
+  }
+};
+
+// Float positions, as they are (rasterise_inverse): the same doubles rounded once to float.
+struct FloatPositions {
+  float* u;
+  float* v;
+  std::uint8_t* covered;
+  void span(std::size_t first, int xs, int count, double u0, double ux, double u_row, double v0, double vx,
+            double v_row) const {
+    for (int k = 0; k < count; ++k) {
+      const double px = xs + k + 0.5;
+      u[first + k] = float((u0 + ux * px) + u_row);
+      v[first + k] = float((v0 + vx * px) + v_row);
+      covered[first + k] = 1;
+    }
+  }
+};
+
+// Per covered pixel of `box` (screen pixels), its source position on `grid`, handed to `out` (one
+// of the writers above) span by span: triangle by triangle, one affine map each. Pixels no
+// triangle covers are not written.
+template <typename Writer>
 void map_triangles(const Mesh& src, const std::vector<Point>& scr, const std::vector<int>& triangles,
-                   const LevelPatch& patch, const cv::Rect& box, cv::Mat& whole, cv::Mat& fraction, cv::Mat& covered,
+                   const OutputGrid& grid, const cv::Rect& box, const Writer& out,
                    const StopToken* stop) {
   const int bx0 = box.x, by0 = box.y, bx1 = box.x + box.width - 1, by1 = box.y + box.height - 1;
-  // Row y − by0 of each map starts at its first element + (y − by0)·width (continuous Mats).
-  std::int16_t* const whole0 = whole.ptr<std::int16_t>(0);
-  std::uint16_t* const fraction0 = fraction.ptr<std::uint16_t>(0);
-  std::uint8_t* const covered0 = covered.ptr<std::uint8_t>(0);
+  // Row y − by0 of the outputs starts at entry (y − by0)·width.
   const std::size_t step = std::size_t(box.width);
   for (std::size_t i = 0; i < triangles.size(); ++i) {
     // The token reads the clock: once per triangle was ~0.7 ms of a 30 000-triangle view.
@@ -271,12 +303,12 @@ void map_triangles(const Mesh& src, const std::vector<Point>& scr, const std::ve
     const Point &sa = src.vertices[t[0]], &sb = src.vertices[t[1]], &sc = src.vertices[t[2]];
     const double ax0 = b.y - c.y, ay0 = c.x - b.x, a00 = b.x * c.y - b.y * c.x;
     const double ax1 = c.y - a.y, ay1 = a.x - c.x, a01 = a.y * (c.x - a.x) - a.x * (c.y - a.y);
-    // Patch coordinates: u·scale − 0.5 − x0 with u affine in p.
-    const double k_patch = patch.scale / area;
-    const double ux = k_patch * (ax0 * (sa.x - sc.x) + ax1 * (sb.x - sc.x)), uy = k_patch * (ay0 * (sa.x - sc.x) + ay1 * (sb.x - sc.x));
-    const double u0 = k_patch * (a00 * (sa.x - sc.x) + a01 * (sb.x - sc.x) + area * sc.x) - 0.5 - double(patch.x0);
-    const double vx = k_patch * (ax0 * (sa.y - sc.y) + ax1 * (sb.y - sc.y)), vy = k_patch * (ay0 * (sa.y - sc.y) + ay1 * (sb.y - sc.y));
-    const double v0 = k_patch * (a00 * (sa.y - sc.y) + a01 * (sb.y - sc.y) + area * sc.y) - 0.5 - double(patch.y0);
+    // Grid coordinates: u·scale − centre − x0 with u affine in p.
+    const double k_grid = grid.scale / area;
+    const double ux = k_grid * (ax0 * (sa.x - sc.x) + ax1 * (sb.x - sc.x)), uy = k_grid * (ay0 * (sa.x - sc.x) + ay1 * (sb.x - sc.x));
+    const double u0 = k_grid * (a00 * (sa.x - sc.x) + a01 * (sb.x - sc.x) + area * sc.x) - grid.centre - grid.x0;
+    const double vx = k_grid * (ax0 * (sa.y - sc.y) + ax1 * (sb.y - sc.y)), vy = k_grid * (ay0 * (sa.y - sc.y) + ay1 * (sb.y - sc.y));
+    const double v0 = k_grid * (a00 * (sa.y - sc.y) + a01 * (sb.y - sc.y) + area * sc.y) - grid.centre - grid.y0;
     // Per edge i, e_i·sign = k_i·px + sign·offset_i(py) with k_i = sign·slope_i; its reciprocal
     // is taken once per triangle, not per row.
     const std::array<double, 3> k = {sign * ax0, sign * ax1, -sign * (ax0 + ax1)};
@@ -302,7 +334,7 @@ void map_triangles(const Mesh& src, const std::vector<Point>& scr, const std::ve
       const int xs = ceil_int(lo - 0.5), xe = floor_int(hi - 0.5);
       if (xe < xs) continue;  // no pixel centre between lo and hi
       const std::size_t first = row + std::size_t(xs - bx0);
-      write_span(xs, xe - xs + 1, u0, ux, uy * py, v0, vx, vy * py, whole0 + 2 * first, fraction0 + first, covered0 + first);
+      out.span(first, xs, xe - xs + 1, u0, ux, uy * py, v0, vx, vy * py);
     }
   }
 }
@@ -342,7 +374,10 @@ tiles::Raster render_mesh(const Mesh& src, const std::vector<Point>& scr, const 
     // Zero where nothing is drawn: an uncovered pixel samples patch pixel (0, 0), the mask keeps it out.
     cv::Mat whole(box.size(), CV_16SC2, cv::Scalar::all(0)), fraction(box.size(), CV_16UC1, cv::Scalar(0));
     cv::Mat covered(box.size(), CV_8U, cv::Scalar(0));
-    map_triangles(src, scr, g.triangles, patch, box, whole, fraction, covered, stop);
+    const OutputGrid patch_grid{patch.scale, 0.5, double(patch.x0), double(patch.y0)};
+    map_triangles(src, scr, g.triangles, patch_grid, box,
+                  FixedPointMaps{whole.ptr<std::int16_t>(0), fraction.ptr<std::uint16_t>(0), covered.ptr<std::uint8_t>(0)},
+                  stop);
     const tiles::Raster& px = patch.pixels;
     const cv::Mat level_pixels(px.height, px.width, CV_8UC(px.channels), const_cast<std::uint8_t*>(px.pixels.data()),
                                px.row_bytes());
@@ -356,6 +391,18 @@ tiles::Raster render_mesh(const Mesh& src, const std::vector<Point>& scr, const 
     resampled.copyTo(target, covered);
   }
   return out;
+}
+
+void rasterise_inverse(const Mesh& src, const std::vector<Point>& grid, int cols, int rows, float* u, float* v,
+                       std::uint8_t* covered, const StopToken* stop) {
+  if (cols <= 0 || rows <= 0) return;
+  std::vector<int> triangles;
+  triangles.reserve(src.triangles.size());
+  for (int f = 0; f < int(src.triangles.size()); ++f) {
+    const Triangle& t = src.triangles[f];
+    if (signed_area2(grid[t[0]], grid[t[1]], grid[t[2]]) != 0) triangles.push_back(f);
+  }
+  map_triangles(src, grid, triangles, OutputGrid{}, cv::Rect(0, 0, cols, rows), FloatPositions{u, v, covered}, stop);
 }
 
 }  // namespace zoomwarp::warp

@@ -16,13 +16,19 @@
 // warp is the identity, so zoom 1 is the plain crop.
 //
 // A view lists every triangle of the mesh that touches the screen: at zoom 0, all of them.
-// render() draws the same triangles as render_view(view()) straight from the mesh and the cached
-// warp (no copy of either per request), and finds the view centre's triangle with a
-// TriangleLocator built at load instead of a scan of every triangle.
+// render() takes one of two paths, by the view's scale s (screen px per warped px):
+// - zoomed out (s ≤ the inverse map's nodes per warped px: a screen pixel spans a node, each
+//   triangle only a few pixels): through the warp's cached inverse map (render/inverse_map.h),
+//   built by the first such view of a warp (kMapNodes nodes, ~4 MB) — one resampling of the map,
+//   one remap of one pyramid level, within a fraction of a screen pixel of render_view(view());
+// - zoomed in (few, large triangles): exactly render_view(view()), straight from the mesh and the
+//   cached warp (no copy of either per request).
+// The view centre's triangle is found with a TriangleLocator built at load.
 //
 // Thread safety: view(), render() and memory_bytes() may be called concurrently; the mesh and
 // factorization are read-only, the cache is under a mutex held while a missing size is solved
-// (single flight; CHOLMOD's solve on the shared factor is not reentrant).
+// (single flight; CHOLMOD's solve on the shared factor is not reentrant); a warp's inverse map is
+// built once (std::call_once) outside that mutex, by the first view that needs it.
 #pragma once
 
 #include <memory>
@@ -35,6 +41,7 @@
 #include "warp/icaz/image_model.h"
 #include "warp/icaz/shape_warp.h"
 #include "warp/methods/recent_cache.h"
+#include "warp/render/inverse_map.h"
 #include "warp/methods/retargeter.h"
 #include "warp/methods/retargeting_method.h"
 
@@ -44,6 +51,7 @@ class RetargetZoom : public Retargeter {
  public:
   static constexpr int kMaxVertices = 30000;
   static constexpr int kCachedSizes = 16;
+  static constexpr std::size_t kMapNodes = std::size_t(1) << 19;  // per cached warp: 4 MB of (u, v) floats
 
   // Builds the uniform mesh and factors its system. Throws std::invalid_argument when the
   // curator's lines cannot be meshed (as the coarsest mesh would).
@@ -58,12 +66,31 @@ class RetargetZoom : public Retargeter {
   const Mesh& mesh() const { return warp_.mesh(); }
 
  private:
-  using Positions = std::shared_ptr<const std::vector<Point>>;
+  // One target size's warp, and its inverse map, built by the first view drawn through it. The
+  // map's grid is fixed at construction, so bytes() is too (the cache's weigher).
+  class CachedWarp {
+   public:
+    CachedWarp(std::vector<Point> positions, double tw, double th);
+    const std::vector<Point>& positions() const { return positions_; }
+    // Whether a view at `scale` may be drawn through the map (grid_serves), known before it is built.
+    bool grid_serves(double scale) const { return warp::grid_serves(grid_, scale); }
+    // Thread-safe: built once; a build stopped by `stop` is left to the next caller.
+    const InverseMap& map(const Mesh& source, const StopToken* stop) const;
+    std::size_t bytes() const { return positions_.capacity() * sizeof(Point) + grid_.bytes(); }
+
+   private:
+    const std::vector<Point> positions_;
+    const double tw_, th_;
+    const InverseMap grid_;  // the map's grid, without positions
+    mutable std::once_flag built_;
+    mutable InverseMap map_;
+  };
+  using Positions = std::shared_ptr<const CachedWarp>;
 
   // A request's warp and where its view centre lands in it: what view() and render() share.
   struct Warped {
     ZoomGeometry geometry;
-    Positions positions;
+    Positions warp;
     Point centre;     // warped pixels
     WarpResult stats;  // of the solve, if this request made it (positions left empty)
   };
@@ -77,7 +104,7 @@ class RetargetZoom : public Retargeter {
   const TriangleLocator locator_{warp_.mesh()};
   std::mutex mu_;  // guards the cache and warp_'s solves
   RecentCache<std::pair<long long, long long>, Positions> cache_{  // by size (1/1000 px)
-      kCachedSizes, [](const Positions& p) { return p->capacity() * sizeof(Point); }};
+      kCachedSizes, [](const Positions& p) { return p->bytes(); }};
 };
 
 // The area bound of the uniform mesh for `model`: the largest leaf among the forest's kept nodes.
