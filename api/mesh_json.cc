@@ -8,6 +8,7 @@
 #include <iterator>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
+#include <string_view>
 
 #include "warp/core/uniform_zoom.h"
 
@@ -16,9 +17,10 @@ namespace zoomwarp::api {
 namespace {
 
 // The body is written as text straight into one string: the vertices, triangles and geomorph
-// positions — tens of thousands of numbers — by hand, with the values and number types nlohmann
-// wrote; the small parts (image, view, tiles) as before, as nlohmann trees dumped into it. A heap
-// node and a dtoa per number were most of /mesh's cost beyond the warp itself (issue 16).
+// positions — tens of thousands of numbers — and the tile references by hand, with the values and
+// number types nlohmann wrote; the small parts (image, view) as before, as nlohmann trees dumped
+// into it. A heap node and a dtoa per number were most of /mesh's cost beyond the warp itself
+// (issue 16).
 
 [[noreturn]] void not_finite() {
   // JSON has no NaN or infinity (nlohmann wrote null, which no client can draw and the OpenAPI
@@ -40,6 +42,8 @@ double milli(double v) { return finite(std::round(v * 1000) / 1000); }
 constexpr std::ptrdiff_t kMaxNumber = 32;
 
 char* write_int(char* p, long long v) { return std::to_chars(p, p + kMaxNumber, v).ptr; }
+
+char* write_text(char* p, std::string_view text) { return std::copy(text.begin(), text.end(), p); }
 
 // The shortest decimal that reads back as `v`, with ".0" on a whole number, as nlohmann writes a
 // double (so a parser that tells integers from reals sees a real, as before).
@@ -111,19 +115,36 @@ Listing list_drawn(const warp::Mesh& source, const std::vector<warp::Point>& scr
 }
 
 // The Deep Zoom tiles at the level matching the largest magnification that cover the listed
-// vertices (a few dozen: built as a tree, like the other small parts).
-nlohmann::json tiles_json(const tiles::Manifest& image, const DziLayout& dzi, const std::string& extension,
-                          const Listing& l) {
-  nlohmann::json tiles = nlohmann::json::array();
-  if (l.vertices.empty()) return tiles;
-  const int level = dzi_level_for(image, l.magnification);
-  const std::string prefix = "/dzi/" + image.id + "_files/" + std::to_string(level) + "/";
-  for (const DziTileRef& t : dzi_tiles_covering(image, dzi, level, l.u0, l.v0, l.u1, l.v1))
-    tiles.push_back({{"level", t.level},
-                     {"col", t.col},
-                     {"row", t.row},
-                     {"url", prefix + std::to_string(t.col) + "_" + std::to_string(t.row) + "." + extension}});
-  return tiles;
+// vertices: [{"col", "level", "row", "url"}, …], keys in nlohmann's (sorted) order. Written as
+// text like the rest: a few dozen objects built as a tree cost a heap node per key. No string
+// needs escaping: an image id is letters, digits, '-', '_' and '.' (tiles/image_id.h).
+void put_tiles(std::string& out, const tiles::Manifest& image, const DziLayout& dzi, const std::string& extension,
+               const Listing& l) {
+  out += '[';
+  if (!l.vertices.empty()) {
+    const int level = dzi_level_for(image, l.magnification);
+    const std::string prefix = "/dzi/" + image.id + "_files/" + std::to_string(level) + "/";
+    bool first = true;
+    for (const DziTileRef& t : dzi_tiles_covering(image, dzi, level, l.u0, l.v0, l.u1, l.v1)) {
+      char buf[4 * kMaxNumber], *p = buf;
+      if (!first) *p++ = ',';
+      first = false;
+      p = write_text(p, "{\"col\":");
+      p = write_int(p, t.col);
+      p = write_text(p, ",\"level\":");
+      p = write_int(p, t.level);
+      p = write_text(p, ",\"row\":");
+      p = write_int(p, t.row);
+      p = write_text(p, ",\"url\":\"");
+      out.append(buf, p).append(prefix);
+      p = write_int(buf, t.col);
+      *p++ = '_';
+      p = write_int(p, t.row);
+      *p++ = '.';
+      out.append(buf, p).append(extension).append("\"}");
+    }
+  }
+  out += ']';
 }
 
 void put_triangles(std::string& out, const warp::Mesh& source, const Listing& l) {
@@ -213,7 +234,7 @@ std::string mesh_json(const tiles::Manifest& image, const ViewQuery& q, const wa
   out += "\"image\":";
   out += nlohmann::json{{"id", image.id}, {"width", image.width}, {"height", image.height}, {"version", image.version}}.dump();
   out += ",\"tiles\":";
-  out += tiles_json(image, dzi, tile_extension, l).dump();
+  put_tiles(out, image, dzi, tile_extension, l);
   out += ",\"triangles\":";
   put_triangles(out, source, l);
   out += ",\"vertices\":";

@@ -1,5 +1,6 @@
 #include "api/view_query.h"
 
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <set>
@@ -143,16 +144,34 @@ ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double W
   return q;
 }
 
+namespace {
+// `v` as printf's %.17g writes it (std::to_chars with a precision is defined as that printf
+// conversion), without printf's format parsing: the key is made twice for every view request.
+void append_g17(std::string& out, double v) {
+  char buf[32];
+  out.append(buf, std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, 17).ptr);
+}
+}  // namespace
+
 std::string ViewQuery::canonical() const {
-  char buf[320];
-  std::snprintf(buf, sizeof buf, "%s|%s|%s|%s|z=%.17g|c=%.17g,%.17g|s=%dx%d", std::string(method_name()).c_str(),
-                std::string(warp::saliency_name(saliency)).c_str(), auto_lines ? "auto" : "curator",
-                view.curve == warp::ZoomCurve::kLinear ? "linear" : "geometric", view.zoom, view.cx, view.cy,
-                view.screen_width, view.screen_height);
-  std::string out = buf;
+  std::string out;
+  out.reserve(160);
+  out.append(method_name()).append("|").append(warp::saliency_name(saliency)).append("|");
+  out.append(auto_lines ? "auto" : "curator").append("|");
+  out.append(view.curve == warp::ZoomCurve::kLinear ? "linear" : "geometric").append("|z=");
+  append_g17(out, view.zoom);
+  out.append("|c=");
+  append_g17(out, view.cx);
+  out.append(",");
+  append_g17(out, view.cy);
+  out.append("|s=").append(std::to_string(view.screen_width)).append("x").append(std::to_string(view.screen_height));
   if (from) {
-    std::snprintf(buf, sizeof buf, "|from=%.17g,%.17g,%.17g", from->zoom, from->cx, from->cy);
-    out += buf;
+    out.append("|from=");
+    append_g17(out, from->zoom);
+    out.append(",");
+    append_g17(out, from->cx);
+    out.append(",");
+    append_g17(out, from->cy);
   }
   out += "|" + std::string(tiles::extension(format)) + "|q=" + std::to_string(quality);
   return out;
