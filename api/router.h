@@ -18,7 +18,7 @@
 #include "api/deepzoom.h"
 #include "api/http_types.h"
 #include "api/iiif.h"
-#include "api/single_flight.h"
+#include "tiles/single_flight.h"
 #include "api/url_signing.h"
 #include "api/view_query.h"
 #include "api/warp_engines.h"
@@ -152,7 +152,7 @@ class Router {
   RouterConfig config_;
   tiles::ByteLruCache<Response> cache_;
   WarpEngines engines_;
-  SingleFlight<std::shared_ptr<const Response>> in_flight_;  // keeps nothing: cache_ keeps the answers
+  tiles::SingleFlight<std::shared_ptr<const Response>> in_flight_;  // keeps nothing: cache_ keeps the answers
 };
 
 }  // namespace zoomwarp::api

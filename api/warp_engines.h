@@ -25,7 +25,7 @@
 #include <string_view>
 #include <variant>
 
-#include "api/single_flight.h"
+#include "tiles/single_flight.h"
 #include "tiles/pyramid_reader.h"
 #include "tiles/store.h"
 #include "warp/icaz/icaz.h"
@@ -67,7 +67,7 @@ class WarpEngines {
   EventLog log_;
   // The engines by key, loaded on first use, weighed in bytes after every use (they grow as views
   // visit them: lazy forest nodes, caches per target size).
-  SingleFlight<Engine> engines_;
+  tiles::SingleFlight<Engine> engines_;
 };
 
 }  // namespace zoomwarp::api

@@ -2,6 +2,8 @@
 // fine as ICAZ's finest level [ICAZ §6.1].
 #include <gtest/gtest.h>
 
+#include <opencv2/imgproc.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -13,10 +15,9 @@
 #include "tiles/ingest.h"
 #include "tiles/pyramid_reader.h"
 #include "warp/core/stop_token.h"
-#include "warp/core/triangle_locator.h"
 #include "warp/meshing/coarse_mesh.h"
 #include "warp/methods/retarget_zoom/retarget_zoom.h"
-#include "warp/render/inverse_map.h"
+#include "warp/render/rendered_tiles.h"
 #include "warp/render/render.h"
 
 namespace zoomwarp {
@@ -187,109 +188,137 @@ struct Sample {
   }
 };
 
-// Whether view v is beyond the inverse map's reach — a screen pixel smaller than its cells — so
-// RetargetZoom::render draws its triangles.
-bool zoomed_in_past_the_map(const warp::View& v) {
-  const warp::InverseMap grid =
-      warp::inverse_map_grid(v.geometry.target_width, v.geometry.target_height, warp::RetargetZoom::kMapNodes);
-  return !warp::grid_serves(grid, v.geometry.screen_scale);
-}
-
-// /viewport zoomed in (few, large triangles) draws straight from the kept mesh and warp
-// (RetargetZoom::render) rather than from a View: it must show exactly the picture of the view
-// /mesh describes — zoomed in half way, with the centre clamped at a corner, 1:1, and portrait.
-TEST(RetargetZoom, ItsZoomedInViewportIsItsViewRendered) {
-  Sample boats_sample("boats_lake_sunset.jpg", boats());
-  ASSERT_TRUE(boats_sample.entry);
-  struct Case {
-    double zoom, cx, cy;
-    int sw, sh;
+// The shift (screen px) that best aligns picture b with picture a, by phase correlation of their
+// grey levels under a Hann window (cv::phaseCorrelate: sub-pixel, from the correlation peak).
+cv::Point2d shift_between(const tiles::Raster& a, const tiles::Raster& b) {
+  const auto grey = [](const tiles::Raster& r) {
+    const cv::Mat in(r.height, r.width, CV_8UC(r.channels), const_cast<std::uint8_t*>(r.pixels.data()), r.row_bytes());
+    cv::Mat g, f;
+    cv::cvtColor(in, g, r.channels == 4 ? cv::COLOR_RGBA2GRAY : cv::COLOR_RGB2GRAY);
+    g.convertTo(f, CV_64F);
+    return f;
   };
-  for (const Case c : {Case{0.5, 700, 400, 480, 360}, Case{0.7, 2500, 1550, 480, 360}, Case{1, 10, 10, 480, 360},
-                       Case{0.6, 1900, 900, 360, 640}}) {
-    SCOPED_TRACE(::testing::Message() << "zoom " << c.zoom << " screen " << c.sw << "×" << c.sh);
-    warp::ViewRequest r;
-    r.zoom = c.zoom, r.cx = c.cx, r.cy = c.cy, r.screen_width = c.sw, r.screen_height = c.sh;
-    const warp::View v = boats_sample.rz.view(r);
-    ASSERT_TRUE(zoomed_in_past_the_map(v));
-    const tiles::Raster viewport = boats_sample.rz.render(r, *boats_sample.entry, boats_sample.reader);
-    const tiles::Raster of_view = warp::render_view(v, c.sw, c.sh, *boats_sample.entry, boats_sample.reader);
-    ASSERT_EQ(viewport.width, c.sw);
-    ASSERT_EQ(viewport.height, c.sh);
-    EXPECT_TRUE(viewport.pixels == of_view.pixels);
-  }
+  const cv::Mat ga = grey(a), gb = grey(b);
+  cv::Mat window;
+  cv::createHanningWindow(window, ga.size(), CV_64F);
+  return cv::phaseCorrelate(ga, gb, window);
 }
 
-// The largest distance, in screen pixels, between a screen pixel centre p and where the map's
-// source position for p lands on screen through the triangle that holds p (its exact barycentric
-// source position lands on p itself), over the pixels the map path draws.
-double worst_screen_error(const warp::View& v, const warp::InverseMap& map, int sw, int sh) {
-  const double s = v.geometry.screen_scale;
-  const warp::ZoomPlacement place{s, -v.view_x * s, -v.view_y * s};
-  const warp::ScreenPositions at = warp::screen_positions(map, place, sw, sh);
-  const warp::Mesh on_screen{v.screen, v.source.triangles};
-  const warp::TriangleLocator locator(on_screen);
-  double worst = 0;
-  for (int j = 0; j < at.height; ++j)
-    for (int i = 0; i < at.width; ++i) {
-      const Point p{at.x0 + i + 0.5, at.y0 + j + 0.5};
-      const warp::MeshPoint exact = locator.find(p);
-      if (exact.triangle < 0) return 1e9;
-      const warp::Triangle& t = v.source.triangles[exact.triangle];
-      const std::size_t n = 2 * (std::size_t(j) * at.width + i);
-      const Point mapped{at.uv[n], at.uv[n + 1]};
-      const auto& src = v.source.vertices;
-      const Point back = warp::combine(warp::barycentric(mapped, src[t[0]], src[t[1]], src[t[2]]), v.screen[t[0]],
-                                       v.screen[t[1]], v.screen[t[2]]);
-      worst = std::max(worst, std::hypot(back.x - p.x, back.y - p.y));
-    }
-  return worst;
+// A reference picture of view v: its triangles drawn at 4× the screen's resolution and
+// box-averaged down (cv::resize INTER_AREA) — what an ideal antialiased renderer shows.
+tiles::Raster supersampled(const warp::View& v, int sw, int sh, const tiles::ImageEntry& image, tiles::PyramidReader& reader) {
+  constexpr int k = 4;
+  std::vector<Point> fine = v.screen;
+  for (Point& p : fine) p.x *= k, p.y *= k;
+  const tiles::Raster big =
+      warp::render_mesh(v.source, fine, warp::visible_triangles(v.source, fine, k * sw, k * sh), k * sw, k * sh, image, reader);
+  tiles::Raster out(sw, sh, big.channels);
+  const cv::Mat in(big.height, big.width, CV_8UC(big.channels), const_cast<std::uint8_t*>(big.pixels.data()), big.row_bytes());
+  cv::Mat dst(sh, sw, CV_8UC(out.channels), out.pixels.data(), out.row_bytes());
+  cv::resize(in, dst, dst.size(), 0, 0, cv::INTER_AREA);
+  return out;
 }
 
-// /viewport zoomed out (a screen pixel spans a node of the warp's inverse map) is drawn through
-// the map: within 40 dB of the exact picture (render_view of its /mesh view) and its source
-// positions within a quarter of a screen pixel of the exact piecewise-linear inverse, from zoom 0
-// to the switch, landscape and portrait, centred and at the corners, on two images.
-TEST(RetargetZoom, ItsZoomedOutViewportIsItsViewRenderedWithinAQuarterPixel) {
+// /viewport is drawn from the retargeted image's tiles (each drawn once, exactly, by the
+// triangles) resampled to the view's scale — two bilinear resamplings where render_view of the
+// /mesh view does one, each minifying by up to 2×. It must show the same picture in the same
+// place: shifted by at most a quarter of a screen pixel (phase correlation), within 40 dB of an
+// antialiased reference (the view supersampled 4×) or as close to it as render_view is, to 3 dB,
+// and within 30 dB of
+// render_view itself (another image's or another aspect's pixels are < 20 dB) — from zoom 0 to 1,
+// landscape and portrait, centred and at the corners, on two images, one RetargetZoom each, so
+// the two aspects' tiles live side by side in its cache. (Against render_view alone the tile
+// path is 40–56 dB on the interior but 31–41 dB on boats, whose water ripples both renderers
+// alias differently: there render_view itself is only 31–45 dB from the reference.)
+TEST(RetargetZoom, ItsViewportIsItsViewRenderedWithinAQuarterPixel) {
   int views = 0;
   for (const char* file : {"boats_lake_sunset.jpg", "interior_wine_djembe_tall.jpg"}) {
     const warp::ImageModel model = sample_model(file);
     Sample sample(file, model);
     ASSERT_TRUE(sample.entry);
-    for (auto [sw, sh] : {std::pair{480, 360}, std::pair{360, 640}}) {
-      warp::ViewRequest r;
-      r.screen_width = sw, r.screen_height = sh;
-      const warp::View zero = sample.rz.view(r);
-      const double tw = zero.geometry.target_width, th = zero.geometry.target_height;
-      const warp::InverseMap map = warp::build_inverse_map(zero.source, zero.warped, tw, th, warp::RetargetZoom::kMapNodes);
-      // The zoom of the switch on the geometric curve s(z) = s0·(1/s0)^z: the largest scale the map
-      // serves, where a screen pixel spans a node or its error reaches kMaxMapError screen px.
-      const double switch_scale = std::min({map.per_x, map.per_y, warp::kMaxMapError / map.max_error});
-      const double s0 = zero.geometry.screen_scale, switch_zoom = std::log(switch_scale / s0) / std::log(1 / s0);
-      std::printf("[ figures ] %s %d×%d: map %d×%d nodes, error %.2f warped px, switch at zoom %.3f\n", file, sw, sh,
-                  map.cols, map.rows, map.max_error, switch_zoom);
-      if (switch_zoom < 0) continue;  // a warp too strong for the map at this size: triangles at every zoom
-      for (double f : {0.0, 0.33, 0.66, 0.99})
+    for (auto [sw, sh] : {std::pair{480, 360}, std::pair{360, 640}})
+      for (double zoom : {0.0, 0.3, 0.6, 0.9})
         for (Point c : {Point{model.width / 2, model.height / 2}, Point{0, 0}, Point{model.width, model.height}}) {
-          if (f == 0 && c.x != 0) continue;  // zoom 0 shows the whole image wherever the centre is
-          r.zoom = f * switch_zoom, r.cx = c.x, r.cy = c.y;
-          SCOPED_TRACE(::testing::Message() << file << " " << sw << "×" << sh << " zoom " << r.zoom << " centre " << c.x << "," << c.y);
+          if (zoom == 0 && c.x != 0) continue;  // zoom 0 shows the whole image wherever the centre is
+          warp::ViewRequest r;
+          r.screen_width = sw, r.screen_height = sh, r.zoom = zoom, r.cx = c.x, r.cy = c.y;
+          SCOPED_TRACE(::testing::Message() << file << " " << sw << "×" << sh << " zoom " << zoom << " centre " << c.x << "," << c.y);
           const warp::View v = sample.rz.view(r);
-          ASSERT_TRUE(warp::map_serves(map, v.geometry.screen_scale));
           const tiles::Raster viewport = sample.rz.render(r, *sample.entry, sample.reader);
           const tiles::Raster exact = warp::render_view(v, sw, sh, *sample.entry, sample.reader);
+          const tiles::Raster reference = supersampled(v, sw, sh, *sample.entry, sample.reader);
           ASSERT_EQ(viewport.width, sw);
           ASSERT_EQ(viewport.height, sh);
-          const double psnr = testing::psnr(viewport, exact), error = worst_screen_error(v, map, sw, sh);
-          EXPECT_GE(psnr, 40);
-          EXPECT_LE(error, 0.25);
-          std::printf("[ figures ] %s %d×%d zoom %.3f: PSNR %.1f dB, worst position error %.3f screen px\n", file, sw, sh,
-                      r.zoom, psnr, error);
+          const double to_view = testing::psnr(viewport, exact), ours = testing::psnr(viewport, reference),
+                       theirs = testing::psnr(exact, reference);
+          const cv::Point2d shift = shift_between(exact, viewport);
+          EXPECT_LE(std::hypot(shift.x, shift.y), 0.25);
+          EXPECT_TRUE(ours >= 40 || ours >= theirs - 3) << "tiles " << ours << " dB, render_view " << theirs << " dB";
+          EXPECT_GE(to_view, 30);
+          std::printf("[ figures ] %s %d×%d zoom %.1f centre %.0f,%.0f: shift %.3f,%.3f screen px; PSNR to render_view "
+                      "%.1f dB; to the 4× reference: tiles %.1f, render_view %.1f dB\n",
+                      file, sw, sh, zoom, c.x, c.y, shift.x, shift.y, to_view, ours, theirs);
           ++views;
         }
-    }
   }
-  EXPECT_GE(views, 20);
+  EXPECT_GE(views, 30);
+}
+
+// At zoom 1 the screen is the retargeted image 1:1: with the view clamped at the top-left corner
+// (an integral origin) every screen pixel is a pixel of level 0's tiles, copied.
+TEST(RetargetZoom, AtZoomOneItsViewportIsLevelZerosTilesExactly) {
+  Sample sample("boats_lake_sunset.jpg", boats());
+  ASSERT_TRUE(sample.entry);
+  for (auto [sw, sh] : {std::pair{480, 360}, std::pair{360, 640}}) {
+    SCOPED_TRACE(::testing::Message() << sw << "×" << sh);
+    warp::ViewRequest r;
+    r.screen_width = sw, r.screen_height = sh, r.zoom = 1, r.cx = 0, r.cy = 0;
+    const tiles::Raster viewport = sample.rz.render(r, *sample.entry, sample.reader);
+    constexpr int T = warp::RenderedTiles::kTileSize;
+    tiles::Raster from_tiles(sw, sh, viewport.channels);
+    const int c = viewport.channels;
+    for (int ty = 0; ty * T < sh; ++ty)
+      for (int tx = 0; tx * T < sw; ++tx) {
+        const auto tile = sample.rz.tile(r, 0, tx, ty, *sample.entry, sample.reader);
+        for (int y = ty * T; y < std::min(sh, ty * T + tile->height); ++y)
+          std::copy_n(tile->row(y - ty * T), std::min(sw - tx * T, tile->width) * c, from_tiles.row(y) + tx * T * c);
+      }
+    EXPECT_TRUE(viewport.pixels == from_tiles.pixels);
+  }
+}
+
+// The tiles are kept per image version: after the image is replaced (same size, other pixels)
+// the same view shows the new pixels, not the kept tiles of the old ones.
+TEST(RetargetZoom, AReplacedImageShowsItsOwnPixels) {
+  Sample sample("boats_lake_sunset.jpg", boats());
+  ASSERT_TRUE(sample.entry);
+  warp::ViewRequest r;
+  r.screen_width = 480, r.screen_height = 360, r.zoom = 0.4, r.cx = 1200, r.cy = 700;
+  const tiles::Raster before = sample.rz.render(r, *sample.entry, sample.reader);
+  tiles::Raster negative = testing::load_image(testing::samples_dir() + "/boats_lake_sunset.jpg");
+  for (std::uint8_t& p : negative.pixels) p = std::uint8_t(255 - p);
+  const std::string file = sample.dir.path() + "/negative.png";
+  testing::write_image(file, negative);
+  tiles::ingest_image(sample.store, file, "sample", {});
+  const std::shared_ptr<const tiles::ImageEntry> replaced = sample.store.find("sample");
+  ASSERT_NE(replaced->manifest.version, sample.entry->manifest.version);
+  const tiles::Raster after = sample.rz.render(r, *replaced, sample.reader);
+  const tiles::Raster exact = warp::render_view(sample.rz.view(r), 480, 360, *replaced, sample.reader);
+  EXPECT_GE(testing::psnr(after, exact), 30);
+  EXPECT_LT(testing::psnr(before, exact), 20) << "the two versions' pictures differ";
+}
+
+// The kept tiles are part of the engine's bytes (memory_bytes), so the warp cache's budget bounds them.
+TEST(RetargetZoom, ItsTilesCountInItsMemory) {
+  Sample sample("boats_lake_sunset.jpg", boats());
+  ASSERT_TRUE(sample.entry);
+  warp::ViewRequest r;
+  r.screen_width = 480, r.screen_height = 360;
+  sample.rz.view(r);  // the warp, solved and kept
+  const std::size_t without_tiles = sample.rz.memory_bytes();
+  sample.rz.render(r, *sample.entry, sample.reader);
+  // Zoom 0 reads a level at least as large as the screen: ≥ 480×360 RGB pixels of tiles.
+  EXPECT_GE(sample.rz.memory_bytes(), without_tiles + 480 * 360 * 3);
 }
 
 }  // namespace

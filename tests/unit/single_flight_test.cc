@@ -1,4 +1,4 @@
-// api::SingleFlight (api/single_flight.h): one computation for concurrent callers of a key, its
+// tiles::SingleFlight (tiles/single_flight.h): one computation for concurrent callers of a key, its
 // error to every one of them and never kept, and the kept values' least-recently-used eviction.
 #include <gtest/gtest.h>
 
@@ -12,12 +12,12 @@
 #include <thread>
 #include <vector>
 
-#include "api/single_flight.h"
+#include "tiles/single_flight.h"
 
 namespace zoomwarp {
 namespace {
 
-using Flights = api::SingleFlight<int>;
+using Flights = tiles::SingleFlight<int>;
 
 // Holds a computation until `n` other callers wait on its flight, so they all arrive while it is
 // in the air. The bound only keeps a broken single flight (nobody waits) from hanging the test.

@@ -46,6 +46,16 @@ struct LevelPatch {
   void sample(double u, double v, std::uint8_t* out) const;
 };
 
+// Draws an image shown at uniform `scale` (screen px per source px) from source position
+// (view_x, view_y) at the screen's top-left corner into `pixels` of `screen` (covered_pixels'
+// rectangle, inside the screen): each pixel centre sampled bilinearly from `patch` by one
+// cv::warpAffine, beyond the patch its border replicated. When the patch position is a
+// whole-pixel shift of the screen's (scale = patch.scale, integral origin) the pixels are copied
+// exactly. The traditional zoom's renderer and retarget-zoom's tiles (rendered_tiles.h) draw
+// through it.
+void draw_uniform(const LevelPatch& patch, double view_x, double view_y, double scale, const tiles::Rect& pixels,
+                  tiles::Raster& screen);
+
 // The patch of `level` covering source rectangle [u0, u1] × [v0, v1] (clamped to the image) with
 // one pixel to spare. Throws std::runtime_error if the pyramid cannot be read.
 LevelPatch read_patch(const tiles::ImageEntry& image, tiles::PyramidReader& reader, int level, double u0, double v0,

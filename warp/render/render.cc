@@ -62,6 +62,22 @@ LevelPatch read_patch(const tiles::ImageEntry& image, tiles::PyramidReader& read
   return p;
 }
 
+void draw_uniform(const LevelPatch& patch, double view_x, double view_y, double scale, const tiles::Rect& pixels,
+                  tiles::Raster& screen) {
+  // Screen pixel (x0 + i, y0 + j) → patch position ((x0 + i + 0.5)/s + view_x)·patch.scale − 0.5 − patch.x0.
+  const double k = patch.scale / scale;
+  const double x0 = double(pixels.x), y0 = double(pixels.y);
+  const cv::Matx23d to_patch(k, 0, ((x0 + 0.5) / scale + view_x) * patch.scale - 0.5 - double(patch.x0),  //
+                             0, k, ((y0 + 0.5) / scale + view_y) * patch.scale - 0.5 - double(patch.y0));
+  const tiles::Raster& px = patch.pixels;
+  const cv::Mat level_pixels(px.height, px.width, CV_8UC(px.channels), const_cast<std::uint8_t*>(px.pixels.data()),
+                             px.row_bytes());
+  cv::Mat all(screen.height, screen.width, CV_8UC(screen.channels), screen.pixels.data(), screen.row_bytes());
+  cv::Mat target = all(cv::Rect(int(pixels.x), int(pixels.y), int(pixels.w), int(pixels.h)));
+  cv::warpAffine(level_pixels, target, to_patch, target.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+                 cv::BORDER_REPLICATE);
+}
+
 namespace {
 
 // std::floor / std::ceil of a value in int range, as int. Without SSE4.1's roundsd (the default
@@ -131,11 +147,10 @@ void coarsen_oversized_groups(std::vector<Group>& groups, const tiles::Manifest&
 }
 
 // A uniform view (View::uniform): the image's rectangle on screen, its pixel centres resampled
-// from one level by one cv::warpAffine — the same positions and level the triangles would give,
-// without building a map per pixel. At zoom 1 with an integral origin the matrix is a whole-pixel
-// shift and the pixels are copied exactly.
+// from one level by one cv::warpAffine (draw_uniform) — the same positions and level the
+// triangles would give, without building a map per pixel.
 void render_uniform(const View& view, int sw, int sh, const tiles::ImageEntry& image, tiles::PyramidReader& reader,
-                    cv::Mat& screen) {
+                    tiles::Raster& screen) {
   const tiles::Manifest& m = image.manifest;
   const double s = view.geometry.screen_scale;
   if (!(s > 0)) return;
@@ -145,16 +160,7 @@ void render_uniform(const View& view, int sw, int sh, const tiles::ImageEntry& i
   const int level = level_for(s, m.levels);
   const LevelPatch patch = read_patch(image, reader, level, view.view_x + x0 / s, view.view_y + y0 / s,
                                       view.view_x + (x1 + 1) / s, view.view_y + (y1 + 1) / s);
-  // Screen pixel (x0 + i, y0 + j) → patch position ((x0 + i + 0.5)/s + view_x)·scale − 0.5 − patch.x0.
-  const double k = patch.scale / s;
-  const cv::Matx23d to_patch(k, 0, ((x0 + 0.5) / s + view.view_x) * patch.scale - 0.5 - double(patch.x0),  //
-                             0, k, ((y0 + 0.5) / s + view.view_y) * patch.scale - 0.5 - double(patch.y0));
-  const tiles::Raster& px = patch.pixels;
-  const cv::Mat level_pixels(px.height, px.width, CV_8UC(px.channels), const_cast<std::uint8_t*>(px.pixels.data()),
-                             px.row_bytes());
-  cv::Mat target = screen(cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1));
-  cv::warpAffine(level_pixels, target, to_patch, target.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
-                 cv::BORDER_REPLICATE);
+  draw_uniform(patch, view.view_x, view.view_y, s, {x0, y0, x1 - x0 + 1, y1 - y0 + 1}, screen);
 }
 
 // Triangles by the pyramid level that fits each one's on-screen scale, with the source box each
@@ -185,8 +191,7 @@ cv::Rect group_pixels(const Group& g, int sw, int sh) {
 }
 
 // Where map_triangles writes a source position (u, v): (u·scale − centre − x0, v·scale − centre − y0)
-// — a level patch's pixel grid ({patch.scale, 0.5, patch.x0, patch.y0}), or the source position
-// itself ({1, 0, 0, 0}).
+// — a level patch's pixel grid ({patch.scale, 0.5, patch.x0, patch.y0}).
 struct OutputGrid {
   double scale = 1, centre = 0, x0 = 0, y0 = 0;
 };
@@ -239,12 +244,11 @@ void write_span(int xs, int count, double u0, double ux, double u_row, double v0
   }
 }
 
-// map_triangles' writers, one per kind of output: span(first, xs, count, u0, ux, u_row, v0, vx,
-// v_row) writes pixels xs … xs + count − 1 of one triangle row — entries first … first + count − 1
-// of the box's row-major arrays — whose grid position at pixel centre px is u = (u0 + ux·px) +
-// u_row, v likewise, and marks them covered.
-//
-// cv::remap's fixed-point maps of a level patch (write_span): what render_mesh remaps.
+// map_triangles' output, cv::remap's fixed-point maps of a level patch (write_span): what
+// render_mesh remaps. span(first, xs, count, u0, ux, u_row, v0, vx, v_row) writes pixels
+// xs … xs + count − 1 of one triangle row — entries first … first + count − 1 of the box's
+// row-major arrays — whose grid position at pixel centre px is u = (u0 + ux·px) + u_row, v
+// likewise, and marks them covered.
 struct FixedPointMaps {
   std::int16_t* whole;
   std::uint16_t* fraction;
@@ -255,28 +259,11 @@ struct FixedPointMaps {
   }
 };
 
-// Float positions, as they are (rasterise_inverse): the same doubles rounded once to float.
-struct FloatPositions {
-  float* u;
-  float* v;
-  std::uint8_t* covered;
-  void span(std::size_t first, int xs, int count, double u0, double ux, double u_row, double v0, double vx,
-            double v_row) const {
-    for (int k = 0; k < count; ++k) {
-      const double px = xs + k + 0.5;
-      u[first + k] = float((u0 + ux * px) + u_row);
-      v[first + k] = float((v0 + vx * px) + v_row);
-      covered[first + k] = 1;
-    }
-  }
-};
-
-// Per covered pixel of `box` (screen pixels), its source position on `grid`, handed to `out` (one
-// of the writers above) span by span: triangle by triangle, one affine map each. Pixels no
-// triangle covers are not written.
-template <typename Writer>
+// Per covered pixel of `box` (screen pixels), its source position on `grid`, handed to `out`
+// span by span: triangle by triangle, one affine map each. Pixels no triangle covers are not
+// written.
 void map_triangles(const Mesh& src, const std::vector<Point>& scr, const std::vector<int>& triangles,
-                   const OutputGrid& grid, const cv::Rect& box, const Writer& out,
+                   const OutputGrid& grid, const cv::Rect& box, const FixedPointMaps& out,
                    const StopToken* stop) {
   const int bx0 = box.x, by0 = box.y, bx1 = box.x + box.width - 1, by1 = box.y + box.height - 1;
   // Row y − by0 of the outputs starts at entry (y − by0)·width.
@@ -346,9 +333,8 @@ tiles::Raster render_view(const View& view, int sw, int sh, const tiles::ImageEn
   if (!view.uniform) return render_mesh(view.source, view.screen, view.visible, sw, sh, image, reader, stop);
   const tiles::Manifest& m = image.manifest;
   tiles::Raster out(sw, sh, m.channels);
-  cv::Mat screen(sh, sw, CV_8UC(m.channels), out.pixels.data(), out.row_bytes());
   check_stop(stop);
-  render_uniform(view, sw, sh, image, reader, screen);
+  render_uniform(view, sw, sh, image, reader, out);
   return out;
 }
 
@@ -391,18 +377,6 @@ tiles::Raster render_mesh(const Mesh& src, const std::vector<Point>& scr, const 
     resampled.copyTo(target, covered);
   }
   return out;
-}
-
-void rasterise_inverse(const Mesh& src, const std::vector<Point>& grid, int cols, int rows, float* u, float* v,
-                       std::uint8_t* covered, const StopToken* stop) {
-  if (cols <= 0 || rows <= 0) return;
-  std::vector<int> triangles;
-  triangles.reserve(src.triangles.size());
-  for (int f = 0; f < int(src.triangles.size()); ++f) {
-    const Triangle& t = src.triangles[f];
-    if (signed_area2(grid[t[0]], grid[t[1]], grid[t[2]]) != 0) triangles.push_back(f);
-  }
-  map_triangles(src, grid, triangles, OutputGrid{}, cv::Rect(0, 0, cols, rows), FloatPositions{u, v, covered}, stop);
 }
 
 }  // namespace zoomwarp::warp

@@ -39,14 +39,6 @@ double finest_stored_leaf_area(const ImageModel& model) {
 RetargetZoom::RetargetZoom(const ImageModel& model, const SignificanceMap& saliency)
     : width_(model.width), height_(model.height), warp_(make_warp(model, saliency)) {}
 
-RetargetZoom::CachedWarp::CachedWarp(std::vector<Point> positions, double tw, double th)
-    : positions_(std::move(positions)), tw_(tw), th_(th), grid_(inverse_map_grid(tw, th, kMapNodes)) {}
-
-const InverseMap& RetargetZoom::CachedWarp::map(const Mesh& source, const StopToken* stop) const {
-  std::call_once(built_, [&] { map_ = build_inverse_map(source, positions_, tw_, th_, kMapNodes, stop); });
-  return map_;
-}
-
 RetargetZoom::Positions RetargetZoom::warped(double tw, double th, WarpResult* stats, const StopToken* stop) {
   const auto key = std::make_pair(std::llround(tw * 1000), std::llround(th * 1000));
   std::lock_guard lock(mu_);
@@ -57,7 +49,7 @@ RetargetZoom::Positions RetargetZoom::warped(double tw, double th, WarpResult* s
   options.fixed_line_normals = true;
   options.stop = stop;
   *stats = warp_.solve(tw, th, options);
-  Positions solved = std::make_shared<const CachedWarp>(std::move(stats->positions), tw, th);
+  Positions solved = std::make_shared<const std::vector<Point>>(std::move(stats->positions));
   stats->positions.clear();
   return cache_.put(key, std::move(solved));
 }
@@ -70,28 +62,50 @@ RetargetZoom::Warped RetargetZoom::warped_view(const ViewRequest& r) {
   out.geometry = zoom_geometry(width_, height_, r.screen_width, r.screen_height, 0, r.curve);
   out.warp = warped(out.geometry.target_width, out.geometry.target_height, &out.stats, r.stop);
   const Point centre = request_centre(r, width_, height_);
-  out.centre = locate(mesh(), out.warp->positions(), centre, locator_.find(centre));
+  out.centre = locate(mesh(), *out.warp, centre, locator_.find(centre));
   return out;
 }
 
 View RetargetZoom::view(const ViewRequest& r) {
   Warped w = warped_view(r);
-  View v = uniform_zoom(mesh(), w.warp->positions(), w.geometry.target_width, w.geometry.target_height, r, w.centre);
+  View v = uniform_zoom(mesh(), *w.warp, w.geometry.target_width, w.geometry.target_height, r, w.centre);
   v.coarse_stats = std::move(w.stats);
   return v;
+}
+
+tiles::Raster RetargetZoom::draw_tile(const std::vector<Point>& warp, int level, const tiles::Rect& r,
+                                      const tiles::ImageEntry& image, tiles::PyramidReader& reader,
+                                      const StopToken* stop) const {
+  const ZoomPlacement place{std::ldexp(1.0, -level), -double(r.x), -double(r.y)};
+  const std::vector<Point> screen = place.on_screen(warp);
+  const int w = int(r.w), h = int(r.h);
+  return render_mesh(mesh(), screen, visible_triangles(mesh(), screen, w, h), w, h, image, reader, stop);
+}
+
+RenderedTiles::Image RetargetZoom::retargeted(const Warped& w, const tiles::ImageEntry& image) {
+  const double tw = w.geometry.target_width, th = w.geometry.target_height;
+  return {image.manifest.version + "|" + std::to_string(std::llround(tw * 1000)) + "x" + std::to_string(std::llround(th * 1000)),
+          tw, th, image.manifest.channels};
+}
+
+RenderedTiles::DrawTile RetargetZoom::tile_drawer(const Warped& w, const tiles::ImageEntry& image,
+                                                  tiles::PyramidReader& reader, const StopToken* stop) const {
+  return [this, warp = w.warp, &image, &reader, stop](int level, const tiles::Rect& rect) {
+    return draw_tile(*warp, level, rect, image, reader, stop);
+  };
 }
 
 tiles::Raster RetargetZoom::render(const ViewRequest& r, const tiles::ImageEntry& image, tiles::PyramidReader& reader) {
   const Warped w = warped_view(r);
   const ZoomPlacement place = zoom_placement(w.geometry.target_width, w.geometry.target_height, r, w.centre);
-  if (w.warp->grid_serves(place.scale)) {
-    const InverseMap& map = w.warp->map(mesh(), r.stop);
-    if (map_serves(map, place.scale))
-      return render_through_map(map, place, r.screen_width, r.screen_height, image, reader, r.stop);
-  }
-  const std::vector<Point> screen = place.on_screen(w.warp->positions());
-  const std::vector<int> visible = visible_triangles(mesh(), screen, r.screen_width, r.screen_height);
-  return render_mesh(mesh(), screen, visible, r.screen_width, r.screen_height, image, reader, r.stop);
+  return tiles_.view(retargeted(w, image), place, r.screen_width, r.screen_height, tile_drawer(w, image, reader, r.stop),
+                     r.stop);
+}
+
+std::shared_ptr<const tiles::Raster> RetargetZoom::tile(const ViewRequest& r, int level, int tx, int ty,
+                                                        const tiles::ImageEntry& image, tiles::PyramidReader& reader) {
+  const Warped w = warped_view(r);
+  return tiles_.tile(retargeted(w, image), level, tx, ty, tile_drawer(w, image, reader, r.stop), r.stop);
 }
 
 std::size_t RetargetZoom::memory_bytes() {
@@ -100,7 +114,7 @@ std::size_t RetargetZoom::memory_bytes() {
   // 30 nonzeros per vertex and axis (index + value).
   const std::size_t factor = m.vertices.size() * 2 * 30 * (sizeof(double) + sizeof(int));
   return m.vertices.capacity() * sizeof(Point) + m.triangles.capacity() * sizeof(Triangle) + factor + locator_.memory_bytes() +
-         cache_.bytes();
+         cache_.bytes() + tiles_.bytes();
 }
 
 const RetargetingMethod& retarget_zoom_method() {

@@ -16,23 +16,24 @@
 // warp is the identity, so zoom 1 is the plain crop.
 //
 // A view lists every triangle of the mesh that touches the screen: at zoom 0, all of them.
-// render() takes one of two paths, by the view's scale s (screen px per warped px):
-// - zoomed out (s ≤ the inverse map's nodes per warped px: a screen pixel spans a node, each
-//   triangle only a few pixels): through the warp's cached inverse map (render/inverse_map.h),
-//   built by the first such view of a warp (kMapNodes nodes, ~4 MB) — one resampling of the map,
-//   one remap of one pyramid level, within a fraction of a screen pixel of render_view(view());
-// - zoomed in (few, large triangles): exactly render_view(view()), straight from the mesh and the
-//   cached warp (no copy of either per request).
+// render() does not draw them per view: it treats the retargeted image (tw × th) as a tile
+// pyramid (render/rendered_tiles.h) whose tiles are drawn once each, exactly, by render_mesh
+// (the warp's triangles on a tile-sized screen at the level's scale), kept in a byte-bounded LRU
+// (kTileCacheBytes, counted in memory_bytes()), and a view is the region path applied to it: the
+// level at most 2× finer than the screen, its tiles assembled, one bilinear resampling at the
+// view's exact scale and origin. Within a quarter of a screen pixel and ≥ 40 dB of
+// render_view(view()); at zoom 1 with an integral origin, level 0's tile pixels exactly.
 // The view centre's triangle is found with a TriangleLocator built at load.
 //
 // Thread safety: view(), render() and memory_bytes() may be called concurrently; the mesh and
-// factorization are read-only, the cache is under a mutex held while a missing size is solved
-// (single flight; CHOLMOD's solve on the shared factor is not reentrant); a warp's inverse map is
-// built once (std::call_once) outside that mutex, by the first view that needs it.
+// factorization are read-only, the warp cache is under a mutex held while a missing size is
+// solved (single flight; CHOLMOD's solve on the shared factor is not reentrant); tiles are drawn
+// outside it, each once (single flight); memory_bytes() takes no lock.
 #pragma once
 
 #include <memory>
 #include <mutex>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -41,7 +42,7 @@
 #include "warp/icaz/image_model.h"
 #include "warp/icaz/shape_warp.h"
 #include "warp/methods/recent_cache.h"
-#include "warp/render/inverse_map.h"
+#include "warp/render/rendered_tiles.h"
 #include "warp/methods/retargeter.h"
 #include "warp/methods/retargeting_method.h"
 
@@ -51,7 +52,9 @@ class RetargetZoom : public Retargeter {
  public:
   static constexpr int kMaxVertices = 30000;
   static constexpr int kCachedSizes = 16;
-  static constexpr std::size_t kMapNodes = std::size_t(1) << 19;  // per cached warp: 4 MB of (u, v) floats
+  // The retargeted images' tiles kept, all sizes together: the tiles a 480×360 screen's zoom 0 … 0.5
+  // read on a 20 MP image at one aspect are ~20 MB.
+  static constexpr std::size_t kTileCacheBytes = std::size_t(64) << 20;
 
   // Builds the uniform mesh and factors its system. Throws std::invalid_argument when the
   // curator's lines cannot be meshed (as the coarsest mesh would).
@@ -62,30 +65,18 @@ class RetargetZoom : public Retargeter {
                        tiles::PyramidReader& reader) override;
   std::size_t memory_bytes() override;
 
+  // Tile (tx, ty) of level `level` of the retargeted image at the request's screen aspect — the
+  // pixels render() resamples (RenderedTiles::kTileSize² but at the right and bottom edges).
+  // Throws as render() does, and std::out_of_range for a tile outside the level.
+  std::shared_ptr<const tiles::Raster> tile(const ViewRequest& request, int level, int tx, int ty,
+                                            const tiles::ImageEntry& image, tiles::PyramidReader& reader);
+
   // The uniform mesh (image pixels).
   const Mesh& mesh() const { return warp_.mesh(); }
 
  private:
-  // One target size's warp, and its inverse map, built by the first view drawn through it. The
-  // map's grid is fixed at construction, so bytes() is too (the cache's weigher).
-  class CachedWarp {
-   public:
-    CachedWarp(std::vector<Point> positions, double tw, double th);
-    const std::vector<Point>& positions() const { return positions_; }
-    // Whether a view at `scale` may be drawn through the map (grid_serves), known before it is built.
-    bool grid_serves(double scale) const { return warp::grid_serves(grid_, scale); }
-    // Thread-safe: built once; a build stopped by `stop` is left to the next caller.
-    const InverseMap& map(const Mesh& source, const StopToken* stop) const;
-    std::size_t bytes() const { return positions_.capacity() * sizeof(Point) + grid_.bytes(); }
-
-   private:
-    const std::vector<Point> positions_;
-    const double tw_, th_;
-    const InverseMap grid_;  // the map's grid, without positions
-    mutable std::once_flag built_;
-    mutable InverseMap map_;
-  };
-  using Positions = std::shared_ptr<const CachedWarp>;
+  // One target size's warp: its vertices' positions (warped px).
+  using Positions = std::shared_ptr<const std::vector<Point>>;
 
   // A request's warp and where its view centre lands in it: what view() and render() share.
   struct Warped {
@@ -96,6 +87,18 @@ class RetargetZoom : public Retargeter {
   };
   Warped warped_view(const ViewRequest& r);
 
+  // The retargeted image of a request's warp as the tiles know it: the key names the image
+  // version and the warp (its size), so that neither a replaced image nor another aspect shows
+  // another's pixels.
+  static RenderedTiles::Image retargeted(const Warped& w, const tiles::ImageEntry& image);
+  RenderedTiles::DrawTile tile_drawer(const Warped& w, const tiles::ImageEntry& image, tiles::PyramidReader& reader,
+                                      const StopToken* stop) const;
+
+  // Rectangle `r` of level `level` of the retargeted image `warp` (tw × th): its triangles on an
+  // r.w × r.h screen at scale 2^-level — what render_view shows of it there.
+  tiles::Raster draw_tile(const std::vector<Point>& warp, int level, const tiles::Rect& r, const tiles::ImageEntry& image,
+                          tiles::PyramidReader& reader, const StopToken* stop) const;
+
   // The warp onto target_width × target_height, from the cache or solved now.
   Positions warped(double target_width, double target_height, WarpResult* stats, const StopToken* stop);
 
@@ -104,7 +107,8 @@ class RetargetZoom : public Retargeter {
   const TriangleLocator locator_{warp_.mesh()};
   std::mutex mu_;  // guards the cache and warp_'s solves
   RecentCache<std::pair<long long, long long>, Positions> cache_{  // by size (1/1000 px)
-      kCachedSizes, [](const Positions& p) { return p->bytes(); }};
+      kCachedSizes, [](const Positions& p) { return p->capacity() * sizeof(Point); }};
+  RenderedTiles tiles_{kTileCacheBytes};
 };
 
 // The area bound of the uniform mesh for `model`: the largest leaf among the forest's kept nodes.

@@ -1,6 +1,7 @@
 // Single flight: the first caller for a key computes its value, and callers asking for the same
 // key meanwhile wait for that computation instead of repeating it — a burst of clients opening one
-// view costs one warp and one encode (Router), an engine is loaded once (WarpEngines).
+// view costs one warp and one encode (api's Router), an engine is loaded once (api's WarpEngines),
+// a rendered tile of a retargeted image is drawn once (warp/render/rendered_tiles.h).
 //
 // Optionally the computed values are kept under their keys, least recently used dropped first
 // while their total weight is over a capacity (WarpEngines' engines, weighed in bytes). Without
@@ -11,11 +12,13 @@
 // flight. Nothing failed is kept: the next call for the key computes again. A waiter may give up
 // (its `wait` throws); the flight goes on without it.
 //
-// Thread safety: every member may be called from any thread concurrently. `compute`, `wait` and
+// Thread safety: every member may be called from any thread concurrently; weight() takes no lock
+// (an owner's memory accounting may ask it while a flight is in the air). `compute`, `wait` and
 // the weigher run without the internal lock held: they may take locks of their own and use this
 // object for other keys (a compute that asks for its own key waits for itself forever).
 #pragma once
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <exception>
@@ -28,7 +31,7 @@
 #include <unordered_map>
 #include <utility>
 
-namespace zoomwarp::api {
+namespace zoomwarp::tiles {
 
 template <class V>
 class SingleFlight {
@@ -60,11 +63,8 @@ class SingleFlight {
     return get(key, std::forward<Compute>(compute), [](const Future& f) { f.wait(); });
   }
 
-  // The kept values' total weight, as last weighed.
-  std::size_t weight() const {
-    std::lock_guard lock(mu_);
-    return total_;
-  }
+  // The kept values' total weight, as last weighed. Lock-free.
+  std::size_t weight() const { return total_.load(std::memory_order_relaxed); }
 
  private:
   struct Entry {
@@ -121,7 +121,7 @@ class SingleFlight {
   mutable std::mutex mu_;
   std::unordered_map<std::string, Entry> entries_;  // flights in the air, and kept values
   std::list<std::string> order_;                    // kept values' keys, most recently used first
-  std::size_t total_ = 0;                           // kept values' weight
+  std::atomic<std::size_t> total_{0};               // kept values' weight (written under mu_)
   std::uint64_t flights_ = 0;
 };
 
@@ -161,4 +161,4 @@ auto SingleFlight<V>::get(const std::string& key, Compute&& compute, Wait&& wait
   return {std::move(value), true};
 }
 
-}  // namespace zoomwarp::api
+}  // namespace zoomwarp::tiles
