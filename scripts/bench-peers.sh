@@ -5,8 +5,8 @@
 # Prints one Markdown table (and writes it with the machine's description to --out FILE).
 #
 # One run: install what is missing (apt-get) -> build a ~127 MP JPEG from a photo -> build each
-# server's pyramid, timed (zoomwarp ingest, vips dzsave, vips tiffsave) -> time the warp engine
-# (icaz_bench, if built) -> start zoomwarp twice (response cache off and on), iipsrv processes
+# server's pyramid, timed (zoomwarp ingest, vips dzsave, vips tiffsave) -> the view lists -> time
+# the warp engine on the /mesh list's views (mesh_json_bench, if built) -> start zoomwarp twice (response cache off and on), iipsrv processes
 # and one nginx -> check that peers and we answer the same requests with comparable images ->
 # wrk every run in turn, the order reversed every other round -> medians, ratios, table.
 # Everything lives in one temp folder that the EXIT trap removes, with every server we started,
@@ -40,7 +40,7 @@ out_file=""
 install=1
 verbose=0
 zoomwarp_bin="$repo_dir/build/bin/zoomwarp"
-icaz_bench_bin="$repo_dir/build/bin/icaz_bench"
+mesh_json_bench_bin="$repo_dir/build/bin/mesh_json_bench"
 nginx_bin=/usr/sbin/nginx
 iipsrv_bin=/usr/lib/iipimage-server/iipsrv.fcgi
 image_id=bench
@@ -58,10 +58,11 @@ against vips dzsave (wall time, peak RSS, bytes on disk). Each figure is the med
 rounds; ratios are ours/peer. tests/bench/README.md explains how to read them.
 
 Installs what is missing with apt-get (as root, or through sudo): ${packages[*]}.
-Needs zoomwarp built (scripts/build.sh zoomwarp); uses icaz_bench for the engine's own time if it
-is built (scripts/build.sh icaz_bench), else that cell says so. To measure the build the container
-ships: CMAKE_BUILD_TYPE=Release BUILD_DIR=build-release scripts/build.sh zoomwarp icaz_bench, then
---zoomwarp build-release/bin/zoomwarp --icaz-bench build-release/bin/icaz_bench.
+Needs zoomwarp built (scripts/build.sh zoomwarp); uses mesh_json_bench for the engine's own time
+on the /mesh list's views if it is built (scripts/build.sh mesh_json_bench), else that cell says
+so. To measure the build the container ships: CMAKE_BUILD_TYPE=Release BUILD_DIR=build-release
+scripts/build.sh zoomwarp mesh_json_bench, then --zoomwarp build-release/bin/zoomwarp
+--mesh-json-bench build-release/bin/mesh_json_bench.
 
 options:
   --duration SEC        length of each measured wrk run (default $duration)
@@ -80,7 +81,7 @@ options:
   --out FILE            also write the table, the settings and the machine to FILE (Markdown)
   --no-install          install nothing; fail if something is missing
   --zoomwarp PATH       zoomwarp binary (default build/bin/zoomwarp)
-  --icaz-bench PATH     icaz_bench binary (default build/bin/icaz_bench)
+  --mesh-json-bench PATH  mesh_json_bench binary (default build/bin/mesh_json_bench)
   --verbose             also print wrk's own output of every run
   -h, --help            this text
 
@@ -112,7 +113,7 @@ parse_args() {
       --out) out_file=${2:?--out needs a value}; shift 2 ;;
       --no-install) install=0; shift ;;
       --zoomwarp) zoomwarp_bin=${2:?--zoomwarp needs a value}; shift 2 ;;
-      --icaz-bench) icaz_bench_bin=${2:?--icaz-bench needs a value}; shift 2 ;;
+      --mesh-json-bench) mesh_json_bench_bin=${2:?--mesh-json-bench needs a value}; shift 2 ;;
       --verbose) verbose=1; shift ;;
       *) die "unknown argument $1 (see --help)" ;;
     esac
@@ -250,27 +251,30 @@ build_pyramids() {
 # ---- the engine alone --------------------------------------------------------------------------
 engine_ms="" engine_note=""
 
-# The ICAZ operator's own time per zoom action at 480×360 on the same image (icaz_bench's
-# Zoom/photo/0…100: a zoom action, so the coarse warp is computed, as for every view of our list),
-# median CPU time over the zoom levels, pinned to one core. Not our list's views: icaz_bench's own,
-# at the same image and screen. Before any server starts, so that nothing competes with it.
+# The warp engine's own CPU time per /mesh view on the /mesh run's own list (mesh_json_bench's
+# Engine/listed: the list's views cycled in-process on zoomwarp's store, the query parsed and the
+# engine looked up as the server does, every view a zoom action whose coarse warp is computed or
+# found as the server would), pinned to one core. Before any server starts, so that nothing
+# competes with it. The list is cycled for as long as the measured runs take, so that the engine's
+# caches are as warm as the server's.
 time_engine() {
-  if [ ! -x "$icaz_bench_bin" ]; then
-    engine_note="icaz_bench not built (scripts/build.sh icaz_bench)"
-    log "no icaz_bench at $icaz_bench_bin: the /mesh row has no engine time"
+  if [ ! -x "$mesh_json_bench_bin" ]; then
+    engine_note="mesh_json_bench not built (scripts/build.sh mesh_json_bench)"
+    log "no mesh_json_bench at $mesh_json_bench_bin: the /mesh row has no engine time"
     return 0
   fi
-  log "timing the warp engine alone (icaz_bench Zoom/photo)"
+  log "timing the warp engine alone on the /mesh list (mesh_json_bench Engine/listed)"
   local pin=()
   [ "$(nproc)" -lt 2 ] || pin=(taskset -c $(( $(nproc) - 1 )))
-  "${pin[@]}" "$icaz_bench_bin" "$image" --benchmark_filter='^Zoom/photo/' --benchmark_min_time=0.2 \
-    --benchmark_format=json --benchmark_out="$work/icaz_bench.json" >/dev/null 2>"$work/icaz_bench.err" ||
-    { cat "$work/icaz_bench.err" >&2; die "icaz_bench failed"; }
-  engine_ms=$(jq -r '.benchmarks[] | select(.name | startswith("Zoom/photo/")) | .cpu_time' "$work/icaz_bench.json" | median)
-  [ -n "$engine_ms" ] || die "icaz_bench reported no Zoom/photo benchmark"
-  engine_ms=$(awk -v v="$engine_ms" 'BEGIN { printf "%.2f", v }')
-  engine_note="icaz_bench Zoom/photo, same image and screen, its own views: median CPU over z = 0, 0.2, …, 1, one core"
-  log "  engine: $engine_ms ms per zoom action"
+  "${pin[@]}" "$mesh_json_bench_bin" --store "$work/store" --image "$image_id" --views "$work/list_mesh_icaz.txt" \
+    --benchmark_filter='^Engine/listed' --benchmark_min_time=$(( rounds * duration )) \
+    --benchmark_format=json --benchmark_out="$work/engine_bench.json" >/dev/null 2>"$work/engine_bench.err" ||
+    { cat "$work/engine_bench.err" >&2; die "mesh_json_bench failed"; }
+  engine_ms=$(jq -r '.benchmarks[] | select(.name | startswith("Engine/listed")) | .cpu_time / 1000' "$work/engine_bench.json")
+  [ -n "$engine_ms" ] || die "mesh_json_bench reported no Engine/listed benchmark"
+  engine_ms=$(awk -v v="$engine_ms" 'BEGIN { printf "%.3f", v }')
+  engine_note="mesh_json_bench Engine/listed: the /mesh list's views, same store, CPU per view on one core"
+  log "  engine: $engine_ms ms per view"
 }
 
 # ---- servers -----------------------------------------------------------------------------------
@@ -684,11 +688,11 @@ main() {
   log "load average before start: $(cut -d' ' -f1-3 /proc/loadavg) on $(nproc) cores"
   make_test_image
   build_pyramids
+  write_views
   time_engine
   start_zoomwarps
   start_iipsrv
   start_nginx
-  write_views
   prepare_tiles
   check_comparable
   write_wrk_script

@@ -3,16 +3,23 @@
 // next to the engine's own time for the same views — so the ratio (engine + body) / engine that
 // issue 16 bounds (≤ 1.3) can be read off one run.
 //
-//   build/bin/mesh_json_bench [IMAGE]   (default: ../shared/corpus/nuthatch_tree_trunk.jpg, 20 MP)
+//   build/bin/mesh_json_bench [IMAGE]                          (ingested into a temporary store)
+//   build/bin/mesh_json_bench --store DIR --image ID [--views FILE]
 //
-// The views are those tests/bench/mesh_views.lua sends to a server under wrk: 480×360, zoom
-// cycling through 0.2, 0.4, 0.6, 0.8, 1, the centre panning across the image (compute(i) below
-// and the script make the same i-th view). The image is ingested into a temporary store and its
-// engine made as the server makes it (api::WarpEngines); "Engine" counts what /mesh asks of it,
-// the query parsed and the engine looked up included. Read the CPU column.
+// IMAGE defaults to ../shared/corpus/nuthatch_tree_trunk.jpg (20 MP). The views are those
+// tests/bench/mesh_views.lua sends to a server under wrk: 480×360, zoom cycling through 0.2, 0.4,
+// 0.6, 0.8, 1, the centre panning across the image (compute(i) below and the script make the same
+// i-th view). With --views, "Engine/listed" also times the views of a request list — one /mesh
+// request target (or query string) per line, cycled — as scripts/bench-peers.sh does with the list
+// its server answers, so that the server's CPU per request is compared with the engine's on the
+// same views. The engine is made as the server makes it (api::WarpEngines); "Engine" counts what
+// /mesh asks of it, the query parsed and the engine looked up included. Read the CPU column.
 #include <benchmark/benchmark.h>
 
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <optional>
 #include <string>
@@ -50,6 +57,17 @@ void BM_Engine(benchmark::State& state) {
   state.SetLabel(state.range(0) ? "geomorph pairs" : "views");
 }
 
+// The query strings of --views, in order.
+std::vector<std::string> listed;
+
+// The engine alone on the listed views, cycled: one view (or pair) per iteration.
+void BM_EngineListed(benchmark::State& state) {
+  std::size_t i = 0, vertices = 0;
+  for (auto _ : state) vertices += subject->mesh_views(listed[i++ % listed.size()]).view.source.vertices.size();
+  state.counters["vertices"] = benchmark::Counter(double(vertices), benchmark::Counter::kAvgIterations);
+  state.SetLabel(std::to_string(listed.size()) + " listed views");
+}
+
 // The first views of the sequence, computed once, for the writers.
 const std::vector<Computed>& views(bool morph) {
   static std::vector<Computed> plain, pairs;
@@ -77,15 +95,66 @@ void time_writer(benchmark::State& state, Writer writer) {
 void BM_MeshJsonTree(benchmark::State& state) { time_writer(state, testing::reference_mesh_json); }
 void BM_MeshJsonText(benchmark::State& state) { time_writer(state, api::mesh_json); }
 
+[[noreturn]] void usage(const std::string& why) {
+  std::fprintf(stderr,
+               "mesh_json_bench: %s\n"
+               "usage: mesh_json_bench [IMAGE] [--views FILE] [benchmark flags]\n"
+               "       mesh_json_bench --store DIR --image ID [--views FILE] [benchmark flags]\n"
+               "  IMAGE         a picture to ingest into a temporary store (default: the 20 MP corpus photo)\n"
+               "  --store DIR   an existing store, read only, with --image ID the image in it\n"
+               "  --views FILE  /mesh request targets or query strings, one per line: adds Engine/listed\n",
+               why.c_str());
+  std::exit(2);
+}
+
+// The query strings of a request list: what follows '?' on each non-empty line (the whole line
+// if it has none).
+std::vector<std::string> read_views(const std::string& file) {
+  std::ifstream in(file);
+  if (!in) usage("cannot read " + file);
+  std::vector<std::string> out;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty()) continue;
+    const std::size_t q = line.find('?');
+    out.push_back(q == std::string::npos ? line : line.substr(q + 1));
+  }
+  if (out.empty()) usage(file + " lists no views");
+  return out;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
-  std::string image = argc > 1 ? argv[1] : testing::samples_dir() + "/../../shared/corpus/nuthatch_tree_trunk.jpg";
-  if (!std::filesystem::exists(image)) image = testing::samples_dir() + "/boats_lake_sunset.jpg";
-  subject = std::make_unique<testing::IngestedImage>(image, "subject");
-  compute(0, false);  // builds the engine (the image model), which no benchmark should time
+  std::string image, store_dir, id, views_file;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    const auto value = [&]() -> std::string {
+      if (i + 1 >= argc) usage(arg + " needs a value");
+      return argv[++i];
+    };
+    if (arg == "--help" || arg == "-h") usage("the warp engine's time per /mesh view and the body writers'");
+    else if (arg == "--store") store_dir = value();
+    else if (arg == "--image") id = value();
+    else if (arg == "--views") views_file = value();
+    else if (arg.starts_with("-") || !image.empty()) usage("unknown argument " + arg);
+    else image = arg;
+  }
+  if (store_dir.empty() != id.empty()) usage("--store and --image go together");
+  if (!store_dir.empty() && !image.empty()) usage("IMAGE or --store, not both");
+  if (!views_file.empty()) listed = read_views(views_file);
+  if (!store_dir.empty()) {
+    subject = std::make_unique<testing::IngestedImage>(testing::IngestedImage::InStore{store_dir}, id);
+  } else {
+    if (image.empty()) image = testing::samples_dir() + "/../../shared/corpus/nuthatch_tree_trunk.jpg";
+    if (!std::filesystem::exists(image)) image = testing::samples_dir() + "/boats_lake_sunset.jpg";
+    subject = std::make_unique<testing::IngestedImage>(image, "subject");
+  }
+  // Builds the engines (the image model), which no benchmark should time.
+  if (listed.empty()) compute(0, false);
+  else subject->mesh_views(listed.front());
   benchmark::RegisterBenchmark("Engine", BM_Engine)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+  if (!listed.empty()) benchmark::RegisterBenchmark("Engine/listed", BM_EngineListed)->Unit(benchmark::kMicrosecond);
   benchmark::RegisterBenchmark("MeshJson/tree", BM_MeshJsonTree)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
   benchmark::RegisterBenchmark("MeshJson/text", BM_MeshJsonText)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
   benchmark::RunSpecifiedBenchmarks();

@@ -1,5 +1,7 @@
 #include "tests/support/ingested_image.h"
 
+#include <stdexcept>
+
 #include "tiles/ingest.h"
 
 namespace zoomwarp::testing {
@@ -7,6 +9,10 @@ namespace zoomwarp::testing {
 IngestedImage::IngestedImage(const std::string& path, const std::string& id) {
   tiles::ingest_image(store, path, id, {});
   entry = store.find(id);
+}
+
+IngestedImage::IngestedImage(const InStore& in, const std::string& id) : store(in.store_dir), entry(store.find(id)) {
+  if (!entry) throw std::runtime_error("no image '" + id + "' in the store at " + in.store_dir);
 }
 
 IngestedImage::MeshViews IngestedImage::mesh_views(const std::string& query) {

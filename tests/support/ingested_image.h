@@ -1,5 +1,5 @@
-// An image ingested into a temporary store, with the warp engines the server makes for it: the
-// api's views without a server (unit tests, benchmarks). Not thread-safe to construct; the
+// An image ingested into a temporary store (or one already in a store), with the warp engines the
+// server makes for it: the api's views without a server (unit tests, benchmarks). Not thread-safe to construct; the
 // engines are (api/warp_engines.h).
 #pragma once
 
@@ -18,6 +18,12 @@ namespace zoomwarp::testing {
 struct IngestedImage {
   // Ingests `path` (default ingest options) as image `id`; throws what the ingest throws.
   IngestedImage(const std::string& path, const std::string& id);
+  // Image `id` of the existing store at `store_dir`, read only (e.g. the store a benchmark's server
+  // serves); throws std::runtime_error if the store has no such image.
+  struct InStore {
+    std::string store_dir;
+  };
+  IngestedImage(const InStore& in, const std::string& id);
 
   // What /mesh draws for a query string (api/view_query.h): the view, and with from_* the
   // geomorph pair, as router_views.cc makes them (ICAZ's common refinement, every other method's
