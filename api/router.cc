@@ -148,17 +148,17 @@ std::optional<Response> Router::image_response(const Request& req, const tiles::
                                                const std::function<Response(const tiles::ImageEntry&)>& compute) {
   const tiles::Manifest& m = entry.manifest;
   const std::string key = req.path + "|" + key_extra;
-  const std::string etag = make_etag(m.version, key);
+  // Made only where needed: a cache hit carries its own (one string and one hash fewer per hit).
   auto with_validators = [&](Response r) {
     r.route = route;
-    r.set_header("ETag", etag);
+    r.set_header("ETag", make_etag(m.version, key));
     r.set_header("Last-Modified", http_date(m.created_ms));
     // A private image's answers are for this client only: a shared cache (nginx) must not keep them.
     r.set_header("Cache-Control", std::string(m.is_private ? "private" : "public") +
                                       ", max-age=" + std::to_string(config_.cache_max_age));
     return r;
   };
-  if (!req.if_none_match.empty() && if_none_match_matches(req.if_none_match, etag)) {
+  if (!req.if_none_match.empty() && if_none_match_matches(req.if_none_match, make_etag(m.version, key))) {
     Response r;
     r.status = 304;
     return with_validators(std::move(r));

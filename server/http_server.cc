@@ -25,11 +25,20 @@ struct HttpServer::Impl {
   Impl(HttpServerOptions options, tiles::Store& store, api::Router& router, WorkerPool& cpu,
        WorkerPool& ingest, Metrics& metrics)
       : state(std::move(options), store, router, cpu, ingest, metrics),
-        ioc(std::max(1, state.options.io_threads)),
+        ioc(1),
         signals(ioc, SIGINT, SIGTERM),
         reload_signals(ioc, SIGHUP),
         drain_timer(ioc),
-        gc_timer(ioc) {}
+        gc_timer(ioc) {
+    // ioc (signals, timers, the listener) also takes sessions; every context has one thread.
+    for (int i = 1; i < state.options.io_threads; ++i) more_contexts.push_back(std::make_unique<net::io_context>(1));
+  }
+
+  std::vector<net::io_context*> session_contexts() {
+    std::vector<net::io_context*> all{&ioc};
+    for (auto& c : more_contexts) all.push_back(c.get());
+    return all;
+  }
 
   tcp::endpoint endpoint() {
     boost::system::error_code ec;
@@ -123,8 +132,9 @@ struct HttpServer::Impl {
   void stop(std::size_t open) {
     log_event("info", "stopped", {{"open_connections", open}, {"connections_accepted", state.connections_accepted.load()},
                                   {"drain_timed_out", timed_out}});
-    work.reset();
+    work.clear();
     ioc.stop();
+    for (auto& c : more_contexts) c->stop();
   }
 
   // After the drain timeout, how long cancelled requests get to send their 503.
@@ -132,13 +142,14 @@ struct HttpServer::Impl {
 
   ServerState state;
   net::io_context ioc;
+  std::vector<std::unique_ptr<net::io_context>> more_contexts;  // one per further --io-threads
   net::signal_set signals;
   net::signal_set reload_signals;
   net::steady_timer drain_timer, gc_timer;
   std::chrono::steady_clock::time_point drain_deadline;
   bool timed_out = false;  // the drain timeout passed with connections open
   std::shared_ptr<Listener> listener;
-  std::optional<net::executor_work_guard<net::io_context::executor_type>> work;
+  std::vector<net::executor_work_guard<net::io_context::executor_type>> work;  // one per context
 };
 
 HttpServer::HttpServer(HttpServerOptions options, tiles::Store& store, api::Router& router, WorkerPool& cpu,
@@ -149,9 +160,9 @@ HttpServer::~HttpServer() = default;
 
 int HttpServer::run() {
   Impl& m = *impl_;
-  m.listener = std::make_shared<Listener>(m.ioc, m.endpoint(), m.state);
+  m.listener = std::make_shared<Listener>(m.ioc, m.session_contexts(), m.endpoint(), m.state);
   m.listener->run();
-  m.work.emplace(m.ioc.get_executor());
+  for (net::io_context* c : m.session_contexts()) m.work.emplace_back(c->get_executor());
   m.signals.async_wait([&m](boost::system::error_code ec, int signal) {
     if (!ec) m.begin_drain(signal);
   });
@@ -161,7 +172,7 @@ int HttpServer::run() {
             {{"host", m.state.options.host}, {"port", m.listener->port()}, {"io_threads", m.state.options.io_threads},
              {"store", m.state.store.root()}});
   std::vector<std::thread> threads;
-  for (int i = 1; i < m.state.options.io_threads; ++i) threads.emplace_back([&m] { m.ioc.run(); });
+  for (auto& c : m.more_contexts) threads.emplace_back([&c] { c->run(); });
   m.ioc.run();
   for (auto& t : threads) t.join();
   return 0;

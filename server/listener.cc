@@ -13,8 +13,9 @@ namespace net = boost::asio;
 using tcp = net::ip::tcp;
 
 
-Listener::Listener(net::io_context& ioc, tcp::endpoint endpoint, ServerState& state)
-    : ioc_(ioc), acceptor_(net::make_strand(ioc)), backoff_timer_(acceptor_.get_executor()), state_(state) {
+Listener::Listener(net::io_context& ioc, std::vector<net::io_context*> session_contexts, tcp::endpoint endpoint,
+                   ServerState& state)
+    : session_contexts_(std::move(session_contexts)), acceptor_(net::make_strand(ioc)), backoff_timer_(acceptor_.get_executor()), state_(state) {
   boost::system::error_code ec;
   acceptor_.open(endpoint.protocol(), ec);
   if (!ec) acceptor_.set_option(net::socket_base::reuse_address(true), ec);
@@ -44,7 +45,7 @@ void Listener::close_now() {
   boost::system::error_code ec;
   acceptor_.non_blocking(true, ec);
   while (!ec && acceptor_.is_open()) {
-    tcp::socket socket(net::make_strand(ioc_));
+    tcp::socket socket(next_session_context());
     acceptor_.accept(socket, ec);
     if (!ec) {
       ++state_.connections_accepted;
@@ -54,6 +55,12 @@ void Listener::close_now() {
   acceptor_.close(ec);
   backoff_timer_.cancel();
   closed_ = true;
+}
+
+net::io_context& Listener::next_session_context() {
+  net::io_context& ioc = *session_contexts_[next_context_];
+  next_context_ = (next_context_ + 1) % session_contexts_.size();
+  return ioc;
 }
 
 void Listener::start_session(tcp::socket socket) {
@@ -76,8 +83,8 @@ void Listener::accept() {
     log_rate_limited("connection limit reached", std::to_string(state_.options.max_connections) + " open");
     return pause();
   }
-  acceptor_.async_accept(net::make_strand(ioc_), [self = shared_from_this()](boost::system::error_code ec,
-                                                                             tcp::socket socket) {
+  acceptor_.async_accept(next_session_context(), [self = shared_from_this()](boost::system::error_code ec,
+                                                                            tcp::socket socket) {
     if (ec == net::error::operation_aborted) return;
     // A connection this accept took just before stop() closed the acceptor is answered too.
     if (!ec) {

@@ -51,6 +51,7 @@ std::vector<OptionSpec> serve_specs() {
       {"drain-timeout", "30", "seconds in-flight requests get to finish after the listener closed; then they are cancelled and the process exits"},
       {"request-timeout", "5", "seconds a computed request (view, tile, IIIF image, edit) may take from read to answer, queue included; then 503 + Retry-After"},
       {"gc-grace", "600", "seconds a superseded or deleted image version stays on disk"},
+      {"store-recheck-ms", "1000", "milliseconds an image's published version, once read from the store, is trusted: another process's re-ingest or delete is seen within this (this server's own at once); 0: read on every request"},
       {"log-requests", "1", "one JSON log line per request (1/0)"},
       {"keys", "", "API key file, one 'KEY_ID ROLE KEY' per line (README \"Access\"); re-read when it changes and on SIGHUP. Without it writes are refused"},
       {"open-writes", "0", "without --keys, let anyone upload, delete and edit (demos and tests on loopback)", true},
@@ -161,7 +162,7 @@ int serve_command(const std::vector<std::string>& args) {
     const auto ingest_queue = std::size_t(o.integer("ingest-queue", 0, 1 << 10));
     http.upload_slots = std::size_t(ingest_workers) + ingest_queue;
 
-    tiles::Store store(o.str("store"));
+    tiles::Store store(o.str("store"), std::chrono::milliseconds(o.integer("store-recheck-ms", 0, 3'600'000)));
     const int removed = store.collect_garbage(http.gc_grace);
     tiles::PyramidReader reader(tile_cache);
     api::Router router(store, reader, rc);

@@ -6,10 +6,10 @@
 // session keeps reading the socket: the client closing the connection cancels the token (bytes that
 // arrive meanwhile are its next, pipelined request and are kept).
 //
-// Threads: a Session runs on its own strand; every member function but start() must be called
-// there (post to get_executor()). ServerState is shared by all sessions and the listener: its
-// references are to thread-safe objects, its atomics and `sessions` (under sessions_mu) are the
-// only state it has.
+// Threads: a Session runs on its io_context, which one thread runs (server/listener.h): an implicit
+// strand. Every member function but start() must be called there (post to get_executor()).
+// ServerState is shared by all sessions and the listener: its references are to thread-safe
+// objects, its atomics and `sessions` (under sessions_mu) are the only state it has.
 #pragma once
 
 #include <boost/asio/ip/tcp.hpp>
@@ -66,10 +66,10 @@ class Session : public std::enable_shared_from_this<Session> {
 
   void start();
   // Drain: closes the connection if it is waiting for a new request (a new connection only once
-  // it has had a second to send its first). Runs on the session's strand.
+  // it has had a second to send its first). Runs on the session's executor.
   void close_if_idle();
   // Drain timeout: cancels the request being computed, if any, so its worker stops at the next
-  // step and it is answered 503. Runs on the session's strand.
+  // step and it is answered 503. Runs on the session's executor.
   void cancel_request();
   auto get_executor() { return stream_.get_executor(); }
 

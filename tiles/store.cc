@@ -80,7 +80,7 @@ bool old_enough(const fs::path& p, std::chrono::seconds age) {
 
 std::string ImageEntry::level_path(int k) const { return dir + "/" + level_filename(k); }
 
-Store::Store(const std::string& root) {
+Store::Store(const std::string& root, std::chrono::milliseconds recheck) : recheck_(recheck) {
   std::error_code ec;
   fs::create_directories(fs::path(root) / "images", ec);
   fs::create_directories(fs::path(root) / "versions", ec);
@@ -111,6 +111,30 @@ std::shared_ptr<const ImageEntry> Store::load_version(const std::string& id,
 
 std::shared_ptr<const ImageEntry> Store::find(const std::string& id) const {
   if (!is_valid_image_id(id)) return nullptr;
+  const auto now = std::chrono::steady_clock::now();
+  std::uint64_t generation;
+  {
+    std::shared_lock lock(links_mu_);
+    if (auto it = links_.find(id); it != links_.end() && now - it->second.read_at < recheck_)
+      return it->second.entry;
+    generation = generation_;
+  }
+  auto entry = read_link(id);
+  std::unique_lock lock(links_mu_);
+  if (generation == generation_) {
+    if (entry) links_.insert_or_assign(id, LinkReading{entry, now});
+    else links_.erase(id);
+  }
+  return entry;
+}
+
+void Store::forget_link(const std::string& id) {
+  std::unique_lock lock(links_mu_);
+  ++generation_;
+  links_.erase(id);
+}
+
+std::shared_ptr<const ImageEntry> Store::read_link(const std::string& id) const {
   char target[512];
   const std::string link = root_ + "/images/" + id;
   ssize_t n = ::readlink(link.c_str(), target, sizeof target - 1);
@@ -200,7 +224,7 @@ std::shared_ptr<const ImageEntry> Store::publish(const std::string& staging_dir,
   // are one step for all of them.
   const IdLock lock(root_, m.id);
   if (expected_version) {
-    const auto current = find(m.id);
+    const auto current = read_link(m.id);  // not a remembered reading: another process may have published
     if (!current || current->manifest.version != *expected_version) {
       discard(staging_dir);
       throw VersionConflict("image " + m.id + " changed since version " + *expected_version);
@@ -220,6 +244,7 @@ std::shared_ptr<const ImageEntry> Store::publish(const std::string& staging_dir,
       (host_name() + "." + std::to_string(::getpid()) + "." + hex(random_u64(), 12) + ".link");
   fs::create_symlink("../versions/" + version_dir, tmp_link);
   fs::rename(tmp_link, link);
+  forget_link(m.id);
   auto entry = find(m.id);
   if (!entry) throw std::runtime_error("published image " + m.id + " cannot be read back");
   return entry;
@@ -228,7 +253,9 @@ std::shared_ptr<const ImageEntry> Store::publish(const std::string& staging_dir,
 bool Store::remove(const std::string& id) {
   if (!is_valid_image_id(id)) return false;
   const IdLock lock(root_, id);
-  return ::unlink((root_ + "/images/" + id).c_str()) == 0;
+  const bool removed = ::unlink((root_ + "/images/" + id).c_str()) == 0;
+  forget_link(id);
+  return removed;
 }
 
 int Store::collect_garbage(std::chrono::seconds grace) {

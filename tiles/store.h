@@ -10,14 +10,22 @@
 // Superseded and deleted versions stay on disk for a grace period, for readers that resolved them
 // just before; collect_garbage() removes them and staging folders of processes that died.
 //
-// Threads: every member may be called from any thread (the cache of loaded versions is under a
-// mutex); across processes, publishing is atomic by rename and conditional publishes of one id
-// are serialised by the flock on ROOT/locks/ID.
+// Which version an id names is read from its link at most once per `recheck` interval (1 s by
+// default) and remembered meanwhile: a cached tile then costs no system call besides its write.
+// This process's own publish() and remove() take effect at once; another process's (a replica
+// sharing the store, a CLI ingest) within `recheck`. A version read just before it was superseded
+// stays on disk for the garbage collector's grace period (minutes), so it is still readable. An id
+// not found is never remembered: a new image is visible at once.
+//
+// Threads: every member may be called from any thread (the caches of links and of loaded versions
+// are under mutexes); across processes, publishing is atomic by rename and conditional publishes
+// of one id are serialised by the flock on ROOT/locks/ID.
 #pragma once
 
 #include <chrono>
 #include <memory>
 #include <mutex>
+#include <shared_mutex>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
@@ -39,13 +47,17 @@ struct VersionConflict : std::runtime_error {
 
 class Store {
  public:
-  // Creates ROOT and its folders if missing. Throws std::runtime_error if it cannot.
-  explicit Store(const std::string& root);
+  static constexpr std::chrono::milliseconds kDefaultRecheck{1000};
+
+  // Creates ROOT and its folders if missing. Throws std::runtime_error if it cannot. `recheck`:
+  // how long a link once read is trusted (see above); 0 reads it on every find().
+  explicit Store(const std::string& root, std::chrono::milliseconds recheck = kDefaultRecheck);
 
   const std::string& root() const { return root_; }
 
-  // The published version of `id` (which must be valid), or null. The link is read on every call,
-  // so a version published by another process is seen at once; manifests are cached per version.
+  // The published version of `id` (which must be valid), or null. The link is read again once the
+  // last reading is `recheck` old, so another process's publish or remove is seen within that;
+  // manifests are cached per version.
   std::shared_ptr<const ImageEntry> find(const std::string& id) const;
 
   // Whether images/ID exists, whatever it points to: find() is null for a published image whose
@@ -85,10 +97,25 @@ class Store {
   bool readable() const;
 
  private:
+  // Reads the link of `id` now (no caching): the published version, or null.
+  std::shared_ptr<const ImageEntry> read_link(const std::string& id) const;
   std::shared_ptr<const ImageEntry> load_version(const std::string& id,
                                                  const std::string& version_dir) const;
+  // This process changed the link of `id`: forget its reading, and any reading in progress.
+  void forget_link(const std::string& id);
+
+  struct LinkReading {
+    std::shared_ptr<const ImageEntry> entry;
+    std::chrono::steady_clock::time_point read_at;
+  };
 
   std::string root_;
+  std::chrono::steady_clock::duration recheck_;
+  mutable std::shared_mutex links_mu_;
+  // Published ids as last read (entries leave when an id is found unpublished); generation_ counts
+  // forget_link() calls, so that a reading begun before one is not remembered after it.
+  mutable std::unordered_map<std::string, LinkReading> links_;
+  mutable std::uint64_t generation_ = 0;
   mutable std::mutex mu_;
   mutable std::unordered_map<std::string, std::shared_ptr<const ImageEntry>> versions_;
 };

@@ -190,6 +190,39 @@ TEST(Images, ReingestWhileServingAndConcurrentIngests) {
   EXPECT_EQ(json::parse(http.get("/v1/images").body)["images"].size(), 3u);
 }
 
+// Two replicas sharing a store: a tile the second one has served (and cached) stops being served
+// once the first deletes the image, and the re-ingested image replaces it, each within the second
+// replica's --store-recheck-ms; the first, which made the change, answers accordingly at once.
+TEST(Images, ReplicasSeeEachOthersDeleteAndReingest) {
+  TempDir dir;
+  const std::string store = dir.path() + "/store";
+  constexpr int kRecheckMs = 200;
+  ServerProcess writer(store), reader(store, {"--store-recheck-ms", std::to_string(kRecheckMs)});
+  HttpClient w(writer.port()), r(reader.port());
+  const std::string tile = "/dzi/shared_files/8/0_0.jpg";
+  auto wait_recheck = [] { std::this_thread::sleep_for(std::chrono::milliseconds(kRecheckMs + 50)); };
+
+  ASSERT_EQ(w.request("POST", "/v1/images?id=shared", sample("boats_lake_sunset.jpg")).status, 201);
+  auto first = r.get(tile);
+  ASSERT_EQ(first.status, 200);
+  ASSERT_EQ(r.get(tile).status, 200);  // now a response-cache hit
+
+  ASSERT_EQ(w.request("DELETE", "/v1/images/shared").status, 204);
+  EXPECT_EQ(w.get(tile).status, 404);
+  wait_recheck();
+  EXPECT_EQ(r.get(tile).status, 404);
+
+  ASSERT_EQ(w.request("POST", "/v1/images?id=shared", sample("pano_grossmugl_field_4to1.png")).status, 201);
+  auto replaced = w.get(tile);
+  ASSERT_EQ(replaced.status, 200);
+  EXPECT_NE(replaced.body, first.body);
+  wait_recheck();
+  auto seen = r.get(tile);
+  EXPECT_EQ(seen.status, 200);
+  EXPECT_EQ(seen.body, replaced.body);
+  EXPECT_EQ(seen.header("etag"), replaced.header("etag"));
+}
+
 TEST(Images, RestartedServerServesEveryPublishedImage) {
   TempDir dir;
   const std::string store = dir.path() + "/store";

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
 #include "tests/support/server_process.h"
 #include "tiles/image_id.h"
@@ -62,6 +63,45 @@ TEST(Store, PublishReplaceRemove) {
   store.publish(store.make_staging_dir(), manifest("b"));
   tiles::Store reopened(dir.path());
   ASSERT_TRUE(reopened.find("b"));
+}
+
+// A link once read is trusted for the recheck interval, but this process's own publish and remove
+// take effect at once however long that interval is.
+TEST(Store, OwnPublishAndRemoveAreSeenAtOnce) {
+  TempDir dir;
+  tiles::Store store(dir.path(), std::chrono::hours(1));
+  auto v1 = store.publish(store.make_staging_dir(), manifest("a"));
+  ASSERT_EQ(store.find("a")->manifest.version, v1->manifest.version);
+  auto v2 = store.publish(store.make_staging_dir(), manifest("a", 200, 100));
+  EXPECT_EQ(store.find("a")->manifest.version, v2->manifest.version);
+  EXPECT_TRUE(store.remove("a"));
+  EXPECT_FALSE(store.find("a"));
+}
+
+// Another process sharing the store (a second Store on the same folder): a new image is found at
+// once, its replacement and removal once the reader's recheck interval has passed.
+TEST(Store, AnotherProcessesChangesAreSeenWithinTheRecheckInterval) {
+  TempDir dir;
+  constexpr auto kRecheck = std::chrono::milliseconds(50);
+  tiles::Store reader(dir.path(), kRecheck), trusting(dir.path(), std::chrono::hours(1)), every_time(dir.path(), {});
+  tiles::Store writer(dir.path());
+  EXPECT_FALSE(reader.find("a"));
+  auto v1 = writer.publish(writer.make_staging_dir(), manifest("a"));
+  ASSERT_TRUE(reader.find("a")) << "an id found missing is not remembered";
+  EXPECT_EQ(reader.find("a")->manifest.version, v1->manifest.version);
+  ASSERT_TRUE(trusting.find("a"));
+  ASSERT_TRUE(every_time.find("a"));
+
+  auto v2 = writer.publish(writer.make_staging_dir(), manifest("a", 200, 100));
+  EXPECT_EQ(every_time.find("a")->manifest.version, v2->manifest.version);
+  EXPECT_EQ(trusting.find("a")->manifest.version, v1->manifest.version) << "trusted until rechecked";
+  std::this_thread::sleep_for(kRecheck);
+  EXPECT_EQ(reader.find("a")->manifest.version, v2->manifest.version);
+
+  ASSERT_TRUE(writer.remove("a"));
+  EXPECT_FALSE(every_time.find("a"));
+  std::this_thread::sleep_for(kRecheck);
+  EXPECT_FALSE(reader.find("a"));
 }
 
 TEST(Store, GarbageCollectionKeepsLiveVersionsAndRemovesDeadStaging) {
