@@ -33,7 +33,8 @@ ARGS = None  # filled in by main(): --binary, --root
 
 # Options whose default is the machine's CPU count: --help shows this machine's number, the README
 # says so in words.
-CPU_DEPENDENT = {"io-threads", "workers", "ingest-threads"}
+CPU_DEPENDENT = {"io-threads": "half the number of CPUs (at least 1)", "workers": "number of CPUs",
+                 "ingest-threads": "number of CPUs"}
 
 
 # ---- reading the binary ---------------------------------------------------------------------------
@@ -677,7 +678,7 @@ def expected_table_rows():
                 rows[var] = (flag, commands + ", " + command, cell)
                 continue
             if name in CPU_DEPENDENT:
-                cell = "number of CPUs"
+                cell = CPU_DEPENDENT[name]
             else:
                 cell = f"`{default}`" if default else "—"
             rows[var] = (name, command, cell)
