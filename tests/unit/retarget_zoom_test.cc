@@ -182,7 +182,9 @@ struct Sample {
   tiles::PyramidReader reader{64 << 20};
   warp::RetargetZoom rz;
 
-  Sample(const std::string& file, const warp::ImageModel& model) : rz(model, model.significance) {
+  Sample(const std::string& file, const warp::ImageModel& model,
+         std::size_t tile_cache_bytes = warp::RetargetZoom::kTileCacheBytes)
+      : rz(model, model.significance, tile_cache_bytes) {
     tiles::ingest_image(store, testing::samples_dir() + "/" + file, "sample", {});
     entry = store.find("sample");
   }
@@ -306,6 +308,37 @@ TEST(RetargetZoom, AReplacedImageShowsItsOwnPixels) {
   const tiles::Raster exact = warp::render_view(sample.rz.view(r), 480, 360, *replaced, sample.reader);
   EXPECT_GE(testing::psnr(after, exact), 30);
   EXPECT_LT(testing::psnr(before, exact), 20) << "the two versions' pictures differ";
+}
+
+// A level too large for half the tile cache is not tiled: its views are drawn directly, exactly
+// render_view's pixels, and keep no tiles. With a 256 KB cache every boats level a 480×360 screen
+// reads (≥ 480×360 RGB, 518 KB) is too large.
+TEST(RetargetZoom, AViewOfALevelTooLargeToKeepIsDrawnDirectly) {
+  Sample sample("boats_lake_sunset.jpg", boats(), 256 << 10);
+  ASSERT_TRUE(sample.entry);
+  warp::ViewRequest first;
+  first.screen_width = 480, first.screen_height = 360;
+  sample.rz.view(first);  // the warp, solved and kept
+  const std::size_t without_tiles = sample.rz.memory_bytes();
+  for (double zoom : {0.0, 0.5, 1.0}) {
+    warp::ViewRequest r = first;
+    r.zoom = zoom, r.cx = 700, r.cy = 400;
+    SCOPED_TRACE(::testing::Message() << "zoom " << zoom);
+    const tiles::Raster viewport = sample.rz.render(r, *sample.entry, sample.reader);
+    EXPECT_TRUE(viewport.pixels == warp::render_view(sample.rz.view(r), 480, 360, *sample.entry, sample.reader).pixels);
+  }
+  EXPECT_EQ(sample.rz.memory_bytes(), without_tiles);
+}
+
+// Which levels are kept: those whose tiles fill at most half the cache.
+TEST(RenderedTiles, KeepsTheLevelsThatFitInHalfTheCache) {
+  const warp::RenderedTiles tiles(1 << 20);
+  const warp::RenderedTiles::Image image{"k", 4000, 3000, 3};
+  EXPECT_FALSE(tiles.keeps(image, 1));         // level 0: 36 MB
+  EXPECT_FALSE(tiles.keeps(image, 1.0 / 8));   // level 3: 500×375 RGB, 563 KB
+  EXPECT_TRUE(tiles.keeps(image, 1.0 / 16));   // level 4: 250×188 RGB, 141 KB
+  EXPECT_TRUE(tiles.keeps(image, 1.0 / 100));  // level 6
+  EXPECT_FALSE(tiles.keeps(image, 0));
 }
 
 // The kept tiles are part of the engine's bytes (memory_bytes), so the warp cache's budget bounds them.

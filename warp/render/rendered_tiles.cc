@@ -51,7 +51,15 @@ tiles::Raster assemble(RenderedTiles& tiles, const RenderedTiles::Image& image, 
 }  // namespace
 
 RenderedTiles::RenderedTiles(std::size_t max_bytes)
-    : tiles_(max_bytes, [](const Tile& t) { return t->pixels.capacity() + kTileOverhead; }) {}
+    : max_bytes_(max_bytes), tiles_(max_bytes, [](const Tile& t) { return t->pixels.capacity() + kTileOverhead; }) {}
+
+bool RenderedTiles::keeps(const Image& image, double scale) const {
+  if (!(scale > 0)) return false;
+  const tiles::Rect size = level_size(image, level_for(scale, level_count(image)));
+  const double tiles_across = std::ceil(double(size.w) / kTileSize), tiles_down = std::ceil(double(size.h) / kTileSize);
+  const double bytes = double(size.w) * double(size.h) * image.channels + tiles_across * tiles_down * kTileOverhead;
+  return bytes <= double(max_bytes_) / 2;
+}
 
 tiles::Rect RenderedTiles::level_size(const Image& image, int level) {
   const double f = std::ldexp(1.0, -level);

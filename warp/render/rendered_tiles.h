@@ -66,10 +66,18 @@ class RenderedTiles {
   // Level `level`'s size in pixels: those whose centres lie in the image.
   static tiles::Rect level_size(const Image& image, int level);
 
+  // Whether the level views at `scale` read is small enough to keep: all its tiles in half the
+  // cache. Views of a larger level keep few of the tiles they draw (random views over a 127 MP
+  // image's level 0, ~290 MB, found one in five in a 64 MB cache) and draw ~3× their own pixels
+  // each (whole tiles around a screen), several times a direct drawing's cost: the caller draws
+  // those directly.
+  bool keeps(const Image& image, double scale) const;
+
   // The kept tiles' bytes (pixels and bookkeeping). Lock-free.
   std::size_t bytes() const { return tiles_.weight(); }
 
  private:
+  const std::size_t max_bytes_;
   tiles::SingleFlight<std::shared_ptr<const tiles::Raster>> tiles_;
 };
 

@@ -36,8 +36,8 @@ double finest_stored_leaf_area(const ImageModel& model) {
   return largest;
 }
 
-RetargetZoom::RetargetZoom(const ImageModel& model, const SignificanceMap& saliency)
-    : width_(model.width), height_(model.height), warp_(make_warp(model, saliency)) {}
+RetargetZoom::RetargetZoom(const ImageModel& model, const SignificanceMap& saliency, std::size_t tile_cache_bytes)
+    : width_(model.width), height_(model.height), warp_(make_warp(model, saliency)), tiles_(tile_cache_bytes) {}
 
 RetargetZoom::Positions RetargetZoom::warped(double tw, double th, WarpResult* stats, const StopToken* stop) {
   const auto key = std::make_pair(std::llround(tw * 1000), std::llround(th * 1000));
@@ -73,12 +73,10 @@ View RetargetZoom::view(const ViewRequest& r) {
   return v;
 }
 
-tiles::Raster RetargetZoom::draw_tile(const std::vector<Point>& warp, int level, const tiles::Rect& r,
-                                      const tiles::ImageEntry& image, tiles::PyramidReader& reader,
-                                      const StopToken* stop) const {
-  const ZoomPlacement place{std::ldexp(1.0, -level), -double(r.x), -double(r.y)};
+tiles::Raster RetargetZoom::draw(const std::vector<Point>& warp, const ZoomPlacement& place, int w, int h,
+                                 const tiles::ImageEntry& image, tiles::PyramidReader& reader,
+                                 const StopToken* stop) const {
   const std::vector<Point> screen = place.on_screen(warp);
-  const int w = int(r.w), h = int(r.h);
   return render_mesh(mesh(), screen, visible_triangles(mesh(), screen, w, h), w, h, image, reader, stop);
 }
 
@@ -91,14 +89,18 @@ RenderedTiles::Image RetargetZoom::retargeted(const Warped& w, const tiles::Imag
 RenderedTiles::DrawTile RetargetZoom::tile_drawer(const Warped& w, const tiles::ImageEntry& image,
                                                   tiles::PyramidReader& reader, const StopToken* stop) const {
   return [this, warp = w.warp, &image, &reader, stop](int level, const tiles::Rect& rect) {
-    return draw_tile(*warp, level, rect, image, reader, stop);
+    const ZoomPlacement place{std::ldexp(1.0, -level), -double(rect.x), -double(rect.y)};
+    return draw(*warp, place, int(rect.w), int(rect.h), image, reader, stop);
   };
 }
 
 tiles::Raster RetargetZoom::render(const ViewRequest& r, const tiles::ImageEntry& image, tiles::PyramidReader& reader) {
   const Warped w = warped_view(r);
   const ZoomPlacement place = zoom_placement(w.geometry.target_width, w.geometry.target_height, r, w.centre);
-  return tiles_.view(retargeted(w, image), place, r.screen_width, r.screen_height, tile_drawer(w, image, reader, r.stop),
+  const RenderedTiles::Image retargeted_image = retargeted(w, image);
+  if (!tiles_.keeps(retargeted_image, place.scale))
+    return draw(*w.warp, place, r.screen_width, r.screen_height, image, reader, r.stop);
+  return tiles_.view(retargeted_image, place, r.screen_width, r.screen_height, tile_drawer(w, image, reader, r.stop),
                      r.stop);
 }
 

@@ -22,7 +22,9 @@
 // (kTileCacheBytes, counted in memory_bytes()), and a view is the region path applied to it: the
 // level at most 2× finer than the screen, its tiles assembled, one bilinear resampling at the
 // view's exact scale and origin. Within a quarter of a screen pixel and ≥ 40 dB of
-// render_view(view()); at zoom 1 with an integral origin, level 0's tile pixels exactly.
+// render_view(view()); at zoom 1 with an integral origin, level 0's tile pixels exactly. A view
+// whose level is too large to keep (RenderedTiles::keeps: its tiles would fill more than half the
+// cache — a large image's finest levels) is drawn directly, exactly as render_view draws it.
 // The view centre's triangle is found with a TriangleLocator built at load.
 //
 // Thread safety: view(), render() and memory_bytes() may be called concurrently; the mesh and
@@ -56,9 +58,10 @@ class RetargetZoom : public Retargeter {
   // read on a 20 MP image at one aspect are ~20 MB.
   static constexpr std::size_t kTileCacheBytes = std::size_t(64) << 20;
 
-  // Builds the uniform mesh and factors its system. Throws std::invalid_argument when the
-  // curator's lines cannot be meshed (as the coarsest mesh would).
-  RetargetZoom(const ImageModel& model, const SignificanceMap& saliency);
+  // Builds the uniform mesh and factors its system; keeps up to `tile_cache_bytes` of tiles.
+  // Throws std::invalid_argument when the curator's lines cannot be meshed (as the coarsest mesh
+  // would).
+  RetargetZoom(const ImageModel& model, const SignificanceMap& saliency, std::size_t tile_cache_bytes = kTileCacheBytes);
 
   View view(const ViewRequest& request) override;
   tiles::Raster render(const ViewRequest& request, const tiles::ImageEntry& image,
@@ -94,10 +97,11 @@ class RetargetZoom : public Retargeter {
   RenderedTiles::DrawTile tile_drawer(const Warped& w, const tiles::ImageEntry& image, tiles::PyramidReader& reader,
                                       const StopToken* stop) const;
 
-  // Rectangle `r` of level `level` of the retargeted image `warp` (tw × th): its triangles on an
-  // r.w × r.h screen at scale 2^-level — what render_view shows of it there.
-  tiles::Raster draw_tile(const std::vector<Point>& warp, int level, const tiles::Rect& r, const tiles::ImageEntry& image,
-                          tiles::PyramidReader& reader, const StopToken* stop) const;
+  // The retargeted image `warp` as `place` puts it on a w × h screen: its triangles drawn by
+  // render_mesh — what render_view shows there. A tile is rectangle r of level k: scale 2^-k,
+  // offset −(r.x, r.y).
+  tiles::Raster draw(const std::vector<Point>& warp, const ZoomPlacement& place, int w, int h,
+                     const tiles::ImageEntry& image, tiles::PyramidReader& reader, const StopToken* stop) const;
 
   // The warp onto target_width × target_height, from the cache or solved now.
   Positions warped(double target_width, double target_height, WarpResult* stats, const StopToken* stop);
@@ -108,7 +112,7 @@ class RetargetZoom : public Retargeter {
   std::mutex mu_;  // guards the cache and warp_'s solves
   RecentCache<std::pair<long long, long long>, Positions> cache_{  // by size (1/1000 px)
       kCachedSizes, [](const Positions& p) { return p->capacity() * sizeof(Point); }};
-  RenderedTiles tiles_{kTileCacheBytes};
+  RenderedTiles tiles_;
 };
 
 // The area bound of the uniform mesh for `model`: the largest leaf among the forest's kept nodes.
