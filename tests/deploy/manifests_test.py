@@ -374,6 +374,23 @@ class Kubernetes(unittest.TestCase):
             for what in ("cpu", "memory"):
                 self.assertIn(what, res.get(kind, {}), f"resources.{kind}.{what}")
 
+    def test_threads_and_caches_fit_the_resources(self):
+        # The thread defaults count the node's CPUs, not the pod's: each count must be set, and
+        # match the CPU limit (server/README.md "Threads": I/O threads half of it, at least 1).
+        res = self.container["resources"]
+        cpus = int(str(res["limits"]["cpu"]))
+        for var in ("ZOOMWARP_WORKERS", "ZOOMWARP_IO_THREADS", "ZOOMWARP_INGEST_THREADS"):
+            self.assertIn(var, self.config, f"{var} defaults to the node's CPUs: set it to the pod's")
+        self.assertEqual(int(self.config["ZOOMWARP_WORKERS"]), cpus, "workers vs the CPU limit")
+        self.assertEqual(int(self.config["ZOOMWARP_IO_THREADS"]), max(1, cpus // 2), "I/O threads vs the CPU limit")
+        self.assertLessEqual(int(self.config["ZOOMWARP_INGEST_THREADS"]), cpus, "ingest threads vs the CPU limit")
+        # A warm pod holds its three caches: they fit the memory request, and the limit is above it.
+        caches = sum(size_bytes(self.setting(v)) for v in ("ZOOMWARP_TILE_CACHE", "ZOOMWARP_RESPONSE_CACHE",
+                                                             "ZOOMWARP_WARP_CACHE"))
+        request, limit = (size_bytes(str(res[k]["memory"]).removesuffix("i")) for k in ("requests", "limits"))
+        self.assertLessEqual(caches, request, "the caches do not fit the memory request")
+        self.assertLess(request, limit)
+
     def test_grace_period_covers_the_drain(self):
         drain = int(self.setting("ZOOMWARP_DRAIN_DELAY")) + int(self.setting("ZOOMWARP_DRAIN_TIMEOUT"))
         grace = self.pod["spec"]["terminationGracePeriodSeconds"]
@@ -420,6 +437,20 @@ class Kubernetes(unittest.TestCase):
         self.assertLessEqual(pdb["spec"]["selector"]["matchLabels"].items(), labels.items(),
                              "the PodDisruptionBudget does not select the Deployment's pods")
         self.assertTrue({"minAvailable", "maxUnavailable"} & pdb["spec"].keys())
+
+    def test_disruption_budget_leaves_a_pod_serving(self):
+        pdb = self.r["PodDisruptionBudget"]["spec"]
+        self.assertEqual(pdb.get("maxUnavailable"), 1, "voluntary disruptions take one pod at a time")
+        self.assertLess(pdb["maxUnavailable"], self.r["HorizontalPodAutoscaler"]["spec"]["minReplicas"])
+
+    def test_probes_restart_wedged_pods_not_busy_or_draining_ones(self):
+        # Liveness on /healthz (the I/O threads answer it, never queued behind workers), patient
+        # enough that a pod is restarted after several misses in a row, not one slow answer.
+        live = self.container["livenessProbe"]
+        self.assertGreaterEqual(live.get("failureThreshold", 3), 3)
+        self.assertGreaterEqual(live["periodSeconds"] * live.get("failureThreshold", 3), 30)
+        health_timeout = int(options("health")["timeout"][1])
+        self.assertGreaterEqual(live["timeoutSeconds"], health_timeout, "as patient as the image's own health check")
 
     def test_hpa(self):
         hpa = self.r["HorizontalPodAutoscaler"]
