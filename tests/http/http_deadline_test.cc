@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "tests/http/raw_connection.h"
+#include "tests/http/pano_server.h"
 #include "tests/support/http_client.h"
 #include "tests/support/metrics_scrape.h"
 #include "tests/support/server_process.h"
@@ -44,21 +45,7 @@ std::string slow_view(int variant) {
 }
 std::string raw_get(const std::string& target) { return "GET " + target + " HTTP/1.1\r\nHost: t\r\n\r\n"; }
 
-class Deadline : public ::testing::Test {
- protected:
-  void start(const std::vector<std::string>& args) {
-    server_.emplace(dir_.path() + "/store", args);
-    HttpClient http(server_->port());
-    ASSERT_EQ(http.request("POST", "/v1/images?id=pano",
-                           testing::read_file(testing::samples_dir() + "/pano_grossmugl_field_4to1.png"))
-                  .status,
-              201);
-  }
-  int port() const { return server_->port(); }
-
-  testing::TempDir dir_;
-  std::optional<testing::ServerProcess> server_;
-};
+class Deadline : public testing::PanoServer {};
 
 TEST_F(Deadline, AViewOutOfTimeGets503WithRetryAfterAndTheWorkerIsFreeAfter) {
   start({"--workers", "1", "--request-timeout", "1"});

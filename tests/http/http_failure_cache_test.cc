@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "tests/http/raw_connection.h"
+#include "tests/http/pano_server.h"
 #include "tests/support/http_client.h"
 #include "tests/support/images.h"
 #include "tests/support/metrics_scrape.h"
@@ -48,21 +49,7 @@ std::string error_code(const testing::HttpResponse& r) {
   return body.is_object() ? body["error"].value("code", "") : "";
 }
 
-class FailureCache : public ::testing::Test {
- protected:
-  void start(const std::vector<std::string>& args, const testing::ServerExecutable& executable = {}) {
-    server_.emplace(dir_.path() + "/store", args, testing::ServerProcess::Writes::kOpen, executable);
-    ASSERT_EQ(HttpClient(port())
-                  .request("POST", "/v1/images?id=pano",
-                           testing::read_file(testing::samples_dir() + "/pano_grossmugl_field_4to1.png"))
-                  .status,
-              201);
-  }
-  int port() const { return server_->port(); }
-
-  testing::TempDir dir_;
-  std::optional<testing::ServerProcess> server_;
-};
+class FailureCache : public testing::PanoServer {};
 
 TEST_F(FailureCache, AViewOutOfTimeIsAnsweredFromTheCacheUntilItsWindowPasses) {
   start({"--workers", "1", "--request-timeout", "1", "--failure-cache-ms", "4000"}, kPoisonable);

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "tests/http/pano_server.h"
 #include "tests/support/http_client.h"
 #include "tests/support/metrics_scrape.h"
 #include "tests/support/server_process.h"
@@ -23,22 +24,12 @@ using testing::ServerProcess;
 const std::string kPoison = "/v1/images/pano/viewport?zoom=0.5&w=64&h=64";
 const std::string kSlow = "/v1/images/pano/viewport?zoom=0.25&w=64&h=64";
 
-class Poisonable : public ::testing::Test {
+class Poisonable : public testing::PanoServer {
  protected:
   void start(const std::vector<std::string>& args) {
-    const testing::ServerExecutable poisonable{testing::zoomwarp_poisonable_binary(),
-                                            {{"ZOOMWARP_TEST_POISON", kPoison}, {"ZOOMWARP_TEST_SLOW", kSlow}}};
-    server_.emplace(dir_.path() + "/store", args, ServerProcess::Writes::kOpen, poisonable);
-    ASSERT_EQ(HttpClient(port())
-                  .request("POST", "/v1/images?id=pano",
-                           testing::read_file(testing::samples_dir() + "/pano_grossmugl_field_4to1.png"))
-                  .status,
-              201);
+    PanoServer::start(args, {testing::zoomwarp_poisonable_binary(),
+                             {{"ZOOMWARP_TEST_POISON", kPoison}, {"ZOOMWARP_TEST_SLOW", kSlow}}});
   }
-  int port() const { return server_->port(); }
-
-  testing::TempDir dir_;
-  std::optional<ServerProcess> server_;
 };
 
 TEST_F(Poisonable, ThePoisonedRequestAbortsTheProcessWithoutAnAnswer) {
