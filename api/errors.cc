@@ -17,9 +17,17 @@ Response error_response(int status, const std::string& code, const std::string& 
   return r;
 }
 
+Response error_response(const ApiError& error) {
+  Response r = error_response(error.status(), error.code(), error.what());
+  r.log_detail = error.log_detail();
+  if (error.status() == 500) r.failure = "internal_error";
+  return r;
+}
+
 Response internal_error_response(const std::string& detail) {
   Response r = error_response(500, "internal_error", "the server could not answer this request; it has logged why");
   r.log_detail = detail;
+  r.failure = "internal_error";
   return r;
 }
 
@@ -29,8 +37,21 @@ Response stopped_response(warp::Stopped::Reason reason) {
                                          "the request took longer than the server allows; retry, or ask for a smaller view")
                         : error_response(503, "request_cancelled", "the request was cancelled");
   r.set_header("Retry-After", "1");
-  r.stopped = deadline ? "deadline" : "cancelled";
+  r.failure = deadline ? "deadline" : "cancelled";
   return r;
+}
+
+std::optional<Response> server_failure_response(std::exception_ptr error) {
+  try {
+    std::rethrow_exception(error);
+  } catch (const warp::Stopped& stopped) {
+    return stopped_response(stopped.reason());
+  } catch (const ApiError& e) {
+    if (e.status() == 500) return error_response(e);
+  } catch (const std::exception& e) {
+    return internal_error_response(e.what());
+  }
+  return std::nullopt;
 }
 
 std::string without_paths(const std::string& message) {

@@ -6,6 +6,8 @@
 // which the server logs and never sends.
 #pragma once
 
+#include <exception>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -30,13 +32,24 @@ class ApiError : public std::runtime_error {
 
 Response error_response(int status, const std::string& code, const std::string& message);
 
+// The answer to an ApiError: its status, code and message, its log detail; a 500 is marked
+// Response::failure = "internal_error".
+Response error_response(const ApiError& error);
+
 // 500 for an unexpected exception: a generic message; `detail` (e.what()) only in the log.
+// Response::failure = "internal_error".
 Response internal_error_response(const std::string& detail);
 
 // 503 + Retry-After for a request whose StopToken ended it: "deadline_exceeded" when it ran out
 // of time, "request_cancelled" when its client went away or the server is shutting down.
-// Response::stopped says which, for metrics and the log.
+// Response::failure says which ("deadline", "cancelled"), for metrics and the log.
 Response stopped_response(warp::Stopped::Reason reason);
+
+// The answer to a computation that threw, when the failure is the server's: stopped_response()
+// for warp::Stopped, error_response() for an ApiError of status 500, internal_error_response()
+// for any other std::exception. nullopt for an ApiError of another status: the client's own error
+// (or a refusal such as 501), which the caller rethrows for the router to answer as usual.
+std::optional<Response> server_failure_response(std::exception_ptr error);
 
 // `message` with every absolute path in it ("/var/lib/…/upload", "'/tmp/x.png'") replaced by
 // "(file)", for library messages (OpenImageIO) that are useful to a client but name files.

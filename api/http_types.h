@@ -39,8 +39,11 @@ struct Response {
   std::shared_ptr<const std::string> body;
   std::vector<std::pair<std::string, std::string>> headers;  // besides Content-Type
   std::string route;  // a stable label for metrics and logs, e.g. "dzi_tile"
-  std::string cache;  // "hit", "miss" or "" where no response cache is involved
-  std::string stopped;  // "deadline" or "cancelled" when the request's StopToken ended its work
+  std::string cache;  // "hit", "miss", "negative" (api/failure_cache.h) or "" where no cache is involved
+  // Why the request failed on the server's side, for metrics: "deadline" or "cancelled" (its
+  // StopToken ended its work), "internal_error" (a 500), "negative_cache" (a remembered failure,
+  // api/failure_cache.h); "" otherwise, also for the client's own errors (4xx).
+  std::string failure;
   std::string log_detail;  // what went wrong, for the server's log only: never sent to the client
 
   void set_header(std::string name, std::string value) {

@@ -86,6 +86,10 @@ bool host_is_sane(std::string_view h) {
   return true;
 }
 
+// The failure cache's memory: a remembered failure is its key and a ~150-byte error body, so this
+// holds a few thousand; a flood of distinct failing requests only evicts older ones.
+constexpr std::size_t kFailureCacheBytes = 1u << 20;
+
 tiles::Raster apply_quality(tiles::Raster r, IiifQuality q) {
   switch (q) {
     case IiifQuality::kGray: return tiles::to_grey(r);
@@ -101,6 +105,7 @@ Router::Router(tiles::Store& store, tiles::PyramidReader& reader, RouterConfig c
       reader_(reader),
       config_(std::move(config)),
       cache_(config_.response_cache_bytes),
+      failures_(config_.failure_cache_window, kFailureCacheBytes),
       engines_(reader, config_.warp_cache_bytes, config_.significance, config_.log) {}
 
 bool Router::is_upload(std::string_view method, std::string_view path) {
@@ -169,13 +174,21 @@ std::optional<Response> Router::image_response(const Request& req, const tiles::
     r.cache = "hit";
     return r;
   }
+  if (auto failed = failures_.get(cache_key)) {
+    failed->route = route;
+    return failed;
+  }
   if (!may_compute) return std::nullopt;
   try {
-    return compute_once(cache_key, req.stop, [&] { return with_validators(compute(entry)); });
-  } catch (const warp::Stopped& stopped) {
-    Response r = stopped_response(stopped.reason());
-    r.route = route;
-    return r;
+    return compute_once(cache_key, req.stop, [&] {
+      if (config_.compute_hook) config_.compute_hook(req);
+      return with_validators(compute(entry));
+    });
+  } catch (...) {
+    auto failed = server_failure_response(std::current_exception());
+    if (!failed) throw;
+    failed->route = route;
+    return failed;
   }
 }
 
@@ -186,6 +199,18 @@ void wait_for(const std::shared_future<std::shared_ptr<const Response>>& pending
   while (pending.wait_for(std::chrono::milliseconds(20)) != std::future_status::ready) stop->check();
 }
 }  // namespace
+
+Response Router::compute_remembering_failure(const std::string& cache_key, const std::function<Response()>& compute) {
+  try {
+    return compute();
+  } catch (...) {
+    // Not a request that was cancelled (its client left: nothing is wrong with the view), nor the
+    // client's own error (as cheap to find again as to remember).
+    const auto failed = server_failure_response(std::current_exception());
+    if (failed && failed->failure != "cancelled") failures_.put(cache_key, *failed);
+    throw;
+  }
+}
 
 Response Router::compute_once(const std::string& cache_key, const warp::StopToken* stop,
                               const std::function<Response()>& compute) {
@@ -199,7 +224,7 @@ Response Router::compute_once(const std::string& cache_key, const warp::StopToke
           cache_key,
           [&] {
             computing = true;
-            auto r = std::make_shared<const Response>(compute());
+            auto r = std::make_shared<const Response>(compute_remembering_failure(cache_key, compute));
             // Cached before the flight lands, so that a request arriving after it finds the answer.
             if (r->status == 200) cache_.put(cache_key, r, r->body->size());
             return r;
@@ -345,9 +370,8 @@ std::optional<Response> Router::dispatch(const Request& req, bool may_compute) {
                      "IIIF image requests are /iiif/3/{id}/{region}/{size}/{rotation}/{quality}.{format}");
     throw ApiError(404, "not_found", "no such route; see /openapi.json");
   } catch (const ApiError& e) {
-    Response r = error_response(e.status(), e.code(), e.what());
+    Response r = error_response(e);
     r.route = "error";
-    r.log_detail = e.log_detail();
     return r;
   }
 }

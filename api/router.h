@@ -6,6 +6,7 @@
 // is what makes the ETags strong and the encoded-response cache safe.
 #pragma once
 
+#include <chrono>
 #include <cstddef>
 #include <functional>
 #include <optional>
@@ -16,6 +17,7 @@
 
 #include "api/authorize.h"
 #include "api/deepzoom.h"
+#include "api/failure_cache.h"
 #include "api/http_types.h"
 #include "api/iiif.h"
 #include "tiles/single_flight.h"
@@ -45,6 +47,12 @@ struct RouterConfig {
   // Verifies signed URLs of private images (api/url_signing.h); null: none is valid (no
   // --signing-key). Curator keys are the access policy's.
   std::shared_ptr<const UrlSigner> url_signer;
+  // How long a view's failure (deadline, 500) is answered from memory (api/failure_cache.h); 0: never.
+  std::chrono::milliseconds failure_cache_window{5000};
+  // Test builds only (tests/support/compute_hook_poison.cc): called on the worker just before an
+  // image response is computed, within its single flight and failure cache. Empty in the shipped
+  // binary (server/compute_hook.h).
+  std::function<void(const Request&)> compute_hook;
 };
 
 // Threads: try_answer_now() and handle() may be called concurrently from any threads (I/O threads
@@ -73,6 +81,7 @@ class Router {
   static bool is_upload(std::string_view method, std::string_view path);
 
   tiles::ByteLruCache<Response>::Stats response_cache_stats() const { return cache_.stats(); }
+  std::size_t failure_cache_bytes() const { return failures_.bytes(); }
   std::size_t warp_cache_bytes() { return engines_.memory_bytes(); }
   const RouterConfig& config() const { return config_; }
 
@@ -121,8 +130,10 @@ class Router {
   std::optional<Response> iiif_info(const Request&, const PathParams&, bool);
   std::optional<Response> iiif_image(const Request&, const PathParams&, bool may_compute);
 
-  // Image responses go through one path: check If-None-Match, look in the cache, and only then
-  // (if allowed) compute — once for identical concurrent requests (single flight).
+  // Image responses go through one path: check If-None-Match, look in the cache, then in the
+  // failure cache, and only then (if allowed) compute — once for identical concurrent requests
+  // (single flight). A failure that is the server's (api/errors.h server_failure_response) is
+  // answered with the route's label.
   std::optional<Response> image_response(const Request& req, const tiles::ImageEntry& entry,
                                          const std::string& route, const std::string& key_extra,
                                          bool may_compute,
@@ -131,9 +142,15 @@ class Router {
   // Computes the response for `cache_key` once for identical concurrent requests (single flight).
   // Each requester is bound by its own `stop` only: a waiter that runs out of time leaves without
   // stopping the computation, and when the computing request is stopped by its token the
-  // waiters do not fail with it, one of them computes in its place. Throws warp::Stopped.
+  // waiters do not fail with it, one of them computes in its place. Throws warp::Stopped, and
+  // what `compute` throws. The computing request's deadline or internal error is remembered in
+  // the failure cache (a client's error or cancellation is not); the waiters of that flight fare
+  // as without it (a 500 reaches them, after a deadline one of them computes again).
   Response compute_once(const std::string& cache_key, const warp::StopToken* stop,
                         const std::function<Response()>& compute);
+  // Runs `compute`; a failure that is the server's, but not a cancellation, is remembered under
+  // `cache_key` (api/failure_cache.h) before it is rethrown.
+  Response compute_remembering_failure(const std::string& cache_key, const std::function<Response()>& compute);
 
   std::string base_url(const Request& req) const;
 
@@ -151,6 +168,7 @@ class Router {
   tiles::PyramidReader& reader_;
   RouterConfig config_;
   tiles::ByteLruCache<Response> cache_;
+  FailureCache failures_;
   WarpEngines engines_;
   tiles::SingleFlight<std::shared_ptr<const Response>> in_flight_;  // keeps nothing: cache_ keeps the answers
 };

@@ -15,9 +15,9 @@ void Metrics::observe_request(const std::string& route, int status, double secon
   h.sum += seconds;
 }
 
-void Metrics::observe_stopped(const std::string& route, const std::string& reason) {
+void Metrics::observe_failure(const std::string& route, const std::string& reason) {
   std::lock_guard lock(mu_);
-  ++stopped_[{route, reason}];
+  ++failed_[{route, reason}];
 }
 
 void Metrics::observe_upload(const std::string& key_id) {
@@ -69,11 +69,12 @@ std::string Metrics::render() const {
           << "zoomwarp_http_request_duration_seconds_sum{route=\"" << route << "\"} " << h.sum << "\n"
           << "zoomwarp_http_request_duration_seconds_count{route=\"" << route << "\"} " << h.count << "\n";
     }
-    out << "# HELP zoomwarp_http_requests_stopped_total Requests whose work was stopped (503), by route and reason"
-           " (deadline: --request-timeout passed; cancelled: the client left, or the drain timed out).\n"
-           "# TYPE zoomwarp_http_requests_stopped_total counter\n";
-    for (const auto& [key, n] : stopped_)
-      out << "zoomwarp_http_requests_stopped_total{route=\"" << key.first << "\",reason=\"" << key.second << "\"} " << n
+    out << "# HELP zoomwarp_http_requests_failed_total Requests failed on the server's side, by route and reason"
+           " (deadline: --request-timeout passed, 503; cancelled: the client left, or the drain timed out, 503;"
+           " internal_error: 500; negative_cache: a view's recent deadline or 500 answered again, --failure-cache-ms).\n"
+           "# TYPE zoomwarp_http_requests_failed_total counter\n";
+    for (const auto& [key, n] : failed_)
+      out << "zoomwarp_http_requests_failed_total{route=\"" << key.first << "\",reason=\"" << key.second << "\"} " << n
           << "\n";
     out << "# HELP zoomwarp_uploads_total Uploads admitted by the rate limits, by key id (\"\": no valid key).\n"
            "# TYPE zoomwarp_uploads_total counter\n";

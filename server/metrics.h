@@ -1,5 +1,5 @@
 // Prometheus metrics (text exposition format 0.0.4): request counts by route and status, latency
-// histograms by route, requests stopped by their StopToken by route and reason, plus gauges the
+// histograms by route, requests failed on the server's side by route and reason, plus gauges the
 // caller samples at scrape time (caches, queue, store).
 //
 // Threads: every member function may be called from any thread; samplers are called without the
@@ -19,8 +19,9 @@ namespace zoomwarp::server {
 class Metrics {
  public:
   void observe_request(const std::string& route, int status, double seconds);
-  // A request whose work its StopToken ended: reason "deadline" or "cancelled".
-  void observe_stopped(const std::string& route, const std::string& reason);
+  // A request that failed on the server's side (api::Response::failure): reason "deadline",
+  // "cancelled", "internal_error" or "negative_cache". Routes are the router's labels, never paths.
+  void observe_failure(const std::string& route, const std::string& reason);
   // Uploads let through the rate limits, and refused by one ("uploads_per_minute",
   // "bytes_per_day"), by key id ("" for requests without a valid key: never per address, whose
   // number is unbounded).
@@ -49,7 +50,7 @@ class Metrics {
   mutable std::mutex mu_;
   std::map<std::pair<std::string, int>, std::uint64_t> requests_;
   std::map<std::string, Histogram> latency_;
-  std::map<std::pair<std::string, std::string>, std::uint64_t> stopped_;
+  std::map<std::pair<std::string, std::string>, std::uint64_t> failed_;
   std::map<std::string, std::uint64_t> uploads_;
   std::map<std::pair<std::string, std::string>, std::uint64_t> rate_limited_;
   std::vector<Sampler> samplers_;

@@ -9,6 +9,7 @@
 #include "api/key_ring.h"
 #include "api/router.h"
 #include "server/commands.h"
+#include "server/compute_hook.h"
 #include "server/http_server.h"
 #include "server/log.h"
 #include "server/metrics.h"
@@ -53,6 +54,9 @@ std::vector<OptionSpec> serve_specs() {
       {"drain-delay", "0", "seconds between SIGTERM (readiness fails) and closing the listener"},
       {"drain-timeout", "30", "seconds in-flight requests get to finish after the listener closed; then they are cancelled and the process exits"},
       {"request-timeout", "5", "seconds a computed request (view, tile, IIIF image, edit) may take from read to answer, queue included; then 503 + Retry-After"},
+      // As long as the default --request-timeout: a client retrying a view that runs out of time
+      // every time then holds one worker half of the time at most (server/README.md).
+      {"failure-cache-ms", "5000", "milliseconds a view that ran out of time or failed with a 500 is answered with that failure again (+ Retry-After) instead of being computed; 0: never"},
       {"gc-grace", "600", "seconds a superseded or deleted image version stays on disk"},
       {"store-recheck-ms", "1000", "milliseconds an image's published version, once read from the store, is trusted: another process's re-ingest or delete is seen within this (this server's own at once); 0: read on every request"},
       {"log-requests", "1", "one JSON log line per request (1/0)"},
@@ -145,6 +149,8 @@ int serve_command(const std::vector<std::string>& args) {
     rc.iiif.max_height = int(o.integer("iiif-max-height", 1, 65535));
     rc.iiif.max_area = o.integer("iiif-max-area", 1, 1LL << 32);
     rc.cache_max_age = int(o.integer("cache-max-age", 0, 365 * 86400));
+    rc.failure_cache_window = std::chrono::milliseconds(o.integer("failure-cache-ms", 0, 3'600'000));
+    rc.compute_hook = compute_hook();
     rc.public_url = o.str("public-url");
     while (!rc.public_url.empty() && rc.public_url.back() == '/') rc.public_url.pop_back();
     const AnalysisSettings analysis = analysis_settings(o);
@@ -191,6 +197,7 @@ int serve_command(const std::vector<std::string>& args) {
           {"zoomwarp_cache_bytes", "Bytes held by a cache.", "gauge", R"(cache="response")", double(rs.bytes)},
           {"zoomwarp_cache_bytes", "", "gauge", R"(cache="tile")", double(ts.bytes_used)},
           {"zoomwarp_cache_bytes", "", "gauge", R"(cache="warp")", double(router.warp_cache_bytes())},
+          {"zoomwarp_cache_bytes", "", "gauge", R"(cache="failure")", double(router.failure_cache_bytes())},
           {"zoomwarp_cache_limit_bytes", "Byte limit of a cache.", "gauge", R"(cache="response")", double(rs.max_bytes)},
           {"zoomwarp_cache_limit_bytes", "", "gauge", R"(cache="tile")", double(ts.bytes_limit)},
           {"zoomwarp_cache_limit_bytes", "", "gauge", R"(cache="warp")", double(rc.warp_cache_bytes)},
@@ -198,6 +205,8 @@ int serve_command(const std::vector<std::string>& args) {
           {"zoomwarp_queue_depth", "", "gauge", R"(pool="ingest")", double(ingest.queued())},
           {"zoomwarp_workers_busy", "Workers running a job.", "gauge", R"(pool="cpu")", double(cpu.running())},
           {"zoomwarp_workers_busy", "", "gauge", R"(pool="ingest")", double(ingest.running())},
+          {"zoomwarp_worker_jobs_total", "Jobs handed to a worker pool.", "counter", R"(pool="cpu")", double(cpu.accepted())},
+          {"zoomwarp_worker_jobs_total", "", "counter", R"(pool="ingest")", double(ingest.accepted())},
           {"zoomwarp_images", "Images published in the store.", "gauge", "", double(store.list().size())},
       };
     });

@@ -496,11 +496,10 @@ void Session::send(api::Response r) {
 void Session::on_write(bool close, beast::error_code ec) {
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
   state_.metrics.observe_request(current_.route, current_.status, seconds);
-  if (!current_.stopped.empty()) {
-    state_.metrics.observe_stopped(current_.route, current_.stopped);
+  if (!current_.failure.empty()) state_.metrics.observe_failure(current_.route, current_.failure);
+  if (current_.failure == "deadline" || current_.failure == "cancelled")
     log_event("warn", "request stopped", {{"method", req_.method}, {"target", target_}, {"route", current_.route},
-                                          {"reason", current_.stopped}, {"ms", std::round(seconds * 1e5) / 100}});
-  }
+                                          {"reason", current_.failure}, {"ms", std::round(seconds * 1e5) / 100}});
   if (!current_.log_detail.empty())
     log_event("error", "request failed", {{"method", req_.method}, {"target", target_}, {"route", current_.route},
                                           {"status", current_.status}, {"error", current_.log_detail}});

@@ -25,6 +25,7 @@ bool WorkerPool::try_submit(std::function<void()> job) {
     std::lock_guard lock(mu_);
     if (stopping_ || queue_.size() >= max_queue_) return false;
     queue_.push_back(std::move(job));
+    ++accepted_;
   }
   cv_.notify_one();
   return true;
@@ -38,6 +39,11 @@ std::size_t WorkerPool::queued() const {
 std::size_t WorkerPool::running() const {
   std::lock_guard lock(mu_);
   return running_;
+}
+
+std::uint64_t WorkerPool::accepted() const {
+  std::lock_guard lock(mu_);
+  return accepted_;
 }
 
 void WorkerPool::run() {

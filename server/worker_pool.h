@@ -2,7 +2,7 @@
 // with a bounded queue: when it is full, try_submit() refuses and the caller answers 503 instead
 // of letting latency grow without bound.
 //
-// Threads: try_submit(), queued() and running() may be called from any thread; jobs run on the
+// Threads: try_submit(), queued(), running() and accepted() may be called from any thread; jobs run on the
 // pool's threads. The pool does not look into jobs: a job whose request ran out of time or was
 // cancelled while queued still runs, and ends at once (the router checks the request's StopToken
 // before computing anything).
@@ -10,6 +10,7 @@
 
 #include <condition_variable>
 #include <cstddef>
+#include <cstdint>
 #include <deque>
 #include <functional>
 #include <mutex>
@@ -31,6 +32,7 @@ class WorkerPool {
 
   std::size_t queued() const;   // waiting, not yet running
   std::size_t running() const;  // being run now
+  std::uint64_t accepted() const;  // jobs try_submit() has taken since the start (a metrics counter)
 
  private:
   void run();
@@ -41,6 +43,7 @@ class WorkerPool {
   std::condition_variable cv_;
   std::deque<std::function<void()>> queue_;
   std::size_t running_ = 0;
+  std::uint64_t accepted_ = 0;
   bool stopping_ = false;
   std::vector<std::thread> threads_;
 };

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Scale-out on loopback: three `zoomwarp serve` replicas sharing one store, nginx in front with
-# deploy/nginx.conf (load balancing over keep-alive upstream connections, retries of failed GETs on
+# deploy/nginx.conf (load balancing, a connection per upstream request, retries of failed GETs on
 # another replica, a response cache), and `zoomwarp replay` driving tests/load/boats_explore.jsonl
 # through nginx with 4 clients while one replica is SIGKILLed and restarted a few seconds later
 # and another is SIGTERMed (it drains, as in deploy/compose.yaml) and restarted once it has exited.
@@ -53,7 +53,7 @@ usage() {
 usage: tests/cluster/cluster_test.sh [OPTIONS]
 
 Three zoomwarp replicas sharing one store behind nginx with deploy/nginx.conf (retries on another
-replica, keep-alive upstreams, a response cache); zoomwarp replay drives tests/load/boats_explore.jsonl through nginx
+replica, a connection per upstream request, a response cache); zoomwarp replay drives tests/load/boats_explore.jsonl through nginx
 while one replica is SIGKILLed and restarted and another SIGTERMed and restarted. Fails if any
 request the clients made failed, if a replica does not come back, or if a second pass over the path
 is not served from nginx's cache. Exit codes: 0 passed, 1 failed, 77 skipped (nginx missing).

@@ -7,7 +7,12 @@ exist; the Deployment has its probes, resources and restrictive security context
 covering the drain, and agrees with the Service, HPA, PVC, PDB and ConfigMap; every ZOOMWARP_*
 variable named anywhere in deploy/ is a real option (from `zoomwarp serve|ingest|health --help`);
 the store path, port and uid are the same in the Dockerfile, compose.yaml and the k8s manifests;
-nginx.conf keeps its retry and cache directives and the lines tests/cluster substitutes; the
+the ConfigMap's thread counts and cache sizes fit the Deployment's resources; the probes' paths
+are answered by the real binary as the probes need (liveness also while draining); nginx.conf
+keeps its retry limits, the ones deploy/README.md states, and behaves by them in front of stand-in
+upstreams on loopback (a request that kills its upstream kills at most two of three, a 503 is
+passed on untried, a dead upstream is skipped), its cache directives and the lines tests/cluster
+substitutes; the
 Dockerfile's runtime stage is its base with the tree deploy/runtime-closure.sh gathers in the
 builder (no package installed) and declares what a runtime image should; and deploy/README.md's
 table of variables is exactly what --help says.
@@ -18,14 +23,22 @@ table of variables is exactly what --help says.
 CTest runs it as deploy.manifests (label deploy). Needs PyYAML (Debian's python3-yaml).
 """
 import argparse
+import grp
+import json
 import os
+import pwd
 import re
 import shlex
 import shutil
+import signal
+import socket
 import subprocess
 import sys
 import tempfile
+import time
 import unittest
+import urllib.error
+import urllib.request
 
 import yaml
 
@@ -195,6 +208,54 @@ def nginx_block(text, opening):
     return text[m.end():i - 1]
 
 
+def nginx_binary():
+    return shutil.which("nginx") or ("/usr/sbin/nginx" if os.path.exists("/usr/sbin/nginx") else None)
+
+
+def nginx_conf_for(conf, upstreams, listen_port, var_dir):
+    """deploy/nginx.conf as tests/cluster runs it (deploy/README.md, "Reusing nginx.conf"): one
+    upstream line per address in `upstreams` (parameters kept), listening on 127.0.0.1, writing
+    under var_dir."""
+    def servers(m):
+        return "".join(m.group(0).replace("zoomwarp:8080", a, 1) + "\n" for a in upstreams).rstrip("\n")
+    conf = re.sub(r"^[ \t]*server[ \t]+zoomwarp:8080[^;]*;", servers, conf, count=1, flags=re.MULTILINE)
+    conf = re.sub(r"^([ \t]*)listen[ \t]+8080;", rf"\1listen 127.0.0.1:{listen_port};", conf, count=1, flags=re.MULTILINE)
+    return conf.replace("/var/cache/nginx", var_dir)
+
+
+def nginx_globals(prefix):
+    """The -g directives nginx.conf leaves to its caller (as tests/support/nginx.sh gives them): in
+    the foreground, our pid file, and as root workers that run as the invoking user (as 'nobody'
+    they could not enter a 0700 temp folder; nginx allows `user` only when started as root)."""
+    globals_ = f"daemon off; pid {prefix}/nginx.pid;"
+    if os.geteuid() == 0:
+        globals_ += f" user {pwd.getpwuid(os.geteuid()).pw_name} {grp.getgrgid(os.getegid()).gr_name};"
+    return globals_
+
+
+def free_loopback_port():
+    """A port nothing listens on now (the kernel's pick; another process could take it before use)."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def http_get(url, timeout=10):
+    """(status, headers, body) of a GET; HTTP errors are answers too."""
+    try:
+        with urllib.request.urlopen(url, timeout=timeout) as r:
+            return r.status, r.headers, r.read()
+    except urllib.error.HTTPError as e:
+        return e.code, e.headers, e.read()
+
+
+def wait_for(condition, seconds, what):
+    deadline = time.monotonic() + seconds
+    while not condition():
+        assert time.monotonic() < deadline, f"gave up waiting for {what}"
+        time.sleep(0.05)
+
+
 def dockerignore_excludes(rel):
     """Whether .dockerignore leaves `rel` (a path from the repository root) out of the build context."""
     patterns = []
@@ -313,6 +374,23 @@ class Kubernetes(unittest.TestCase):
             for what in ("cpu", "memory"):
                 self.assertIn(what, res.get(kind, {}), f"resources.{kind}.{what}")
 
+    def test_threads_and_caches_fit_the_resources(self):
+        # The thread defaults count the node's CPUs, not the pod's: each count must be set, and
+        # match the CPU limit (server/README.md "Threads": I/O threads half of it, at least 1).
+        res = self.container["resources"]
+        cpus = int(str(res["limits"]["cpu"]))
+        for var in ("ZOOMWARP_WORKERS", "ZOOMWARP_IO_THREADS", "ZOOMWARP_INGEST_THREADS"):
+            self.assertIn(var, self.config, f"{var} defaults to the node's CPUs: set it to the pod's")
+        self.assertEqual(int(self.config["ZOOMWARP_WORKERS"]), cpus, "workers vs the CPU limit")
+        self.assertEqual(int(self.config["ZOOMWARP_IO_THREADS"]), max(1, cpus // 2), "I/O threads vs the CPU limit")
+        self.assertLessEqual(int(self.config["ZOOMWARP_INGEST_THREADS"]), cpus, "ingest threads vs the CPU limit")
+        # A warm pod holds its three caches: they fit the memory request, and the limit is above it.
+        caches = sum(size_bytes(self.setting(v)) for v in ("ZOOMWARP_TILE_CACHE", "ZOOMWARP_RESPONSE_CACHE",
+                                                             "ZOOMWARP_WARP_CACHE"))
+        request, limit = (size_bytes(str(res[k]["memory"]).removesuffix("i")) for k in ("requests", "limits"))
+        self.assertLessEqual(caches, request, "the caches do not fit the memory request")
+        self.assertLess(request, limit)
+
     def test_grace_period_covers_the_drain(self):
         drain = int(self.setting("ZOOMWARP_DRAIN_DELAY")) + int(self.setting("ZOOMWARP_DRAIN_TIMEOUT"))
         grace = self.pod["spec"]["terminationGracePeriodSeconds"]
@@ -359,6 +437,20 @@ class Kubernetes(unittest.TestCase):
         self.assertLessEqual(pdb["spec"]["selector"]["matchLabels"].items(), labels.items(),
                              "the PodDisruptionBudget does not select the Deployment's pods")
         self.assertTrue({"minAvailable", "maxUnavailable"} & pdb["spec"].keys())
+
+    def test_disruption_budget_leaves_a_pod_serving(self):
+        pdb = self.r["PodDisruptionBudget"]["spec"]
+        self.assertEqual(pdb.get("maxUnavailable"), 1, "voluntary disruptions take one pod at a time")
+        self.assertLess(pdb["maxUnavailable"], self.r["HorizontalPodAutoscaler"]["spec"]["minReplicas"])
+
+    def test_probes_restart_wedged_pods_not_busy_or_draining_ones(self):
+        # Liveness on /healthz (the I/O threads answer it, never queued behind workers), patient
+        # enough that a pod is restarted after several misses in a row, not one slow answer.
+        live = self.container["livenessProbe"]
+        self.assertGreaterEqual(live.get("failureThreshold", 3), 3)
+        self.assertGreaterEqual(live["periodSeconds"] * live.get("failureThreshold", 3), 30)
+        health_timeout = int(options("health")["timeout"][1])
+        self.assertGreaterEqual(live["timeoutSeconds"], health_timeout, "as patient as the image's own health check")
 
     def test_hpa(self):
         hpa = self.r["HorizontalPodAutoscaler"]
@@ -493,6 +585,14 @@ class Consistency(unittest.TestCase):
         self.assertIn("./nginx.conf:/etc/nginx/nginx.conf:ro", nginx["volumes"])
         self.assertEqual(nginx["depends_on"]["zoomwarp"]["condition"], "service_healthy")
 
+    def test_request_timeout_outlasts_nginx_retry_window(self):
+        # A request that ran until its deadline on one replica must not be retried on another:
+        # nginx retries only within proxy_next_upstream_timeout, which must end first.
+        window = duration_seconds(dict(nginx_directives(read("deploy", "nginx.conf")))["proxy_next_upstream_timeout"])
+        for name, env in (("compose.yaml", self.server.get("environment", {})), ("ConfigMap", self.k8s["ConfigMap"]["data"])):
+            timeout = float(env.get("ZOOMWARP_REQUEST_TIMEOUT", default_of("ZOOMWARP_REQUEST_TIMEOUT")))
+            self.assertLess(window, timeout, f"proxy_next_upstream_timeout vs ZOOMWARP_REQUEST_TIMEOUT in {name}")
+
     def test_keys_and_never_open_writes(self):
         # compose reads the keys from its secret; no deployment file lets anyone write.
         secret = self.server["environment"]["ZOOMWARP_KEYS"]
@@ -525,13 +625,32 @@ class Nginx(unittest.TestCase):
     def values(self, name):
         return [args for d, args in self.directives if d == name]
 
+    def value(self, name):
+        found = self.values(name)
+        self.assertEqual(len(found), 1, f"{name} once in nginx.conf")
+        return found[0]
+
     def test_retries(self):
-        retry = self.values("proxy_next_upstream")
-        self.assertEqual(len(retry), 1)
-        words = retry[0].split()
-        for w in ("error", "timeout", "http_502", "http_503", "http_504"):
-            self.assertIn(w, words)
-        self.assertNotIn("non_idempotent", words, "POST and PATCH must not be retried")
+        # Only a replica that gave no answer is retried, on one other replica, early: a replica's
+        # own answer (503 + Retry-After, 500) is final, and POST/PATCH are not retried once sent.
+        self.assertEqual(self.value("proxy_next_upstream").split(), ["error", "timeout"])
+        self.assertEqual(self.value("proxy_next_upstream_tries"), "2")
+        window = duration_seconds(self.value("proxy_next_upstream_timeout"))
+        self.assertGreater(window, duration_seconds(self.value("proxy_connect_timeout")),
+                           "a connect timeout must leave time to try the next replica")
+
+    def test_readme_states_the_retry_limits(self):
+        # deploy/README.md's table ("Retries: what one bad request can cost") gives the values in force.
+        readme = read("deploy", "README.md")
+        rows = dict(re.findall(r"^\| `([a-z_]+)` \| `([^`]*)` \|", readme, re.MULTILINE))
+        for name in ("proxy_next_upstream", "proxy_next_upstream_tries", "proxy_next_upstream_timeout"):
+            self.assertEqual(rows.get(name), self.value(name), f"deploy/README.md's row for {name}")
+        self.assertTrue(f"`{self.value('proxy_connect_timeout')}`" in readme, "proxy_connect_timeout in deploy/README.md")
+        self.assertTrue(f"**At most {self.value('proxy_next_upstream_tries')} replicas**" in readme,
+                        "deploy/README.md's count of replicas one request can crash")
+        upstream = dict(nginx_directives(nginx_block(self.conf, r"upstream\s+zoomwarp")))
+        params = upstream["server"].removeprefix("zoomwarp:8080 ")
+        self.assertTrue(f"| `{params}` |" in readme, f"deploy/README.md's row for {params}")
 
     def test_cache(self):
         self.assertEqual(len(self.values("proxy_cache_path")), 1)
@@ -556,11 +675,12 @@ class Nginx(unittest.TestCase):
         source = dict((v, k) for k, v in maps)[variable]
         self.assertIn("$http_authorization", source)
 
-    def test_upstream_keepalive(self):
+    def test_one_connection_per_upstream_request(self):
+        # nginx gives back the try of a request failing on a reused upstream connection, so with
+        # `keepalive` proxy_next_upstream_tries would not bound a request that crashes replicas.
         upstream = nginx_directives(nginx_block(self.conf, r"upstream\s+zoomwarp"))
-        self.assertTrue([a for d, a in upstream if d == "keepalive"])
-        self.assertIn("1.1", self.values("proxy_http_version"))
-        self.assertIn('Connection ""', self.values("proxy_set_header"))
+        self.assertFalse([a for d, a in upstream if d.startswith("keepalive")], "no upstream keepalive")
+        self.assertIn("Connection close", self.values("proxy_set_header"))
 
     def test_lines_tests_cluster_substitutes(self):
         # tests/cluster/cluster_test.sh rewrites exactly these (see nginx.conf's header comment).
@@ -574,7 +694,7 @@ class Nginx(unittest.TestCase):
             self.assertEqual(self.values(d), [], f"`{d}` is the caller's to set")
 
     def test_nginx_accepts_it(self):
-        nginx = shutil.which("nginx") or ("/usr/sbin/nginx" if os.path.exists("/usr/sbin/nginx") else None)
+        nginx = nginx_binary()
         if not nginx:
             self.skipTest("nginx not installed")
         with tempfile.TemporaryDirectory() as d:
@@ -664,6 +784,138 @@ class Dockerfile(unittest.TestCase):
                 needed += [os.path.relpath(os.path.join(d, n), ARGS.root) for n in names]
         kept_out = [rel for rel in needed if dockerignore_excludes(rel)]
         self.assertEqual(kept_out, [], ".dockerignore leaves out files the image build needs")
+
+
+class NginxBehaviour(unittest.TestCase):
+    """nginx.conf in front of three stand-in upstreams (tests/deploy/standin_upstream.py) on
+    loopback: what its retry policy does, seen in nginx's access log and in which stand-ins are
+    still alive. One nginx worker process, so every request sees the upstream connections of the
+    same worker (the only change made to the file besides those of "Reusing nginx.conf")."""
+
+    def setUp(self):
+        self.nginx = nginx_binary()
+        if not self.nginx:
+            self.skipTest("nginx not installed")
+        self.dir = tempfile.mkdtemp(prefix="zoomwarp-nginx-test.")
+        self.addCleanup(shutil.rmtree, self.dir, ignore_errors=True)
+        self.upstreams = [self.start_upstream() for _ in range(3)]
+        self.start_nginx()
+        for i in range(12):  # every upstream has answered through nginx: connections a keepalive would keep
+            self.assertEqual(self.get(f"/warm{i}")[0], 200)
+
+    def start_upstream(self):
+        proc = subprocess.Popen([sys.executable, path("tests", "deploy", "standin_upstream.py")],
+                                stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        self.addCleanup(self.stop, proc)
+        return proc, int(proc.stdout.readline())
+
+    def start_nginx(self):
+        conf = nginx_conf_for(read("deploy", "nginx.conf"), [f"127.0.0.1:{port}" for _, port in self.upstreams],
+                              free_loopback_port(), self.dir)
+        conf = re.sub(r"^worker_processes\s+\S+;", "worker_processes 1;", conf, count=1, flags=re.MULTILINE)
+        self.port = int(re.search(r"listen 127\.0\.0\.1:(\d+);", conf).group(1))
+        with open(os.path.join(self.dir, "nginx.conf"), "w", encoding="utf-8") as f:
+            f.write(conf)
+        self.access_log = os.path.join(self.dir, "access.log")
+        with open(self.access_log, "wb") as out, open(os.path.join(self.dir, "error.log"), "wb") as err:
+            proc = subprocess.Popen([self.nginx, "-p", self.dir, "-e", "stderr", "-c", os.path.join(self.dir, "nginx.conf"),
+                                     "-g", nginx_globals(self.dir)], stdout=out, stderr=err)
+        self.addCleanup(self.stop, proc)
+
+        def answers():
+            try:
+                socket.create_connection(("127.0.0.1", self.port), timeout=1).close()
+                return True
+            except OSError:
+                assert proc.poll() is None, read(os.path.join(self.dir, "error.log"))
+                return False
+        wait_for(answers, 10, "nginx to listen")
+
+    @staticmethod
+    def stop(proc):
+        if proc.poll() is None:
+            proc.terminate()
+            try:
+                proc.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        for stream in (proc.stdin, proc.stdout):
+            if stream:
+                stream.close()
+
+    def get(self, target):
+        return http_get(f"http://127.0.0.1:{self.port}{target}")
+
+    def logged(self, target):
+        """nginx's access log line of the request for `target` (written just after its answer)."""
+        def lines():
+            with open(self.access_log, encoding="utf-8") as f:
+                return [line for line in map(json.loads, filter(str.strip, f)) if line["target"] == target]
+        wait_for(lines, 5, f"nginx to log {target}")
+        return lines()[-1]
+
+    def alive(self):
+        time.sleep(0.2)  # a stand-in that was sent /poison has exited by now
+        return sum(proc.poll() is None for proc, _ in self.upstreams)
+
+    def test_a_request_that_kills_its_upstream_costs_at_most_two(self):
+        status, _, _ = self.get("/poison")
+        self.assertEqual(status, 502)
+        line = self.logged("/poison")
+        self.assertEqual(len(line["upstream"].split(", ")), 2, line)
+        self.assertEqual(self.alive(), 1, "stand-ins left alive of 3")
+        self.assertEqual(self.get("/after")[0], 200, "the survivor answers")
+
+    def test_a_replicas_503_is_passed_on_untried(self):
+        status, headers, _ = self.get("/busy")
+        self.assertEqual(status, 503)
+        self.assertEqual(headers.get("Retry-After"), "1")
+        self.assertEqual(len(self.logged("/busy")["upstream"].split(", ")), 1)
+
+    def test_a_dead_upstream_is_skipped(self):
+        proc, _ = self.upstreams[0]
+        self.stop(proc)
+        statuses = [self.get(f"/alive{i}")[0] for i in range(9)]
+        self.assertEqual(statuses, [200] * 9)
+        self.assertTrue(any("," in self.logged(f"/alive{i}")["upstream"] for i in range(9)),
+                        "no request was retried on another upstream")
+
+
+class Probes(unittest.TestCase):
+    """The probes of deployment.yaml and compose.yaml against the real binary: its liveness and
+    readiness paths on its port answer 200; while it drains (SIGTERM), readiness fails and liveness
+    still passes, so a stopping pod leaves the Service without being killed."""
+
+    def test_probe_paths_and_drain(self):
+        container = k8s_resources()["Deployment"]["spec"]["template"]["spec"]["containers"][0]
+        live, ready = (container[p]["httpGet"]["path"] for p in ("livenessProbe", "readinessProbe"))
+        port = free_loopback_port()
+        with tempfile.TemporaryDirectory() as store:
+            server = subprocess.Popen([ARGS.binary, "serve", "--host", "127.0.0.1", "--port", str(port), "--store", store,
+                                       "--drain-delay", "3", "--drain-timeout", "2", "--log-requests", "0"],
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+            try:
+                def status(target):
+                    try:
+                        return http_get(f"http://127.0.0.1:{port}{target}", timeout=3)[0]
+                    except OSError:
+                        assert server.poll() is None, server.stderr.read()
+                        return None
+                wait_for(lambda: status(live) is not None, 20, "zoomwarp serve to answer")
+                # compose's healthcheck, `zoomwarp health`, on the port it reads from ZOOMWARP_PORT
+                health = lambda: subprocess.run([ARGS.binary, "health"], env={**os.environ, "ZOOMWARP_PORT": str(port)},
+                                                capture_output=True, timeout=10).returncode
+                self.assertEqual((status(live), status(ready), health()), (200, 200, 0))
+                server.send_signal(signal.SIGTERM)
+                wait_for(lambda: status(ready) == 503, 2, "readiness to fail on SIGTERM")
+                self.assertEqual((status(live), health()), (200, 0), "liveness while draining")
+                self.assertEqual(server.wait(timeout=20), 0)
+            finally:
+                if server.poll() is None:
+                    server.kill()
+                    server.wait()
+                server.stderr.close()
 
 
 # ---- the README table -----------------------------------------------------------------------------

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <thread>
 
 #include "tests/support/http_client.h"
 #include "tests/support/images.h"
@@ -103,7 +104,7 @@ class DamagedStore : public ::testing::Test {
     }
     repaired_json_ = new std::string(testing::read_file(version_dir(store(), "restore-json") + "/warp.json"));
     for (const Case& c : model_cases()) c.damage(version_dir(store(), c.id) + "/" + c.file);
-    server_ = new testing::ServerProcess(store());
+    server_ = new testing::ServerProcess(store(), {"--failure-cache-ms", "3000"});
   }
   static void TearDownTestSuite() {
     delete server_;
@@ -179,11 +180,17 @@ TEST_F(DamagedStore, ADamagedWarpJsonAnswers500OnWarpRoutesAndTilesStillWork) {
   }
 }
 
-// Failures are not cached: once an operator restores warp.json, the next request is served.
+// Failures are remembered for --failure-cache-ms only: once an operator restores warp.json, the
+// request is served as soon as the Retry-After of the remembered failure has passed.
 TEST_F(DamagedStore, ARestoredWarpJsonIsPickedUpWithoutARestart) {
   const std::string base = "/v1/images/restore-json";
   ASSERT_EQ(http.get(base + "/lines").status, 500);
   std::ofstream(version_dir(store(), "restore-json") + "/warp.json", std::ios::trunc) << *repaired_json_;
+  const auto remembered = http.get(base + "/lines");
+  ASSERT_EQ(remembered.status, 500);
+  const int retry_after = std::atoi(remembered.header("retry-after").c_str());
+  ASSERT_GE(retry_after, 1);
+  std::this_thread::sleep_for(std::chrono::seconds(retry_after) + std::chrono::milliseconds(100));
   auto r = http.get(base + "/lines");
   ASSERT_EQ(r.status, 200) << r.body;
   EXPECT_EQ(json::parse(r.body)["lines"], kLines["lines"]);

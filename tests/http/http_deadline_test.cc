@@ -20,36 +20,23 @@
 #include <vector>
 
 #include "tests/http/raw_connection.h"
+#include "tests/http/pano_server.h"
 #include "tests/support/http_client.h"
+#include "tests/support/metrics_scrape.h"
 #include "tests/support/server_process.h"
 
 namespace zoomwarp {
 namespace {
 
 using testing::HttpClient;
+using testing::metric;
 using testing::RawConnection;
-
-// The value of one Prometheus series, e.g. `zoomwarp_workers_busy{pool="cpu"}`; 0 when absent.
-double metric(int port, const std::string& series) {
-  const std::string body = "\n" + HttpClient(port).get("/metrics").body;
-  const std::size_t at = body.find("\n" + series + " ");
-  return at == std::string::npos ? 0 : std::strtod(body.c_str() + at + series.size() + 2, nullptr);
-}
-
-// Polls until the series reaches `value`; false if it has not after `seconds` (a bound on a hang).
-bool wait_for_metric(int port, const std::string& series, double value, double seconds = 60) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-  while (metric(port, series) < value) {
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  return true;
-}
+using testing::wait_for_metric;
 
 const std::string kBusy = R"(zoomwarp_workers_busy{pool="cpu"})";
 const std::string kQueued = R"(zoomwarp_queue_depth{pool="cpu"})";
 std::string stopped(const std::string& reason) {
-  return R"(zoomwarp_http_requests_stopped_total{route="viewport",reason=")" + reason + "\"}";
+  return R"(zoomwarp_http_requests_failed_total{route="viewport",reason=")" + reason + "\"}";
 }
 
 // A slow, uncached view: ICAZ at zoom 0 on a 4096×4096 screen as PNG; `variant` makes it distinct.
@@ -58,21 +45,7 @@ std::string slow_view(int variant) {
 }
 std::string raw_get(const std::string& target) { return "GET " + target + " HTTP/1.1\r\nHost: t\r\n\r\n"; }
 
-class Deadline : public ::testing::Test {
- protected:
-  void start(const std::vector<std::string>& args) {
-    server_.emplace(dir_.path() + "/store", args);
-    HttpClient http(server_->port());
-    ASSERT_EQ(http.request("POST", "/v1/images?id=pano",
-                           testing::read_file(testing::samples_dir() + "/pano_grossmugl_field_4to1.png"))
-                  .status,
-              201);
-  }
-  int port() const { return server_->port(); }
-
-  testing::TempDir dir_;
-  std::optional<testing::ServerProcess> server_;
-};
+class Deadline : public testing::PanoServer {};
 
 TEST_F(Deadline, AViewOutOfTimeGets503WithRetryAfterAndTheWorkerIsFreeAfter) {
   start({"--workers", "1", "--request-timeout", "1"});

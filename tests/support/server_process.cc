@@ -26,6 +26,7 @@ namespace zoomwarp::testing {
 namespace fs = std::filesystem;
 
 std::string zoomwarp_binary() { return ZOOMWARP_BINARY; }
+std::string zoomwarp_poisonable_binary() { return ZOOMWARP_POISONABLE_BINARY; }
 std::string samples_dir() { return ZOOMWARP_SAMPLES; }
 
 TempDir::TempDir() {
@@ -51,7 +52,19 @@ std::string read_all(const std::string& path) {
   return s.str();
 }
 
-pid_t spawn(const std::vector<std::string>& argv, const std::string& output_path) {
+// `env` is added to the test's own environment; it is made before the fork (the child of a
+// threaded process may only call async-signal-safe functions).
+pid_t spawn(const std::vector<std::string>& argv, const std::string& output_path,
+            const std::vector<std::pair<std::string, std::string>>& env = {}) {
+  std::vector<std::string> environment;
+  for (char** e = environ; *e; ++e) environment.emplace_back(*e);
+  for (const auto& [name, value] : env) environment.push_back(name + "=" + value);
+  std::vector<char*> envp;
+  for (auto& e : environment) envp.push_back(e.data());
+  envp.push_back(nullptr);
+  std::vector<char*> args;
+  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
   pid_t pid = ::fork();
   if (pid < 0) throw std::runtime_error("fork failed");
   if (pid == 0) {
@@ -61,10 +74,7 @@ pid_t spawn(const std::vector<std::string>& argv, const std::string& output_path
       ::dup2(fd, STDERR_FILENO);
       ::close(fd);
     }
-    std::vector<char*> args;
-    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    ::execv(args[0], args.data());
+    ::execve(args[0], args.data(), envp.data());
     ::_exit(127);
   }
   return pid;
@@ -72,15 +82,16 @@ pid_t spawn(const std::vector<std::string>& argv, const std::string& output_path
 
 }  // namespace
 
-ServerProcess::ServerProcess(const std::string& store, const std::vector<std::string>& extra_args, Writes writes) {
+ServerProcess::ServerProcess(const std::string& store, const std::vector<std::string>& extra_args, Writes writes,
+                             const ServerExecutable& executable) {
   static int counter = 0;
   log_path_ = store + ".server-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + ".log";
-  std::vector<std::string> argv = {zoomwarp_binary(), "serve", "--host", "127.0.0.1", "--port", "0",
+  std::vector<std::string> argv = {executable.path, "serve", "--host", "127.0.0.1", "--port", "0",
                                    "--store", store};
   argv.insert(argv.end(), extra_args.begin(), extra_args.end());
   const bool has_keys = std::find(extra_args.begin(), extra_args.end(), "--keys") != extra_args.end();
   if (writes == Writes::kOpen && !has_keys) argv.push_back("--open-writes");
-  pid_ = spawn(argv, log_path_);
+  pid_ = spawn(argv, log_path_, executable.env);
   const std::regex listening(R"re("msg":"listening".*"port":(\d+))re");
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
   while (std::chrono::steady_clock::now() < deadline) {
@@ -123,6 +134,18 @@ int ServerProcess::terminate(double timeout_s) {
   ::waitpid(pid_, &status, 0);
   pid_ = -1;
   return -1;
+}
+
+int ServerProcess::wait_for_end(double timeout_s) {
+  if (pid_ <= 0) return -1;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  int status = 0;
+  while (::waitpid(pid_, &status, WNOHANG) != pid_) {
+    if (std::chrono::steady_clock::now() > deadline) return -1;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  pid_ = -1;
+  return WIFSIGNALED(status) ? WTERMSIG(status) : 0;
 }
 
 std::string ServerProcess::log() const { return read_all(log_path_); }

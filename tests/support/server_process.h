@@ -6,12 +6,15 @@
 #include <sys/types.h>
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace zoomwarp::testing {
 
 // Path of the zoomwarp binary under test and of the bundled sample images.
 std::string zoomwarp_binary();
+// The same server with the test compute hook (tests/support/compute_hook_poison.cc), never shipped.
+std::string zoomwarp_poisonable_binary();
 std::string samples_dir();
 
 // A fresh empty folder under the test's temporary directory, removed by its destructor.
@@ -25,6 +28,13 @@ class TempDir {
   std::string path_;
 };
 
+// The server executable to run (another build of it: zoomwarp_poisonable_binary()) and environment
+// variables it gets besides the test's own.
+struct ServerExecutable {
+  std::string path = zoomwarp_binary();
+  std::vector<std::pair<std::string, std::string>> env;
+};
+
 class ServerProcess {
  public:
   // Tests that are not about access write freely: by default the server gets --open-writes
@@ -36,7 +46,7 @@ class ServerProcess {
   // see Writes) and waits for its "listening" log line. Throws std::runtime_error if it does not
   // come up within 20 s, or exits first (the message holds its log).
   ServerProcess(const std::string& store, const std::vector<std::string>& extra_args = {},
-                Writes writes = Writes::kOpen);
+                Writes writes = Writes::kOpen, const ServerExecutable& executable = {});
   ~ServerProcess();
   ServerProcess(const ServerProcess&) = delete;
   ServerProcess& operator=(const ServerProcess&) = delete;
@@ -47,6 +57,10 @@ class ServerProcess {
   // Sends SIGTERM and waits (up to `timeout_s`); returns the exit status, or -1 if it had to be
   // killed.
   int terminate(double timeout_s = 20);
+
+  // Waits up to `timeout_s` for the process to end by itself: the signal that ended it, 0 if it
+  // exited, -1 if it still runs.
+  int wait_for_end(double timeout_s);
 
   // Everything the server has logged so far (JSON lines).
   std::string log() const;

@@ -30,7 +30,7 @@ TEST(ErrorMessages, StoppedRequestsAre503WithRetryAfter) {
     const Response r = stopped_response(reason);
     EXPECT_EQ(r.status, 503);
     EXPECT_EQ(nlohmann::json::parse(*r.body)["error"]["code"], code);
-    EXPECT_EQ(r.stopped, label);
+    EXPECT_EQ(r.failure, label);
     bool retry_after = false;
     for (const auto& [name, value] : r.headers) retry_after |= name == "Retry-After" && value == "1";
     EXPECT_TRUE(retry_after);
