@@ -14,7 +14,11 @@ std::vector<OptionSpec> store_option_specs() {
   return {
       {"store", "./store", "folder of the image store (shared by all replicas)"},
       {"max-pixels", "1000000000", "largest image accepted, in pixels (width x height), checked before decoding"},
-      {"tile-compression", "zip:1", "TIFF compression of stored pyramid levels: zip:1 … zip:9, zip (= zip:6), lzw, none"},
+      {"tile-compression", "auto",
+       "compression of stored pyramid tiles: auto (JPEG for lossy sources - JPEG, lossy WebP - and zip:1 for the others), "
+       "jpeg (every source without alpha), or lossless for every source: zip:1 … zip:9, zip (= zip:6), lzw, none"},
+      {"tile-quality", "90",
+       "JPEG tiles' quality, 1-100, at most: a JPEG source of lower quality is stored at its own"},
       {"ingest-threads", std::to_string(std::max(1u, std::thread::hardware_concurrency())),
        "threads one ingest uses: tiles compressed and the warp analysis's parts run on all of them (same files for any count)"},
       {"face-cascade", warp::kDefaultFaceCascade,
@@ -43,11 +47,12 @@ tiles::IngestOptions ingest_options(const Options& o, const warp::SignificanceOp
   tiles::IngestOptions opt;
   opt.limits.max_pixels = std::uint64_t(o.integer("max-pixels", 1, 1LL << 40));
   opt.pyramid.compression = o.str("tile-compression");
+  opt.pyramid.jpeg_quality = int(o.integer("tile-quality", 1, 100));
   opt.pyramid.threads = int(o.integer("ingest-threads", 1, 256));
   const auto& c = opt.pyramid.compression;
   const bool zip_level = c.size() == 5 && c.rfind("zip:", 0) == 0 && c[4] >= '1' && c[4] <= '9';
-  if (c != "zip" && !zip_level && c != "lzw" && c != "none")
-    throw std::invalid_argument("--tile-compression must be zip:1 … zip:9, zip, lzw or none, not '" + c + "'");
+  if (c != "auto" && c != "jpeg" && c != "zip" && !zip_level && c != "lzw" && c != "none")
+    throw std::invalid_argument("--tile-compression must be auto, jpeg, zip:1 … zip:9, zip, lzw or none, not '" + c + "'");
   // The warp engine's significance map, published with the image.
   opt.analyse = [significance, method_timings, threads = opt.pyramid.threads](const tiles::ImageEntry& staged) {
     auto timings = warp::write_image_analysis(staged, significance, threads);

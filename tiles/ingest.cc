@@ -25,7 +25,8 @@ Manifest ingest_image(Store& store, const std::string& source_path, const std::s
     m.channels = info.channels;
     m.levels = info.levels;
     m.tile_size = options.pyramid.tile_size;
-    m.compression = options.pyramid.compression;
+    m.compression = info.compression.method;
+    if (m.compression == "jpeg") m.jpeg = info.compression.jpeg;
     m.is_private = options.is_private;
     m.source_format = info.source_format;
     m.source_bits = info.source_bits;

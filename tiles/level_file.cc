@@ -104,6 +104,17 @@ int keep_message(TIFF*, void* user_data, const char*, const char* fmt, va_list a
   return 1;  // handled: nothing on stderr
 }
 
+// JPEG-in-TIFF's tags (TIFF Technical Note #2), as libtiff's JPEG codec writes them for YCbCr:
+// the subsampling, ReferenceBlackWhite for full-range YCbCr (JFIF's), and the shared tables.
+bool set_jpeg_tags(TIFF* t, const JpegTileFormat& f) {
+  const std::vector<std::uint8_t> tables = jpeg_tile_tables(f);
+  const float reference[6] = {0.f, 255.f, 128.f, 255.f, 128.f, 255.f};
+  return TIFFSetField(t, TIFFTAG_PHOTOMETRIC, std::uint16_t(PHOTOMETRIC_YCBCR)) &&
+         TIFFSetField(t, TIFFTAG_YCBCRSUBSAMPLING, std::uint16_t(f.chroma_h), std::uint16_t(f.chroma_v)) &&
+         TIFFSetField(t, TIFFTAG_REFERENCEBLACKWHITE, reference) &&
+         TIFFSetField(t, TIFFTAG_JPEGTABLES, std::uint32_t(tables.size()), tables.data());
+}
+
 }  // namespace
 
 struct LevelFile::Tiff {
@@ -119,14 +130,20 @@ struct LevelFile::Tiff {
 };
 
 LevelFile::LevelFile(const std::string& path, int width, int height, int channels, int tile_size,
-                     const std::string& compression)
+                     const LevelCompression& level_compression)
     : tiff_(std::make_unique<Tiff>()) {
+  const std::string& compression = level_compression.method;
   const int quality = zip_quality(compression);
-  if (quality == 0 && compression != "lzw" && compression != "none")
+  const bool jpeg = compression == "jpeg";
+  if (quality == 0 && !jpeg && compression != "lzw" && compression != "none")
     throw std::invalid_argument("unknown tile compression '" + compression + "'");
+  if (jpeg && (channels != 3 || !is_valid(level_compression.jpeg) || tile_size % 16 != 0))
+    throw std::invalid_argument("JPEG tiles need RGB, a valid quality and subsampling, and tiles a multiple of 16");
   encoder_.tile_size_ = tile_size;
   encoder_.channels_ = channels;
   encoder_.zip_quality_ = quality;
+  encoder_.jpeg_ = jpeg;
+  encoder_.jpeg_format_ = level_compression.jpeg;
   libtiff_encodes_ = compression == "lzw";
 
   tiff_->path = path;
@@ -149,11 +166,14 @@ LevelFile::LevelFile(const std::string& path, int width, int height, int channel
       TIFFSetField(t, TIFFTAG_BITSPERSAMPLE, std::uint16_t(8)) &&
       TIFFSetField(t, TIFFTAG_SAMPLEFORMAT, std::uint16_t(SAMPLEFORMAT_UINT)) &&
       TIFFSetField(t, TIFFTAG_ORIENTATION, std::uint16_t(ORIENTATION_TOPLEFT)) &&
-      TIFFSetField(t, TIFFTAG_PHOTOMETRIC, std::uint16_t(PHOTOMETRIC_RGB)) &&
       TIFFSetField(t, TIFFTAG_PLANARCONFIG, std::uint16_t(PLANARCONFIG_CONTIG)) &&
       TIFFSetField(t, TIFFTAG_COMPRESSION,
-                   std::uint16_t(quality ? COMPRESSION_ADOBE_DEFLATE : libtiff_encodes_ ? COMPRESSION_LZW : COMPRESSION_NONE)) &&
-      (compression == "none" || TIFFSetField(t, TIFFTAG_PREDICTOR, std::uint16_t(PREDICTOR_HORIZONTAL))) &&
+                   std::uint16_t(jpeg      ? COMPRESSION_JPEG
+                                 : quality ? COMPRESSION_ADOBE_DEFLATE
+                                 : libtiff_encodes_ ? COMPRESSION_LZW
+                                                    : COMPRESSION_NONE)) &&
+      (jpeg ? set_jpeg_tags(t, level_compression.jpeg) : TIFFSetField(t, TIFFTAG_PHOTOMETRIC, std::uint16_t(PHOTOMETRIC_RGB))) &&
+      (compression == "none" || jpeg || TIFFSetField(t, TIFFTAG_PREDICTOR, std::uint16_t(PREDICTOR_HORIZONTAL))) &&
       // Straight alpha, stored as an unspecified extra sample so that no reader premultiplies it.
       (channels != 4 || TIFFSetField(t, TIFFTAG_EXTRASAMPLES, std::uint16_t(1), &unspecified)) &&
       TIFFSetField(t, TIFFTAG_SOFTWARE, "zoomwarp");
@@ -163,6 +183,7 @@ LevelFile::LevelFile(const std::string& path, int width, int height, int channel
 LevelFile::~LevelFile() = default;
 
 std::vector<std::uint8_t> TileEncoder::operator()(std::span<const std::uint8_t> tile) const {
+  if (jpeg_) return encode_jpeg_tile(jpeg_format_, tile, tile_size_);
   if (zip_quality_ == 0) return {tile.begin(), tile.end()};  // none, or libtiff encodes (lzw)
   thread_local std::vector<std::uint8_t> predicted;
   predicted.resize(tile.size());

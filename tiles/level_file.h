@@ -8,7 +8,8 @@
 // horizontal-difference predictor with zip and lzw, zip:1 (the default) through ISA-L's igzip
 // level 1 and the other zip levels through libdeflate at libtiff's levels ("zip:N", "zip" =
 // zip:6), BigTIFF when the raw level exceeds 4000 MiB. They carry no DateTime tag: the same pixels
-// always give the same bytes.
+// always give the same bytes. "jpeg" (RGB only) stores YCbCr JPEG tiles with the tables in the
+// JPEGTables tag (jpeg_tiles.h), as libtiff's own JPEG codec would, but compressed on any thread.
 #pragma once
 
 #include <cstdint>
@@ -17,7 +18,16 @@
 #include <string>
 #include <vector>
 
+#include "tiles/jpeg_tiles.h"
+
 namespace zoomwarp::tiles {
+
+// How a level's tiles are compressed: "zip:1" … "zip:9", "zip" (= zip:6), "lzw", "none" or
+// "jpeg" (then `jpeg` says how).
+struct LevelCompression {
+  std::string method = "zip:1";
+  JpegTileFormat jpeg;
+};
 
 // How a level's tiles become stored bytes: a small value, usable on many threads at once.
 class TileEncoder {
@@ -32,14 +42,16 @@ class TileEncoder {
   friend class LevelFile;
   int tile_size_ = 256, channels_ = 3;
   int zip_quality_ = 0;  // 1…9; 0: stored as is (none), or encoded by libtiff when written (lzw)
+  bool jpeg_ = false;    // JPEG tiles in jpeg_format_
+  JpegTileFormat jpeg_format_;
 };
 
 class LevelFile {
  public:
-  // Creates `path`. `compression`: "zip:1" … "zip:9", "zip", "lzw" or "none". Throws IngestError
-  // (kIo) when the file cannot be created, std::invalid_argument for another compression.
+  // Creates `path`. Throws IngestError (kIo) when the file cannot be created,
+  // std::invalid_argument for an unknown compression, an invalid JPEG format or JPEG with alpha.
   LevelFile(const std::string& path, int width, int height, int channels, int tile_size,
-            const std::string& compression);
+            const LevelCompression& compression);
   ~LevelFile();  // closes the file if close() was not called (it is then incomplete)
   LevelFile(const LevelFile&) = delete;
   LevelFile& operator=(const LevelFile&) = delete;

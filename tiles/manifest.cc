@@ -32,6 +32,8 @@ std::string manifest_to_json(const Manifest& m) {
         {"bytes", m.source_bytes}}},
       {"private", m.is_private},
   };
+  if (m.compression == "jpeg")
+    j["jpeg"] = {{"quality", m.jpeg.quality}, {"chroma_subsampling", {m.jpeg.chroma_h, m.jpeg.chroma_v}}};
   return j.dump(2) + "\n";
 }
 
@@ -55,6 +57,12 @@ Manifest manifest_from_json(std::string_view text) {
       m.source_channels = s->value("channels", 3);
       m.source_orientation = s->value("orientation", 1);
       m.source_bytes = s->value("bytes", std::int64_t(0));
+    }
+    if (m.compression == "jpeg") {
+      const auto& q = j.at("jpeg");
+      const auto& sub = q.at("chroma_subsampling");
+      m.jpeg = {q.at("quality").get<int>(), sub.at(0).get<int>(), sub.at(1).get<int>()};
+      if (!is_valid(m.jpeg) || m.channels != 3) throw std::runtime_error("inconsistent manifest");
     }
     if (!is_valid_image_id(m.id) || m.width <= 0 || m.height <= 0 ||
         (m.channels != 3 && m.channels != 4) || m.tile_size <= 0 ||

@@ -6,6 +6,8 @@
 #include <string>
 #include <string_view>
 
+#include "tiles/jpeg_tiles.h"
+
 namespace zoomwarp::tiles {
 
 struct Manifest {
@@ -16,7 +18,8 @@ struct Manifest {
   int channels = 3;        // stored channels: 3 (RGB) or 4 (RGBA, straight alpha)
   int levels = 0;          // pyramid levels; level k is ceil(width / 2^k) wide, the last is 1×1
   int tile_size = 256;     // square tiles of the stored levels
-  std::string compression; // TIFF compression of the stored levels
+  std::string compression; // TIFF compression of the stored levels (level_file.h)
+  JpegTileFormat jpeg;      // compression "jpeg": the tiles' quality and chroma subsampling
   std::int64_t created_ms = 0;  // Unix time of publishing, milliseconds
   std::string source_format;    // "jpeg", "png", "tiff", "webp"
   int source_bits = 8;          // bits per sample of the source (stored as 8)

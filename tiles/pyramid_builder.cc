@@ -10,6 +10,7 @@
 
 #include "tiles/level_file.h"
 #include "tiles/manifest.h"
+#include "tiles/source_compression.h"
 #include "tiles/source_format.h"
 #include "tiles/strip_pipeline.h"
 
@@ -50,11 +51,11 @@ void halve_rows(const std::uint8_t* a, const std::uint8_t* b, int w, int ch, std
 class LevelWriter {
  public:
   LevelWriter(const std::string& dir, int level, int w, int h, int ch, const PyramidOptions& opt,
-              StripPipeline& pipeline)
-      : file_(dir + "/" + level_filename(level), w, h, ch, opt.tile_size, opt.compression),
+              const LevelCompression& compression, StripPipeline& pipeline)
+      : file_(dir + "/" + level_filename(level), w, h, ch, opt.tile_size, compression),
         pipeline_(pipeline), w_(w), ch_(ch), tile_(opt.tile_size), strip_(new_strip()) {
     if (w > 1 || h > 1)
-      next_ = std::make_unique<LevelWriter>(dir, level + 1, (w + 1) / 2, (h + 1) / 2, ch, opt, pipeline);
+      next_ = std::make_unique<LevelWriter>(dir, level + 1, (w + 1) / 2, (h + 1) / 2, ch, opt, compression, pipeline);
   }
 
   // Where the next rows go, and how many fit before the strip is full: the caller writes up to
@@ -131,6 +132,17 @@ void to_stored(const std::uint8_t* src, int src_ch, int n, int ch, std::uint8_t*
   }
 }
 
+// The levels' compression for this source (PyramidOptions::compression).
+LevelCompression choose_compression(const PyramidOptions& options, const std::string& path, const PyramidInfo& info) {
+  const bool auto_choice = options.compression == "auto";
+  if (!auto_choice && options.compression != "jpeg") return {options.compression, {}};
+  const SourceCompression source = source_compression(path, info.source_format);
+  if (info.channels != 3 || (auto_choice && !source.lossy)) return {"zip:1", {}};
+  JpegTileFormat jpeg{options.jpeg_quality, 2, 2};
+  if (source.jpeg) jpeg = {std::min(options.jpeg_quality, source.jpeg->quality), source.jpeg->chroma_h, source.jpeg->chroma_v};
+  return {"jpeg", jpeg};
+}
+
 struct OpenSource {
   std::unique_ptr<OIIO::ImageInput> input;
   PyramidInfo info;
@@ -204,6 +216,7 @@ PyramidInfo build_pyramid(const std::string& path, const std::string& out_dir,
                           const ProgressFn& progress) {
   OpenSource src = open_source(path, limits);
   OIIO::ImageInput& in = *src.input;
+  src.info.compression = choose_compression(options, path, src.info);
   const PyramidInfo& info = src.info;
   const int rc = src.read_channels, ch = info.channels;
   const int sw = in.spec().width, sh = in.spec().height;
@@ -218,7 +231,7 @@ PyramidInfo build_pyramid(const std::string& path, const std::string& out_dir,
   const std::size_t strip0_bytes = tile_bytes * std::size_t((info.width + options.tile_size - 1) / options.tile_size);
   StripPipeline pipeline(options.threads,
                          std::max(strip0_bytes / 2, 4 * tile_bytes * std::size_t(std::max(options.threads, 1))));
-  LevelWriter level0(out_dir, 0, info.width, info.height, ch, options, pipeline);
+  LevelWriter level0(out_dir, 0, info.width, info.height, ch, options, info.compression, pipeline);
 
   if (info.source_orientation == 1) {
     // Decoded straight into level 0's strip when the stored layout is the source's (8-bit RGB or

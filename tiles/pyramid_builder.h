@@ -14,11 +14,21 @@
 #include <stdexcept>
 #include <string>
 
+#include "tiles/level_file.h"
+
 namespace zoomwarp::tiles {
 
 struct PyramidOptions {
   int tile_size = 256;
-  std::string compression = "zip:1";  // TIFF compression of the levels (see tiles/README.md)
+  // TIFF compression of the levels (tiles/README.md, "Tile compression per source"): "auto" is
+  // JPEG tiles for a lossy source (JPEG, lossy WebP) and zip:1 for the others; "jpeg" is JPEG
+  // tiles for every source; or one lossless method for every source ("zip:1" … "zip:9", "zip",
+  // "lzw", "none"). Sources with alpha are stored with zip:1 when JPEG is asked for: JPEG has no
+  // alpha channel.
+  std::string compression = "auto";
+  // JPEG tiles' quality, at most: a JPEG source of a lower quality is stored at its own
+  // (source_compression.h), and with its own chroma subsampling.
+  int jpeg_quality = 90;
   // Threads compressing tiles, the calling thread (which decodes and halves) included; the files
   // are byte for byte the same whatever the count.
   int threads = 1;
@@ -52,6 +62,7 @@ struct PyramidInfo {
   int source_bits = 8;
   int source_channels = 3;
   int source_orientation = 1;
+  LevelCompression compression;  // what the levels were stored with
 };
 
 // Fraction of the work done, 0…1, never decreasing; called from the ingesting thread only.
