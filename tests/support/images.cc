@@ -84,11 +84,12 @@ double psnr(const tiles::Raster& a, const tiles::Raster& b) {
   return 10.0 * std::log10(255.0 * 255.0 / mse);
 }
 
-void write_image(const std::string& path, const tiles::Raster& r, int bits, int orientation) {
+void write_image(const std::string& path, const tiles::Raster& r, int bits, int orientation, int quality) {
   OIIO::ImageSpec spec8(r.width, r.height, r.channels, OIIO::TypeDesc::UINT8);
   OIIO::ImageBuf buf(spec8, const_cast<std::uint8_t*>(r.pixels.data()));
   OIIO::ImageBuf out = bits == 16 ? buf.copy(OIIO::TypeDesc::UINT16) : buf.copy(OIIO::TypeDesc::UINT8);
   if (orientation != 1) out.specmod().attribute("Orientation", orientation);
+  if (quality > 0) out.specmod().attribute("CompressionQuality", quality);
   if (r.channels == 4 || r.channels == 2) out.specmod().attribute("oiio:UnassociatedAlpha", 1);
   if (!out.write(path)) throw std::runtime_error("cannot write " + path + ": " + out.geterror());
 }

@@ -27,8 +27,9 @@ tiles::Raster take_channels(const tiles::Raster& in, int channels);
 double psnr(const tiles::Raster& a, const tiles::Raster& b);
 
 // Writes a raster with OpenImageIO (format from the extension); `bits` 8 or 16;
-// `orientation` is stored as EXIF orientation when not 1.
-void write_image(const std::string& path, const tiles::Raster& r, int bits = 8, int orientation = 1);
+// `orientation` is stored as EXIF orientation when not 1; `quality` (1…100) for JPEG and WebP,
+// 0 for OpenImageIO's default.
+void write_image(const std::string& path, const tiles::Raster& r, int bits = 8, int orientation = 1, int quality = 0);
 
 // A deterministic test picture with structure at all scales (gradients, a grid, text-like dots).
 tiles::Raster test_pattern(int w, int h, int channels);

@@ -226,12 +226,13 @@ tiles::Raster supersampled(const warp::View& v, int sw, int sh, const tiles::Ima
 // /mesh view does one, each minifying by up to 2×. It must show the same picture in the same
 // place: shifted by at most a quarter of a screen pixel (phase correlation), within 40 dB of an
 // antialiased reference (the view supersampled 4×) or as close to it as render_view is, to 3 dB,
-// and within 30 dB of
-// render_view itself (another image's or another aspect's pixels are < 20 dB) — from zoom 0 to 1,
+// and within 28 dB of render_view itself (another image's or another aspect's pixels are < 20 dB)
+// — from zoom 0 to 1,
 // landscape and portrait, centred and at the corners, on two images, one RetargetZoom each, so
 // the two aspects' tiles live side by side in its cache. (Against render_view alone the tile
-// path is 40–56 dB on the interior but 31–41 dB on boats, whose water ripples both renderers
-// alias differently: there render_view itself is only 31–45 dB from the reference.)
+// path is 40–56 dB on the interior but 29.7–41 dB on boats (stored as JPEG tiles since issue 18;
+// 31–41 dB from lossless tiles), whose water ripples both renderers alias differently: there
+// render_view itself is only 30–45 dB from the reference.)
 TEST(RetargetZoom, ItsViewportIsItsViewRenderedWithinAQuarterPixel) {
   int views = 0;
   for (const char* file : {"boats_lake_sunset.jpg", "interior_wine_djembe_tall.jpg"}) {
@@ -256,7 +257,7 @@ TEST(RetargetZoom, ItsViewportIsItsViewRenderedWithinAQuarterPixel) {
           const cv::Point2d shift = shift_between(exact, viewport);
           EXPECT_LE(std::hypot(shift.x, shift.y), 0.25);
           EXPECT_TRUE(ours >= 40 || ours >= theirs - 3) << "tiles " << ours << " dB, render_view " << theirs << " dB";
-          EXPECT_GE(to_view, 30);
+          EXPECT_GE(to_view, 28);
           std::printf("[ figures ] %s %d×%d zoom %.1f centre %.0f,%.0f: shift %.3f,%.3f screen px; PSNR to render_view "
                       "%.1f dB; to the 4× reference: tiles %.1f, render_view %.1f dB\n",
                       file, sw, sh, zoom, c.x, c.y, shift.x, shift.y, to_view, ours, theirs);
