@@ -29,7 +29,7 @@ std::vector<gdouble> bias_of(const SignificanceMap& saliency, int width, int hei
 // One axis's map: a carver resized by D seams along it with the visibility map dumped. Every
 // liblqr call is checked; whatever fails leaves the axis not carvable (depth 0), which the
 // request side handles by scaling instead.
-VisibilityMap carve_axis(const tiles::Raster& image, std::vector<gdouble> bias, int bias_factor, bool vertical) {
+VisibilityMap carve_axis(const tiles::Raster& image, const std::vector<gdouble>& bias, int bias_factor, bool vertical) {
   const int w = image.width, h = image.height;
   VisibilityMap out;
   out.length = vertical ? h : w;
@@ -47,7 +47,9 @@ VisibilityMap carve_axis(const tiles::Raster& image, std::vector<gdouble> bias, 
   lqr_carver_set_preserve_input_image(carver.get());
   if (lqr_carver_init(carver.get(), 1, 0) != LQR_OK) return out;
   if (lqr_carver_set_energy_function_builtin(carver.get(), LQR_EF_GRAD_NORM) != LQR_OK) return out;
-  if (bias_factor != 0 && lqr_carver_bias_add(carver.get(), bias.data(), bias_factor) != LQR_OK) return out;
+  // liblqr adds the buffer into its own bias map and only reads it (its parameter is not const).
+  if (bias_factor != 0 && lqr_carver_bias_add(carver.get(), const_cast<gdouble*>(bias.data()), bias_factor) != LQR_OK)
+    return out;
   lqr_carver_set_dump_vmaps(carver.get());
   if (lqr_carver_resize(carver.get(), vertical ? w : w - depth, vertical ? h - depth : h) != LQR_OK) return out;
 
