@@ -151,16 +151,16 @@ void read_model_bin(const tiles::ImageEntry& image, ImageModel& m) {
   if (format == 2 && in.remaining() != 0) in.damaged("trailing bytes");
 }
 
-// How many of the analysis's jobs may run at once. Each job works on the analysis image, and the
-// largest (seam carving's and patch segmentation's precomputations, GBVS) peak at about 90 bytes
-// per analysis pixel (measured: +36 MB on an 800×500 analysis image): so running several at once
-// costs that much again per extra job — up to 96 MB for two on a 1024×1024 analysis image. Extra
-// jobs are let run only as long as that stays within kExtraJobBytes, whatever the image.
-int analysis_threads(int threads, const tiles::Raster& analysis) {
-  constexpr std::size_t kJobBytesPerPixel = 96, kExtraJobBytes = 32 << 20;
-  const std::size_t job_bytes = std::max<std::size_t>(1, kJobBytesPerPixel * std::size_t(analysis.width) * analysis.height);
-  return int(std::clamp<std::size_t>(1 + kExtraJobBytes / job_bytes, 1, std::size_t(std::max(threads, 1))));
-}
+// The analysis's jobs run side by side on the ingest's threads while their estimated peaks sum to
+// at most this, so that the memory an ingest adds for its analysis stays near it whatever the
+// image (issue 18). On the 952 MP test image (996×934 analysis pixels) seam carving's or patch
+// segmentation's precomputation (~45 MB) runs beside polyfem's and mp's but not beside each other
+// (1.5 s of the analysis's 8.6 taken off its critical path for a peak within vips dzsave's 1.5×);
+// with up to 0.69 MP of analysis pixels (most images), any two of the methods' jobs pair.
+constexpr std::size_t kAnalysisMemoryBudget = 72 << 20;
+// The inputs' jobs (faces, detected lines) and the maps' (the model, GBVS): their peaks per
+// analysis pixel, measured as the methods' are (RetargetingMethod::precompute_bytes_per_pixel).
+constexpr std::size_t kInputBytesPerPixel = 66, kMapBytesPerPixel = 36;
 
 }  // namespace
 
@@ -171,23 +171,26 @@ std::vector<MethodFileTiming> write_image_analysis(const tiles::ImageEntry& imag
   // The faces and the detected lines read only the analysis image; the model and the GBVS map
   // read it and the faces, found once for both (a detection costs as much as either map). The
   // methods' precomputations read all of it (the lines and the GBVS map from their files).
-  const int jobs_at_once = analysis_threads(threads, analysis);
+  const std::size_t pixels = std::size_t(analysis.width) * std::size_t(analysis.height);
   SignificanceOptions with_faces = significance;
-  const std::function<void()> inputs[] = {
-      [&] { with_faces.faces = detect_faces(analysis, significance.face_cascade); },
-      [&] { write_detected_lines(image, reader); },
+  const tiles::Job inputs[] = {
+      {[&] { with_faces.faces = detect_faces(analysis, significance.face_cascade); }, kInputBytesPerPixel * pixels},
+      {[&] { write_detected_lines(image, reader); }, kInputBytesPerPixel * pixels},
   };
-  tiles::run_jobs(inputs, jobs_at_once);
+  tiles::run_jobs(inputs, threads, kAnalysisMemoryBudget);
   ImageModel model;
-  const std::function<void()> maps[] = {
-      [&] {
-        model = make_image_model(analysis, image.manifest.width, image.manifest.height, {}, {}, {}, with_faces);
-        write_image_model(image.dir, model);
-      },
-      [&] { write_gbvs_map(image.dir, gbvs_significance(analysis, image.manifest.width, with_faces)); },
+  const tiles::Job maps[] = {
+      {[&] {
+         model = make_image_model(analysis, image.manifest.width, image.manifest.height, {}, {}, {}, with_faces);
+         write_image_model(image.dir, model);
+       },
+       kMapBytesPerPixel * pixels},
+      {[&] { write_gbvs_map(image.dir, gbvs_significance(analysis, image.manifest.width, with_faces)); },
+       kMapBytesPerPixel * pixels},
   };
-  tiles::run_jobs(maps, jobs_at_once);
-  return write_method_files(image.dir, image, reader, model, kSaliencies, MethodSelection::kAll, jobs_at_once);
+  tiles::run_jobs(maps, threads, kAnalysisMemoryBudget);
+  return write_method_files(image.dir, image, reader, model, kSaliencies, MethodSelection::kAll, threads,
+                            kAnalysisMemoryBudget);
 }
 
 void write_image_model(const std::string& dir, const ImageModel& model) {

@@ -43,8 +43,8 @@ inline constexpr const char* kModelJsonFile = "warp.json";
 
 // The ingest hook: builds the image's model (no lines yet) and writes its files into the (still
 // staged) folder, the retargeting methods' files (method_files.h) for every saliency kind
-// included, on up to `threads` threads — fewer for large analysis images, so that the jobs running
-// at once take at most 32 MB more than one (the files are the same for any count). Returns how
+// included, on up to `threads` threads — while the jobs running at once are estimated to hold at
+// most 72 MB, so fewer for large analysis images (the files are the same for any count). Returns how
 // long each method file took. Throws std::runtime_error if it cannot write.
 std::vector<MethodFileTiming> write_image_analysis(const tiles::ImageEntry& image,
                                                    const SignificanceOptions& significance = {}, int threads = 1);

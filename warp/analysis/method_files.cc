@@ -40,7 +40,8 @@ std::string method_file_name(const RetargetingMethod& method, Saliency saliency)
 
 std::vector<MethodFileTiming> write_method_files(const std::string& dir, const tiles::ImageEntry& image,
                                                  tiles::PyramidReader& reader, const ImageModel& model,
-                                                 std::span<const Saliency> kinds, MethodSelection which, int threads) {
+                                                 std::span<const Saliency> kinds, MethodSelection which, int threads,
+                                                 std::size_t memory_budget) {
   std::vector<const RetargetingMethod*> methods;
   for (const RetargetingMethod* method : retargeting_methods())
     if (method->precompute && (which == MethodSelection::kAll || method->reads_lines)) methods.push_back(method);
@@ -51,17 +52,18 @@ std::vector<MethodFileTiming> write_method_files(const std::string& dir, const t
   // One job per (method, kind), each writing its own file and timing. Method-major: a method
   // costs about the same for every kind, so threads taking jobs in this order finish together.
   std::vector<MethodFileTiming> out(methods.size() * kinds.size());
-  std::vector<std::function<void()>> jobs;
+  const std::size_t analysis_pixels = std::size_t(shared.analysis.width) * std::size_t(shared.analysis.height);
+  std::vector<tiles::Job> jobs;
   for (std::size_t m = 0; m < methods.size(); ++m)
     for (std::size_t k = 0; k < kinds.size(); ++k)
-      jobs.push_back([&, m, k, slot = jobs.size()] {
+      jobs.push_back({[&, m, k, slot = jobs.size()] {
         const auto start = std::chrono::steady_clock::now();
         const RetargetingMethod& method = *methods[m];
         const std::string file = method_file_name(method, kinds[k]);
         replace_file(dir, file, sealed(method, precompute(method, model, kinds[k], maps[k], shared)));
         out[slot] = {file, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()};
-      });
-  tiles::run_jobs(jobs, threads);
+      }, methods[m]->precompute_bytes_per_pixel * analysis_pixels});
+  tiles::run_jobs(jobs, threads, memory_budget);
   return out;
 }
 

@@ -12,6 +12,8 @@
 // Thread safety: free functions on immutable published folders; safe to call concurrently.
 #pragma once
 
+#include <cstddef>
+
 #include <memory>
 #include <span>
 #include <string>
@@ -31,7 +33,8 @@ std::string method_file_name(const RetargetingMethod& method, Saliency saliency)
 // Precomputes every registered method that keeps a file (kReadingLines: only those whose
 // precomputation reads lines — what an edit of the lines alone makes stale), for each kind in
 // `kinds`, and writes the files into `dir`; up to `threads` precomputations at once (they are
-// independent). Returns how long each took (for `zoomwarp ingest`'s report), for each
+// independent) while their RetargetingMethod::precompute_bytes_per_pixel for the analysis image
+// sum to at most `memory_budget` (tiles::run_jobs). Returns how long each took (for `zoomwarp ingest`'s report), for each
 // method in the registry's order each kind in `kinds`.
 struct MethodFileTiming {
   std::string file;
@@ -41,7 +44,8 @@ enum class MethodSelection { kAll, kReadingLines };
 std::vector<MethodFileTiming> write_method_files(const std::string& dir, const tiles::ImageEntry& image,
                                                  tiles::PyramidReader& reader, const ImageModel& model,
                                                  std::span<const Saliency> kinds,
-                                                 MethodSelection which = MethodSelection::kAll, int threads = 1);
+                                                 MethodSelection which = MethodSelection::kAll, int threads = 1,
+                                                 std::size_t memory_budget = 0);
 
 // How load_retargeter got the precomputation.
 enum class MethodSource { kStored, kNoFile, kBuiltInMemory, kRebuiltDamaged };

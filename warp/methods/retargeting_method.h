@@ -55,6 +55,11 @@ struct RetargetingMethod {
   bool reads_lines = false;
   // The precomputation's bytes; empty: the method keeps no file and load() gets "".
   std::function<std::string(const MethodInput&)> precompute;
+  // The precomputation's peak memory per analysis-image pixel, measured (issue 18: RSS sampled
+  // every 20 ms through each job of a 996×934 analysis image, glibc's mmap threshold at 64 KiB so
+  // that RSS follows the live heap). Ingest runs precomputations side by side only while these
+  // estimates fit its budget (warp/analysis/image_analysis.cc).
+  std::size_t precompute_bytes_per_pixel = 0;
   // The Retargeter of one version from the model, the selected saliency map and the
   // precomputation's bytes. Throws std::runtime_error for bytes it cannot parse.
   std::function<std::unique_ptr<Retargeter>(const ImageModel&, const SignificanceMap& saliency,

@@ -65,6 +65,7 @@ const RetargetingMethod& seam_carving_method() {
           [](const MethodInput& in) {
             return visibility_map_bytes(compute_visibility_maps(in.analysis_image, in.saliency));
           },
+      .precompute_bytes_per_pixel = 48,  // liblqr's carver, one axis at a time, and the bias: 42-45 MB at 996×934
       .load = load,
   };
   return kSeam;
