@@ -1,6 +1,7 @@
 // `zoomwarp ingest FILE`: builds an image's pyramid into the store, with a progress bar on a
 // terminal. Exit codes: 0 done, 2 usage, 3 unsupported format, 4 over the limits, 5 corrupt
 // image, 1 anything else.
+#include <malloc.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -54,6 +55,12 @@ int ingest_command(const std::vector<std::string>& args) {
     const bool quiet = o.flag("quiet");
     const bool bar = !quiet && ::isatty(STDERR_FILENO);
 
+    // glibc raises its mmap threshold to the largest block freed, so the pyramid's strips and the
+    // analysis's maps come to be carved from heaps that are kept when freed — worse with one heap
+    // per thread, as the analysis's jobs now run side by side. A fixed 256 KiB threshold gives
+    // every large block back when it is freed: on the 952 MP image peak RSS 277 -> 212 MB, for no
+    // measurable time (issue 18). Only here: a server's caches are long-lived anyway.
+    mallopt(M_MMAP_THRESHOLD, 256 << 10);
     tiles::Store store(o.str("store"));
     tiles::ProgressFn progress;
     if (bar) progress = [&](double f) { draw_progress(id, f); };
