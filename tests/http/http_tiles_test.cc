@@ -1,5 +1,8 @@
-// Deep Zoom and IIIF responses checked against references computed independently from the source
-// file with OpenImageIO: sizes exactly, pixels within tolerance.
+// Deep Zoom and IIIF responses checked against references computed independently with
+// OpenImageIO: sizes exactly, pixels within tolerance — exactly for lossless answers. The sample
+// JPEG is stored as JPEG tiles (issue 18), so its reference is its stored full-resolution level
+// read straight from the store's file (itself checked against the source file); the PNG's is the
+// source file.
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
@@ -28,7 +31,8 @@ class Tiles : public ::testing::Test {
       auto r = http.request("POST", std::string("/v1/images?id=") + id, testing::read_file(testing::samples_dir() + "/" + file));
       ASSERT_EQ(r.status, 201) << r.body;
     }
-    boats_ = new Raster(testing::load_image(testing::samples_dir() + "/boats_lake_sunset.jpg"));
+    boats_ = new Raster(testing::load_image(dir_->path() + "/store/images/boats/level_0.tif"));
+    ASSERT_GE(testing::psnr(*boats_, testing::load_image(testing::samples_dir() + "/boats_lake_sunset.jpg")), 40.0);
     pano_ = new Raster(testing::load_image(testing::samples_dir() + "/pano_grossmugl_field_4to1.png"));
   }
   static void TearDownTestSuite() {
