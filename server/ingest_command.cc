@@ -61,14 +61,15 @@ int ingest_command(const std::vector<std::string>& args) {
     // every large block back when it is freed: on the 952 MP image peak RSS 277 -> 212 MB, for no
     // measurable time (issue 18). Only here: a server's caches are long-lived anyway.
     mallopt(M_MMAP_THRESHOLD, 256 << 10);
-    tiles::Store store(o.str("store"));
-    tiles::ProgressFn progress;
-    if (bar) progress = [&](double f) { draw_progress(id, f); };
     // Time the warp engine's analysis apart from the pyramid: it is the part that grows with
     // the model, not with the pixels.
     using Clock = std::chrono::steady_clock;
     std::vector<warp::MethodFileTiming> method_timings;
+    // Options checked before the store is opened: a bad flag creates nothing.
     tiles::IngestOptions options = ingest_options(o, analysis_settings(o).significance, &method_timings);
+    tiles::Store store(o.str("store"));
+    tiles::ProgressFn progress;
+    if (bar) progress = [&](double f) { draw_progress(id, f); };
     double analysis_s = 0;
     options.analyse = [&, analyse = options.analyse](const tiles::ImageEntry& staged) {
       const auto t0 = Clock::now();

@@ -267,6 +267,17 @@ TEST(IngestCli, ExitCodesAndMessages) {
                                   "--max-pixels", "1000"}).exit_code, 4);
   EXPECT_EQ(testing::run_command({bin, "ingest", "--bogus"}).exit_code, 2);
   expect_store_clean(store, 0);
+  // Bad tile settings are refused before the store is even made.
+  const std::string untouched = dir.path() + "/untouched";
+  for (const std::vector<std::string>& bad : {std::vector<std::string>{"--tile-quality", "0"}, {"--tile-quality", "101"},
+                                              {"--tile-quality", "high"}, {"--tile-compression", "jpeg:90"}}) {
+    std::vector<std::string> argv = {bin, "ingest", testing::samples_dir() + "/boats_lake_sunset.jpg", "--store", untouched};
+    argv.insert(argv.end(), bad.begin(), bad.end());
+    const auto refused = testing::run_command(argv);
+    EXPECT_EQ(refused.exit_code, 2) << bad[0] << " " << bad[1];
+    EXPECT_NE(refused.output.find(bad[0]), std::string::npos) << refused.output;
+  }
+  EXPECT_FALSE(fs::exists(untouched));
 }
 
 // Starts a command without waiting for it (output to /dev/null); the caller reaps it.
