@@ -479,6 +479,7 @@ std::optional<Response> Router::dzi_tile_route(const Request& req, const PathPar
                    "no tile " + std::to_string(name->col) + "_" + std::to_string(name->row) + " at level " +
                        std::to_string(*level) + " (levels 0-" + std::to_string(entry->manifest.levels - 1) + ")");
   return image_response(req, *entry, "dzi_tile", "", may_compute, [&](const tiles::ImageEntry& e) {
+    if (auto stored = dzi_stored_tile(e.manifest, config_.dzi, *tile, *format)) return stored_tile_response(e, *stored);
     tiles::Raster pixels = reader_.read_level(e, tile->store_level, tile->rect);
     return body_response(std::string(tiles::mime_type(*format)), tiles::encode_image(pixels, *format, config_.encode));
   });
@@ -515,20 +516,32 @@ std::optional<Response> Router::iiif_image(const Request& req, const PathParams&
                         param(p, "quality") + "." + param(p, "format"), entry->manifest.width, entry->manifest.height,
                         config_.iiif);
   return image_response(req, *entry, "iiif_image", "", may_compute, [&](const tiles::ImageEntry& e) {
-    tiles::Raster pixels = reader_.read_scaled(e, plan.region, plan.width, plan.height);
-    if (plan.mirror) pixels = tiles::mirror_horizontally(pixels);
-    pixels = tiles::rotate_clockwise(pixels, plan.rotation);
-    pixels = apply_quality(std::move(pixels), plan.quality);
-    std::string body;
-    try {
-      body = tiles::encode_image(pixels, plan.format, config_.encode);
-    } catch (const std::invalid_argument& err) {
-      throw ApiError(400, "invalid_iiif_request", err.what());
-    }
-    Response r = body_response(std::string(tiles::mime_type(plan.format)), std::move(body));
+    const auto stored = iiif_stored_tile(e.manifest, plan);
+    Response r = stored ? stored_tile_response(e, *stored) : encoded_iiif_response(e, plan);
     r.set_header("Link", "<http://iiif.io/api/image/3/level2.json>;rel=\"profile\"");
     return r;
   });
+}
+
+Response Router::encoded_iiif_response(const tiles::ImageEntry& entry, const IiifPlan& plan) {
+  tiles::Raster pixels = reader_.read_scaled(entry, plan.region, plan.width, plan.height);
+  if (plan.mirror) pixels = tiles::mirror_horizontally(pixels);
+  pixels = tiles::rotate_clockwise(pixels, plan.rotation);
+  pixels = apply_quality(std::move(pixels), plan.quality);
+  std::string body;
+  try {
+    body = tiles::encode_image(pixels, plan.format, config_.encode);
+  } catch (const std::invalid_argument& err) {
+    throw ApiError(400, "invalid_iiif_request", err.what());
+  }
+  return body_response(std::string(tiles::mime_type(plan.format)), std::move(body));
+}
+
+Response Router::stored_tile_response(const tiles::ImageEntry& entry, const StoredTileRef& tile) {
+  Response r = body_response(std::string(tiles::mime_type(tiles::ImageFormat::kJpeg)),
+                             stored_tiles_.jpeg_tile(entry, tile.level, tile.tx, tile.ty));
+  passed_through_.fetch_add(1, std::memory_order_relaxed);
+  return r;
 }
 
 // Private images are listed for curator keys only; such a list is for that client alone.

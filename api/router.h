@@ -6,7 +6,9 @@
 // is what makes the ETags strong and the encoded-response cache safe.
 #pragma once
 
+#include <atomic>
 #include <chrono>
+#include <cstdint>
 #include <cstddef>
 #include <functional>
 #include <optional>
@@ -20,6 +22,7 @@
 #include "api/failure_cache.h"
 #include "api/http_types.h"
 #include "api/iiif.h"
+#include "api/stored_tile_match.h"
 #include "tiles/single_flight.h"
 #include "api/url_signing.h"
 #include "api/view_query.h"
@@ -29,6 +32,7 @@
 #include "tiles/ingest.h"
 #include "tiles/pyramid_reader.h"
 #include "tiles/store.h"
+#include "tiles/stored_tiles.h"
 
 namespace zoomwarp::api {
 
@@ -83,6 +87,9 @@ class Router {
   tiles::ByteLruCache<Response>::Stats response_cache_stats() const { return cache_.stats(); }
   std::size_t failure_cache_bytes() const { return failures_.bytes(); }
   std::size_t warp_cache_bytes() { return engines_.memory_bytes(); }
+  // Tile answers computed by sending a stored JPEG tile as it is, without decoding (api/README.md,
+  // "Stored tiles sent as they are"); answers from the response cache are not counted again.
+  std::uint64_t tiles_passed_through() const { return passed_through_.load(std::memory_order_relaxed); }
   const RouterConfig& config() const { return config_; }
 
  // A route: method, OpenAPI path template, the member answering it, and who may call it (the
@@ -152,6 +159,12 @@ class Router {
   // `cache_key` (api/failure_cache.h) before it is rethrown.
   Response compute_remembering_failure(const std::string& cache_key, const std::function<Response()>& compute);
 
+  // The stored JPEG tile `tile` as the whole answer (api/stored_tile_match.h), counted.
+  Response stored_tile_response(const tiles::ImageEntry& entry, const StoredTileRef& tile);
+  // An IIIF image read, resampled, rotated, filtered and encoded (every request that is not a
+  // stored tile).
+  Response encoded_iiif_response(const tiles::ImageEntry& entry, const IiifPlan& plan);
+
   std::string base_url(const Request& req) const;
 
   // Private images (tiles::Manifest::is_private): whether the request carries a curator (or admin)
@@ -170,6 +183,8 @@ class Router {
   tiles::ByteLruCache<Response> cache_;
   FailureCache failures_;
   WarpEngines engines_;
+  tiles::StoredTiles stored_tiles_;
+  std::atomic<std::uint64_t> passed_through_{0};
   tiles::SingleFlight<std::shared_ptr<const Response>> in_flight_;  // keeps nothing: cache_ keeps the answers
 };
 

@@ -2,7 +2,10 @@
 # zoomwarp side by side with its peers in one run, on one test image (issue 16): iipsrv (Debian's
 # iipimage-server, FastCGI behind nginx) for IIIF regions and tiles, nginx serving `vips dzsave`'s
 # Deep Zoom tiles as static files, `vips dzsave` for ingest, and the warp engine alone for /mesh.
-# Prints one Markdown table (and writes it with the machine's description to --out FILE).
+# Prints one Markdown table (and writes it with the machine's description to --out FILE). A second
+# case (issue 18), cold tiles: IIIF and Deep Zoom tiles with no cache on either side, zoomwarp
+# sending its stored JPEG tiles as they are against iipsrv on a TIFF of the same quality and grid;
+# its own section of the output. --only picks one case.
 #
 # One run: install what is missing (apt-get) -> build a ~127 MP JPEG from a photo -> build each
 # server's pyramid, timed (zoomwarp ingest, vips dzsave, vips tiffsave) -> the view lists -> time
@@ -34,6 +37,8 @@ views=5000            # distinct views in the view list
 seed=16               # of the view list's random numbers
 quality=85            # JPEG quality of every answer (zoomwarp's default)
 iipsrv_processes=$(nproc)
+all_cases=(peers cold_tiles)
+cases=("${all_cases[@]}")
 screen_w=480 screen_h=360
 photo=""
 out_file=""
@@ -54,8 +59,12 @@ Benchmarks zoomwarp against its peers on one ~127 MP test image and prints a Mar
 ICAZ /viewport against iipsrv's plain IIIF region, method=traditional and retarget-zoom against
 our own IIIF region, /mesh against the warp engine alone, cached Deep Zoom tiles against nginx
 serving vips dzsave's files, IIIF tiles (cached) against iipsrv, plain IIIF regions, and ingest
-against vips dzsave (wall time, peak RSS, bytes on disk). Each figure is the median over the
-rounds; ratios are ours/peer. tests/bench/README.md explains how to read them.
+against vips dzsave (wall time, peak RSS, bytes on disk): the case "peers". The case
+"cold_tiles": IIIF and Deep Zoom tiles with no cache on either side (zoomwarp --response-cache 0
+sending its stored JPEG tiles as they are, iipsrv with MAX_IMAGE_CACHE_SIZE=0 on a JPEG TIFF of
+the quality zoomwarp stored), every tile of the levels both hold, in a seeded random order, in
+its own section. Each figure is the median over the rounds; ratios are ours/peer.
+tests/bench/README.md explains how to read them.
 
 Installs what is missing with apt-get (as root, or through sudo): ${packages[*]}.
 Needs zoomwarp built (scripts/build.sh zoomwarp); uses mesh_json_bench for the engine's own time
@@ -78,6 +87,7 @@ options:
   --seed N              seed of the view list (default $seed)
   --quality Q           JPEG quality of zoomwarp's and iipsrv's answers and of dzsave's tiles (default $quality)
   --iipsrv-processes N  iipsrv FastCGI processes, one request at a time each (default: cores, $iipsrv_processes)
+  --only CASE[,CASE]    run only these cases: ${all_cases[*]} (default: all)
   --out FILE            also write the table, the settings and the machine to FILE (Markdown)
   --no-install          install nothing; fail if something is missing
   --zoomwarp PATH       zoomwarp binary (default build/bin/zoomwarp)
@@ -85,16 +95,20 @@ options:
   --verbose             also print wrk's own output of every run
   -h, --help            this text
 
-A default run takes about 8 minutes on 2 cores: ~2 to build the image, the pyramids (once per
-round) and the tile caches, ~6 for the 10 runs x (warmup + rounds x duration). Run it on a quiet machine: it reports the CPU that
+A default run takes about 10 minutes on 2 cores: ~2 to build the image, the pyramids (once per
+round) and the tile caches, ~8 for the 14 runs (10 peers, 4 cold_tiles) x (warmup + rounds x
+duration); --only cold_tiles about 3. Run it on a quiet machine: it reports the CPU that
 everything else used during each run and warns above 0.25 cores.
 EOF
 }
 
 die() { echo "bench-peers: error: $*" >&2; exit 1; }
 log() { echo "bench-peers: $*" >&2; }
+# has_case CASE: whether CASE is among the cases to run (--only).
+has_case() { [[ " ${cases[*]} " == *" $1 "* ]]; }
 
 parse_args() {
+  invocation="$*"
   while [ $# -gt 0 ]; do
     case "$1" in
       -h|--help) usage; exit 0 ;;
@@ -110,6 +124,7 @@ parse_args() {
       --seed) seed=${2:?--seed needs a value}; shift 2 ;;
       --quality) quality=${2:?--quality needs a value}; shift 2 ;;
       --iipsrv-processes) iipsrv_processes=${2:?--iipsrv-processes needs a value}; shift 2 ;;
+      --only) IFS=, read -r -a cases <<<"${2:?--only needs a value}"; shift 2 ;;
       --out) out_file=${2:?--out needs a value}; shift 2 ;;
       --no-install) install=0; shift ;;
       --zoomwarp) zoomwarp_bin=${2:?--zoomwarp needs a value}; shift 2 ;;
@@ -127,6 +142,10 @@ parse_args() {
   done
   [ "$tile_connections" -ge 2 ] || die "--tile-connections must be at least 2 (two wrk threads)"
   [ "$quality" -le 100 ] || die "--quality must be 1-100"
+  [ "${#cases[@]}" -gt 0 ] || die "--only needs at least one case: ${all_cases[*]}"
+  for n in "${cases[@]}"; do
+    [[ " ${all_cases[*]} " == *" $n "* ]] || die "--only: unknown case '$n' (cases: ${all_cases[*]})"
+  done
   if [ -z "$photo" ]; then
     photo="$repo_dir/../shared/corpus/nuthatch_tree_trunk.jpg"
     [ -f "$photo" ] || photo="$repo_dir/samples/boats_lake_sunset.jpg"
@@ -165,8 +184,9 @@ install_packages() {
 work=""               # the one temp folder: images, pyramids, configs, lists, wrk outputs
 zw_computed_pid="" zw_computed_port=""   # zoomwarp with --response-cache 0: every answer computed
 zw_cached_pid="" zw_cached_port=""       # zoomwarp with its default response cache
+zw_cold_pid="" zw_cold_port=""           # zoomwarp for cold tiles: response cache off, DZI 256/0
 nginx_pid="" nginx_port=""
-iipsrv_pids=()
+iipsrv_pids=()        # every iipsrv process, for cleanup
 
 cleanup() {
   local rc=$? pid
@@ -175,6 +195,7 @@ cleanup() {
   for pid in "${iipsrv_pids[@]}"; do stop_process "$pid"; done
   stop_process "$zw_computed_pid"
   stop_process "$zw_cached_pid"
+  stop_process "$zw_cold_pid"
   if [ -n "$work" ] && [ -d "$work" ]; then
     if [ "$rc" -ne 0 ]; then
       local f
@@ -230,10 +251,23 @@ timed() {
   log "  $tool: ${wall} s, peak RSS $((rss / 1024)) MB"
 }
 
+stored_quality=""     # the JPEG quality of zoomwarp's stored tiles, and of iipsrv's TIFF
+stored_subsampling="" # their chroma subsampling, "2×1" (horizontal × vertical)
+
+# Reads the stored tiles' JPEG quality and subsampling from the ingested version's manifest.json
+# (tiles/manifest.h): the test image is a JPEG, so --tile-compression auto must have stored JPEG.
+read_stored_quality() {
+  local manifest="$work/store/images/$image_id/manifest.json"
+  stored_quality=$(jq -r '.jpeg.quality // empty' "$manifest") || die "cannot read $manifest"
+  [ -n "$stored_quality" ] || die "zoomwarp stored no JPEG tiles ($manifest: compression $(jq -r .compression "$manifest"))"
+  stored_subsampling=$(jq -r '.jpeg.chroma_subsampling | map(tostring) | join("×")' "$manifest")
+}
+
 # Each pyramid is built once per round, the tools taking turns; the last build of each is served.
 # zoomwarp: its store (levels, analysis, warp models); nginx: dzsave's Deep Zoom files, the layout
-# and tile geometry of ours (254 px, overlap 1) at the same URLs; iipsrv: a tiled pyramidal TIFF,
-# JPEG-compressed, 256 px tiles, as IIPImage's documentation recommends.
+# and tile geometry of ours (254 px, overlap 1) at the same URLs (case peers only); iipsrv: a tiled
+# pyramidal TIFF, JPEG-compressed, 256 px tiles, as IIPImage's documentation recommends, at the
+# quality zoomwarp stored its tiles with, so that both servers hold tiles of one quality and grid.
 build_pyramids() {
   local r
   mkdir -p "$work/docroot/dzi" "$work/iip"
@@ -241,11 +275,15 @@ build_pyramids() {
     log "building the pyramids, round $r of $rounds"
     rm -rf "$work/store" "$work/docroot/dzi/$image_id"* "$work/iip/$image_id.tif"
     timed zoomwarp "$work/store" "$zoomwarp_bin" ingest "$image" --store "$work/store" --id "$image_id" --quiet
-    timed dzsave "$work/docroot/dzi" vips dzsave "$image" "$work/docroot/dzi/$image_id" \
-      --tile-size 254 --overlap 1 --suffix ".jpg[Q=$quality]"
+    read_stored_quality
+    if has_case peers; then
+      timed dzsave "$work/docroot/dzi" vips dzsave "$image" "$work/docroot/dzi/$image_id" \
+        --tile-size 254 --overlap 1 --suffix ".jpg[Q=$quality]"
+    fi
     timed tiffsave "$work/iip/$image_id.tif" vips tiffsave "$image" "$work/iip/$image_id.tif" \
-      --tile --pyramid --compression jpeg --Q 90 --tile-width 256 --tile-height 256
+      --tile --pyramid --compression jpeg --Q "$stored_quality" --tile-width 256 --tile-height 256
   done
+  log "zoomwarp stored JPEG tiles of quality $stored_quality (chroma subsampling $stored_subsampling); iipsrv's TIFF has the same"
 }
 
 # ---- the engine alone --------------------------------------------------------------------------
@@ -278,38 +316,69 @@ time_engine() {
 }
 
 # ---- servers -----------------------------------------------------------------------------------
-iipsrv_sockets=()
+iipsrv_sockets=()        # the iipsrv processes with their tile cache (case peers)
+iipsrv_cached_pids=()
+iipsrv_cold_sockets=()   # those with none (case cold_tiles)
+iipsrv_cold_pids=()
 
 start_zoomwarps() {
-  zoomwarp_serve "$zoomwarp_bin" "$work/store" "$work/zoomwarp_computed.log" --response-cache 0 --jpeg-quality "$quality" ||
-    die "zoomwarp (response cache off) did not start"
-  zw_computed_pid=$zoomwarp_pid zw_computed_port=$zoomwarp_port
-  zoomwarp_serve "$zoomwarp_bin" "$work/store" "$work/zoomwarp_cached.log" --jpeg-quality "$quality" ||
-    die "zoomwarp (response cache on) did not start"
-  zw_cached_pid=$zoomwarp_pid zw_cached_port=$zoomwarp_port
-  log "zoomwarp: response cache off on 127.0.0.1:$zw_computed_port (pid $zw_computed_pid), on on 127.0.0.1:$zw_cached_port (pid $zw_cached_pid)"
+  if has_case peers; then
+    zoomwarp_serve "$zoomwarp_bin" "$work/store" "$work/zoomwarp_computed.log" --response-cache 0 --jpeg-quality "$quality" ||
+      die "zoomwarp (response cache off) did not start"
+    zw_computed_pid=$zoomwarp_pid zw_computed_port=$zoomwarp_port
+    zoomwarp_serve "$zoomwarp_bin" "$work/store" "$work/zoomwarp_cached.log" --jpeg-quality "$quality" ||
+      die "zoomwarp (response cache on) did not start"
+    zw_cached_pid=$zoomwarp_pid zw_cached_port=$zoomwarp_port
+    log "zoomwarp: response cache off on 127.0.0.1:$zw_computed_port (pid $zw_computed_pid), on on 127.0.0.1:$zw_cached_port (pid $zw_cached_pid)"
+  fi
+  # Deep Zoom's grid made the stored one (256 px, no overlap), so that its tiles can be sent as
+  # stored too, as iipsrv's Deep Zoom tiles are its TIFF's.
+  if has_case cold_tiles; then
+    zoomwarp_serve "$zoomwarp_bin" "$work/store" "$work/zoomwarp_cold.log" --response-cache 0 \
+      --dzi-tile-size 256 --dzi-overlap 0 --jpeg-quality "$quality" || die "zoomwarp (cold tiles) did not start"
+    zw_cold_pid=$zoomwarp_pid zw_cold_port=$zoomwarp_port
+    log "zoomwarp for cold tiles (--response-cache 0 --dzi-tile-size 256 --dzi-overlap 0) on 127.0.0.1:$zw_cold_port (pid $zw_cold_pid)"
+  fi
 }
 
 # iipsrv handles one request at a time per process (its FastCGI loop), so it runs as several
 # processes, each single-threaded (OMP_NUM_THREADS=1: like one zoomwarp worker per request; its
 # OpenMP threads would otherwise compete with the other processes), each on its own Unix socket
-# (TCP without keep-alive would leave a TIME_WAIT port behind per request). Its decoded-tile
-# cache gets what zoomwarp's --tile-cache has by default, 256 MB; no memcached (an empty
-# MEMCACHED_SERVERS turns it off), no log; bilinear resampling (its default), JPEG at --quality.
+# (TCP without keep-alive would leave a TIME_WAIT port behind per request). Its tile cache gets
+# what zoomwarp's --tile-cache has by default, 256 MB, or, for cold tiles, 0 (iipsrv 1.1 takes 0:
+# its cache then neither stores nor finds a tile, and its log says "maximum image cache size to
+# 0MB"); no memcached (an empty MEMCACHED_SERVERS turns it off), no log; bilinear resampling (its
+# default). JPEG at --quality, or for cold tiles at the stored tiles' quality, the quality of the
+# tiles zoomwarp sends as stored: iipsrv decodes and encodes every tile, its answers should be
+# neither worse nor smaller for it.
 start_iipsrv() {
-  local i sock
+  if has_case peers; then
+    start_iipsrv_processes iipsrv 256 "$quality"
+    iipsrv_sockets=("${started_sockets[@]}") iipsrv_cached_pids=("${started_pids[@]}")
+  fi
+  if has_case cold_tiles; then
+    start_iipsrv_processes iipsrv_cold 0 "$stored_quality"
+    iipsrv_cold_sockets=("${started_sockets[@]}") iipsrv_cold_pids=("${started_pids[@]}")
+  fi
+  log "iipsrv $(dpkg-query -W -f='${Version}' iipimage-server): $iipsrv_processes processes per cache size (pids ${iipsrv_pids[*]})"
+}
+
+# start_iipsrv_processes NAME CACHE_MB JPEG_QUALITY: --iipsrv-processes iipsrv processes on
+# sockets $work/NAME_I.sock; sets started_sockets and started_pids once every socket is open.
+start_iipsrv_processes() {
+  local name=$1 cache_mb=$2 jpeg_quality=$3 i sock
+  started_sockets=() started_pids=()
   for ((i = 0; i < iipsrv_processes; i++)); do
-    sock="$work/iipsrv_$i.sock"
-    env FILESYSTEM_PREFIX="$work/iip/" JPEG_QUALITY="$quality" MAX_IMAGE_CACHE_SIZE=256 MEMCACHED_SERVERS= \
+    sock="$work/${name}_$i.sock"
+    env FILESYSTEM_PREFIX="$work/iip/" JPEG_QUALITY="$jpeg_quality" MAX_IMAGE_CACHE_SIZE="$cache_mb" MEMCACHED_SERVERS= \
       OMP_NUM_THREADS=1 INTERPOLATION=1 MAX_CVT=5000 VERBOSITY=0 \
-      "$iipsrv_bin" --bind "$sock" --backlog 1024 >"$work/iipsrv_$i.log" 2>&1 &
-    iipsrv_pids+=($!)
-    iipsrv_sockets+=("$sock")
+      "$iipsrv_bin" --bind "$sock" --backlog 1024 >"$work/${name}_$i.log" 2>&1 &
+    iipsrv_pids+=($!) started_pids+=($!)
+    started_sockets+=("$sock")
   done
-  for ((i = 0; i < iipsrv_processes; i++)); do
-    wait_until 10 test -S "${iipsrv_sockets[i]}" || die "iipsrv $i did not open its socket"
+  for sock in "${started_sockets[@]}"; do
+    wait_until 10 test -S "$sock" || die "iipsrv did not open its socket $sock"
   done
-  log "iipsrv $(dpkg-query -W -f='${Version}' iipimage-server): $iipsrv_processes processes (pids ${iipsrv_pids[*]})"
 }
 
 start_nginx() {
@@ -317,15 +386,40 @@ start_nginx() {
   log "nginx (pid $nginx_pid, $(pgrep -P "$nginx_pid" | wc -l) workers) on 127.0.0.1:$nginx_port"
 }
 
-nginx_answers() { curl -sf -o /dev/null "http://127.0.0.1:$nginx_port/dzi/$image_id.dzi"; }
+# Any HTTP answer: what the docroot holds depends on the cases run.
+nginx_answers() { [ "$(curl -s -o /dev/null -w '%{http_code}' "http://127.0.0.1:$nginx_port/")" != 000 ]; }
 
-# One nginx for both peers: dzsave's files from the docroot, iipsrv through FastCGI at the path
-# IIPImage's documentation uses. The globals (foreground, pid file, user) and the logs' places
+# iipsrv_upstream NAME SOCKET...: an nginx upstream block of those sockets, and a location at
+# /fcgi-bin/NAME.fcgi that passes to it, as two variables for write_nginx_conf (upstream_conf,
+# location_conf); nothing without sockets (nginx refuses an empty upstream).
+iipsrv_upstream() {
+  local name=$1 s
+  shift
+  [ $# -gt 0 ] || return 0
+  # One connection per request: an iipsrv process serves one connection at a time, so a
+  # kept-alive one would block the process for every other nginx worker.
+  upstream_conf+="  upstream $name {"$'\n'"    least_conn;"$'\n'
+  for s in "$@"; do upstream_conf+="    server unix:$s;"$'\n'; done
+  upstream_conf+="  }"$'\n'
+  location_conf+="    location = /fcgi-bin/$name.fcgi {"$'\n'"      fastcgi_pass $name;"$'\n'
+  local param
+  for param in QUERY_STRING:query_string REQUEST_METHOD:request_method REQUEST_URI:request_uri \
+               SCRIPT_NAME:fastcgi_script_name SERVER_NAME:server_name SERVER_PORT:server_port \
+               SERVER_PROTOCOL:server_protocol HTTP_HOST:http_host; do
+    location_conf+="      fastcgi_param ${param%%:*} \$${param#*:};"$'\n'
+  done
+  location_conf+="    }"$'\n'
+}
+
+# One nginx for all peers: dzsave's files from the docroot, iipsrv through FastCGI at the path
+# IIPImage's documentation uses, the cache-less iipsrv processes (case cold_tiles) at
+# /fcgi-bin/iipsrv_cold.fcgi. The globals (foreground, pid file, user) and the logs' places
 # come from nginx_start (tests/support/nginx.sh).
 write_nginx_conf() {
-  local s upstreams=""
+  local upstream_conf="" location_conf=""
   nginx_port=$(pick_loopback_port) || return 1
-  for s in "${iipsrv_sockets[@]}"; do upstreams+="    server unix:$s;"$'\n'; done
+  iipsrv_upstream iipsrv "${iipsrv_sockets[@]}"
+  iipsrv_upstream iipsrv_cold "${iipsrv_cold_sockets[@]}"
   mkdir -p "$work/nginx/tmp"
   cat >"$work/nginx/nginx.conf" <<EOF
 # Generated by scripts/bench-peers.sh, everything in $work.
@@ -344,26 +438,10 @@ http {
   fastcgi_temp_path $work/nginx/tmp/fastcgi;
   uwsgi_temp_path $work/nginx/tmp/uwsgi;
   scgi_temp_path $work/nginx/tmp/scgi;
-  # One connection per request: an iipsrv process serves one connection at a time, so a kept-alive
-  # one would block the process for every other nginx worker.
-  upstream iipsrv {
-    least_conn;
-$upstreams  }
-  server {
+$upstream_conf  server {
     listen 127.0.0.1:$nginx_port;
     root $work/docroot;
-    location = /fcgi-bin/iipsrv.fcgi {
-      fastcgi_pass iipsrv;
-      fastcgi_param QUERY_STRING \$query_string;
-      fastcgi_param REQUEST_METHOD \$request_method;
-      fastcgi_param REQUEST_URI \$request_uri;
-      fastcgi_param SCRIPT_NAME \$fastcgi_script_name;
-      fastcgi_param SERVER_NAME \$server_name;
-      fastcgi_param SERVER_PORT \$server_port;
-      fastcgi_param SERVER_PROTOCOL \$server_protocol;
-      fastcgi_param HTTP_HOST \$http_host;
-    }
-  }
+$location_conf  }
 }
 EOF
 }
@@ -440,6 +518,45 @@ prepare_tiles() {
   fetch_paths "http://127.0.0.1:$nginx_port" "$work/list_dzi.txt" || die "nginx lacks some of dzsave's tiles for our tile list"
 }
 
+# The cold tile set: every tile of the Deep Zoom levels (256 px, no overlap: the stored grid, and
+# iipsrv's Deep Zoom grid on its 256 px TIFF) whose scale factor both servers' IIIF info.json
+# list, i.e. the levels both pyramids hold (iipsrv 1.1 answers a coarser Deep Zoom level with its
+# smallest stored level, at the wrong size), in a random order from the Park–Miller generator
+# seeded with --seed, so that consecutive requests are unrelated tiles as from many viewers. The
+# same tiles in four URL forms: our Deep Zoom path and iipsrv's `?DeepZoom=ID.tif_files/L/C_R.jpg`;
+# the IIIF tile of the same pixels (level L is scale factor s = 2^(max level - L): region C·256·s,
+# R·256·s, up to 256·s wide and high, size "w,", w its width / s rounded up, the Deep Zoom tile's
+# width) from us and from iipsrv.
+write_cold_tiles() {
+  local ours theirs levels
+  ours=$(curl -sSf "http://127.0.0.1:$zw_cold_port/iiif/3/$image_id/info.json" | jq -c '.tiles[0].scaleFactors | sort') ||
+    die "no info.json from zoomwarp"
+  theirs=$(curl -sSf "http://127.0.0.1:$nginx_port/fcgi-bin/iipsrv_cold.fcgi?IIIF=$image_id.tif/info.json" | jq -c '.tiles[0].scaleFactors | sort') ||
+    die "no info.json from iipsrv"
+  # The common scale factors must be 1, 2, 4, …: the highest Deep Zoom levels, as many.
+  levels=$(jq -n --argjson a "$ours" --argjson b "$theirs" '[$a[] | select(. as $f | $b | index($f))] as $c
+    | if $c == [range($c | length) | pow(2; .)] then $c | length else empty end')
+  [ -n "$levels" ] || die "zoomwarp's IIIF scale factors $ours and iipsrv's $theirs have no common 1, 2, 4, …"
+  dzi_tile_paths "http://127.0.0.1:$zw_cold_port" "$image_id" "$levels" "$work/cold_dzi_all.txt" ||
+    die "could not list the Deep Zoom tiles of the cold zoomwarp"
+  awk -v seed="$seed" 'BEGIN { s = seed % 2147483646 + 1 }
+    { s = (s * 16807) % 2147483647; printf "%.10f %s\n", s / 2147483647, $0 }' "$work/cold_dzi_all.txt" |
+    sort -k1,1 | cut -d' ' -f2 >"$work/list_cold_dzi.txt"
+  sed "s#^/dzi/\([^/]*\)_files/#/fcgi-bin/iipsrv_cold.fcgi?DeepZoom=\1.tif_files/#" "$work/list_cold_dzi.txt" >"$work/list_iipsrv_cold_dzi.txt"
+  local max_level=0
+  # shellcheck disable=SC2154  # dzi_width and dzi_height are set by dzi_tile_paths
+  while [ $(( 1 << max_level )) -lt $(( dzi_width > dzi_height ? dzi_width : dzi_height )) ]; do max_level=$((max_level + 1)); done
+  awk -F'[/_.]' -v M="$max_level" -v W="$dzi_width" -v H="$dzi_height" '{
+      l = $(NF - 3); c = $(NF - 2); r = $(NF - 1); f = 2 ^ (M - l); t = 256 * f
+      x = c * t; y = r * t; w = W - x < t ? W - x : t; h = H - y < t ? H - y : t
+      printf "%d,%d,%d,%d/%d,\n", x, y, w, h, int((w + f - 1) / f)
+    }' "$work/list_cold_dzi.txt" >"$work/cold_iiif_tiles.txt"
+  sed "s#^#/iiif/3/$image_id/#; s#\$#/0/default.jpg#" "$work/cold_iiif_tiles.txt" >"$work/list_cold_iiif.txt"
+  sed "s#^#/fcgi-bin/iipsrv_cold.fcgi?IIIF=$image_id.tif/#; s#\$#/0/default.jpg#" "$work/cold_iiif_tiles.txt" >"$work/list_iipsrv_cold_iiif.txt"
+  cold_tiles_note="every tile of the $levels Deep Zoom levels $dzi_levels (IIIF scale factors $theirs, those both pyramids hold), $(wc -l <"$work/list_cold_dzi.txt") tiles, in a random order (seed $seed)"
+  log "cold tiles: $cold_tiles_note"
+}
+
 # ---- same requests, comparable answers ---------------------------------------------------------
 # mean_abs_diff A B: mean absolute difference of two images of equal size, in 8-bit levels.
 mean_abs_diff() {
@@ -493,18 +610,55 @@ check_comparable() {
   log "$comparable_note"
 }
 
+# Cold tiles compare only if iipsrv's Deep Zoom grid is ours (its descriptor: same size, 256 px,
+# no overlap) and the list's first full-resolution 256 × 256 tile is the same picture from both,
+# in both protocols (as above). Not an edge tile of a coarser level: vips halves a level's size
+# rounding down, Deep Zoom (and our store) round up, so iipsrv answers some of those a pixel
+# smaller (Deep Zoom) or resampled from its smaller level (IIIF) — its own picture of that tile.
+check_cold_comparable() {
+  local ng="http://127.0.0.1:$nginx_port" zw="http://127.0.0.1:$zw_cold_port" theirs ours kind m n
+  theirs=$(curl -sSf "$ng/fcgi-bin/iipsrv_cold.fcgi?DeepZoom=$image_id.tif.dzi") || die "no Deep Zoom descriptor from iipsrv"
+  ours=$(curl -sSf "$zw/dzi/$image_id.dzi") || die "no Deep Zoom descriptor from zoomwarp"
+  for kind in Width Height TileSize Overlap; do
+    [ "$(sed -n "s/.*$kind=\"\([0-9]*\)\".*/\1/p" <<<"$theirs")" = "$(sed -n "s/.*$kind=\"\([0-9]*\)\".*/\1/p" <<<"$ours")" ] ||
+      die "iipsrv's Deep Zoom $kind differs from ours: $theirs against $ours"
+  done
+  n=$(grep -n -m 1 ',256,256/256,$' "$work/cold_iiif_tiles.txt" | cut -d: -f1)
+  [ -n "$n" ] || die "the cold tile list has no full-resolution 256 × 256 tile"
+  cold_comparable_note="tile $(sed -n "${n}p" "$work/cold_iiif_tiles.txt"), mean |difference| iipsrv/ours, 8-bit levels:"
+  for kind in dzi iiif; do
+    ours="$work/check_cold_${kind}_ours.jpg"
+    curl -sSf -o "$ours" "$zw$(sed -n "${n}p" "$work/list_cold_$kind.txt")" || die "zoomwarp did not serve a cold $kind tile"
+    fetch_check "cold_${kind}_iipsrv" "$ng$(sed -n "${n}p" "$work/list_iipsrv_cold_$kind.txt")" 256x256
+    m=$(mean_abs_diff "$work/check_cold_${kind}_iipsrv.jpg" "$ours")
+    cold_comparable_note+=" $kind $(printf '%.2f' "$m"),"
+    awk -v m="$m" 'BEGIN { exit !(m > 6) }' && die "iipsrv's cold $kind tile differs from ours by $m levels on average"
+  done
+  cold_comparable_note=${cold_comparable_note%,}
+  log "$cold_comparable_note"
+}
+
 # ---- measuring ---------------------------------------------------------------------------------
 # The runs: name -> server, list, wrk threads, connections. Computed answers get one wrk thread,
 # so that the view list is walked once in order: every request of a run is another view until the
 # list wraps (5000 views by default), and --response-cache 0 keeps repeats from being cache hits.
-run_names=(iipsrv_region icaz_viewport region traditional_viewport retarget_viewport mesh
-           nginx_dzi dzi iipsrv_iiif_tiles iiif_tiles)
+# Cold tiles are computed answers too: one thread walking the shuffled tile set, no cache anywhere.
+peers_runs=(iipsrv_region icaz_viewport region traditional_viewport retarget_viewport mesh
+            nginx_dzi dzi iipsrv_iiif_tiles iiif_tiles)
+cold_runs=(iipsrv_cold_iiif cold_iiif iipsrv_cold_dzi cold_dzi)
+run_names=()
 declare -A run_server run_list run_threads run_conns
-declare -A res_rps res_p50 res_p99 res_srv_cores res_cpu_ms res_wrk_cores res_other res_bytes
+declare -A res_rps res_p50 res_p99 res_srv_cores res_cpu_ms res_wrk_cores res_other res_bytes res_passthrough
 other_max=0
 
 define_runs() {
   local name
+  if has_case peers; then run_names+=("${peers_runs[@]}"); fi
+  if has_case cold_tiles; then run_names+=("${cold_runs[@]}"); fi
+  for name in "${cold_runs[@]}"; do
+    run_threads[$name]=1 run_conns[$name]=$connections run_server[$name]=zw_cold run_list[$name]=list_$name.txt
+  done
+  run_server[iipsrv_cold_iiif]=iipsrv_cold run_server[iipsrv_cold_dzi]=iipsrv_cold
   for name in iipsrv_region icaz_viewport region traditional_viewport retarget_viewport mesh; do
     run_threads[$name]=1 run_conns[$name]=$connections run_server[$name]=zw_computed
   done
@@ -519,6 +673,25 @@ define_runs() {
   run_list[iipsrv_iiif_tiles]=list_iipsrv_tiles.txt run_list[iiif_tiles]=list_iiif_tiles.txt
 }
 
+# tile_answer_counts URL: "PASSTHROUGH TILES" from zoomwarp's /metrics: the answers sent as stored
+# tiles (zoomwarp_tiles_passthrough_total) and the Deep Zoom tile and IIIF image requests answered
+# (zoomwarp_http_requests_total of those routes, every status).
+tile_answer_counts() {
+  curl -sf "$1/metrics" | awk '
+    $1 == "zoomwarp_tiles_passthrough_total" { p = $2 }
+    $1 ~ /^zoomwarp_http_requests_total\{route="(dzi_tile|iiif_image)",/ { t += $2 }
+    END { printf "%d %d\n", p, t }'
+}
+
+# passthrough_percent "P0 T0" "P1 T1": the share of the tile answers between two tile_answer_counts
+# that were sent as stored, in percent.
+passthrough_percent() {
+  local p0 t0 p1 t1
+  read -r p0 t0 <<<"$1"; read -r p1 t1 <<<"$2"
+  [ $((t1 - t0)) -gt 0 ] || die "zoomwarp counted no tile answers during a run"
+  awk -v p=$((p1 - p0)) -v t=$((t1 - t0)) 'BEGIN { printf "%.1f", 100 * p / t }'
+}
+
 # measure_run NAME SECONDS [record]: one wrk run. The server's CPU is that of every process that
 # answers: nginx and the iipsrv processes for iipsrv, nginx for its files, one zoomwarp for ours.
 # Computed answers are checked to be 200 each (WRK_CHECK_STATUS); cached tiles count wrk's error
@@ -526,12 +699,16 @@ define_runs() {
 measure_run() {
   local name=$1 secs=$2 record=${3:-} pids url check=()
   case "${run_server[$name]}" in
-    iipsrv) pids="$nginx_pid ${iipsrv_pids[*]}"; url="http://127.0.0.1:$nginx_port" ;;
+    iipsrv) pids="$nginx_pid ${iipsrv_cached_pids[*]}"; url="http://127.0.0.1:$nginx_port" ;;
     nginx) pids=$nginx_pid; url="http://127.0.0.1:$nginx_port" ;;
     zw_computed) pids=$zw_computed_pid; url="http://127.0.0.1:$zw_computed_port" ;;
     zw_cached) pids=$zw_cached_pid; url="http://127.0.0.1:$zw_cached_port" ;;
+    iipsrv_cold) pids="$nginx_pid ${iipsrv_cold_pids[*]}"; url="http://127.0.0.1:$nginx_port" ;;
+    zw_cold) pids=$zw_cold_pid; url="http://127.0.0.1:$zw_cold_port" ;;
   esac
   [ "${run_threads[$name]}" -gt 1 ] || check=(check)
+  local before=""
+  [ "${run_server[$name]}" != zw_cold ] || before=$(tile_answer_counts "$url")
   run_wrk "$name" "$pids" "$url" "$secs" "$work/${run_list[$name]}" "${run_threads[$name]}" "${run_conns[$name]}" "${check[@]}" ||
     die "wrk against $name failed"
   [ "$verbose" -eq 0 ] || sed 's/^/    /' "$work/wrk_$name.out" >&2
@@ -542,6 +719,7 @@ measure_run() {
   res_srv_cores[$name]+="$srv_cores " res_cpu_ms[$name]+="$srv_cpu_ms " res_wrk_cores[$name]+="$wrk_cores "
   res_other[$name]+="$other_cores " res_bytes[$name]+="$((bytes / wrk_requests)) "
   other_max=$(awk -v a="$other_max" -v b="$other_cores" 'BEGIN { print (b > a ? b : a) }')
+  [ -z "$before" ] || res_passthrough[$name]+="$(passthrough_percent "$before" "$(tile_answer_counts "$url")") "
   log "  $(printf '%-21s' "$name") $(printf '%8s' "$wrk_rps") req/s  p50 $(printf '%7s' "$wrk_p50_ms") ms  p99 $(printf '%7s' "$wrk_p99_ms") ms  (cores: server $srv_cores, wrk $wrk_cores, rest $other_cores)"
 }
 
@@ -551,7 +729,8 @@ measure() {
     log "warm-up: ${warmup} s per run (not counted)"
     for name in "${run_names[@]}"; do measure_run "$name" "$warmup"; done
   fi
-  misses0=$(zoomwarp_cache_count "http://127.0.0.1:$zw_cached_port" misses response)
+  cache_misses=0
+  ! has_case peers || misses0=$(zoomwarp_cache_count "http://127.0.0.1:$zw_cached_port" misses response)
   for ((r = 1; r <= rounds; r++)); do
     log "round $r of $rounds"
     for name in "${order[@]}"; do measure_run "$name" "$duration" record; done
@@ -561,6 +740,7 @@ measure() {
     for ((i = ${#order[@]} - 1; i >= 0; i--)); do reversed+=("${order[i]}"); done
     order=("${reversed[@]}")
   done
+  has_case peers || return 0
   misses1=$(zoomwarp_cache_count "http://127.0.0.1:$zw_cached_port" misses response)
   cache_misses=$((misses1 - misses0))
   [ "$cache_misses" -eq 0 ] || log "WARNING: $cache_misses response-cache misses in the cached zoomwarp during the measured runs"
@@ -629,44 +809,101 @@ machine() {
   echo "- versions: zoomwarp $zoomwarp_version (${build_type:-unknown} build), $("$nginx_bin" -v 2>&1 | sed 's#.*/##; s#^#nginx #'), iipsrv $(dpkg-query -W -f='${Version}' iipimage-server) (Debian iipimage-server), $(vips --version), $(wrk -v 2>&1 | head -n 1 | awk '{ print $1, $2 }')"
 }
 
+# quiet_note RUN...: the most CPU everything else used during one of these runs, flagged above
+# 0.25 cores.
+quiet_note() {
+  local name most=0 v
+  for name in "$@"; do
+    for v in ${res_other[$name]}; do most=$(awk -v a="$most" -v b="$v" 'BEGIN { print (b > a ? b : a) }'); done
+  done
+  echo "- CPU of everything else during the runs: up to $most cores$(awk -v o="$most" 'BEGIN { if (o > 0.25) print " — **the machine was not quiet: figures are low and noisy**" }')"
+}
+
+report_peers() {
+  echo "## zoomwarp and its peers (scripts/bench-peers.sh, $(date -u +%Y-%m-%d))"
+  echo
+  machine
+  echo "- test image: $image_note"
+  echo "- runs: wrk, $duration s each, $(plural "$rounds" round) (the order reversed every other round), ${warmup} s warm-up per run; medians over rounds. Computed answers: 1 thread, $connections connections, $views distinct views (seed $seed), zoomwarp with --response-cache 0. Cached tiles: 2 threads, $tile_connections connections, every tile of the $tile_levels highest levels fetched once before."
+  echo "- peers: iipsrv, $iipsrv_processes single-threaded FastCGI processes (Unix sockets) behind nginx \`fastcgi_pass\`, a JPEG-compressed tiled pyramidal TIFF (vips tiffsave, Q$stored_quality as zoomwarp's stored tiles, 256 px tiles), bilinear, 256 MB tile cache; nginx $("$nginx_bin" -v 2>&1 | sed 's#.*/##') (worker_processes auto, sendfile) serving vips dzsave's tiles (254 px, overlap 1). Answers: JPEG quality $quality everywhere (zoomwarp --jpeg-quality, iipsrv JPEG_QUALITY, dzsave Q)."
+  echo "- $comparable_note"
+  echo "- the engine alone: ${engine_note}. Its time is CPU time on one core, ours in that row is latency under $connections connections (queueing included), so the goal compares our server's CPU per /mesh request with it."
+  quiet_note "${peers_runs[@]}"
+  echo
+  echo "| what | peer | peer p50 / p99 ms | peer req/s | ours p50 / p99 ms | ours req/s | p50 ours/peer | req/s ours/peer | p99/p50 ours (peer) | goal |"
+  echo "|---|---|---:|---:|---:|---:|---:|---:|---:|---|"
+  row "ICAZ /viewport ${screen_w}×${screen_h} jpg" "iipsrv IIIF region → ${screen_w}×${screen_h}" iipsrv_region icaz_viewport \
+    "p50 ≤ 1.3×, req/s ≥ 0.8×, p99 ≤ 5× p50" "p50r<=1.3 rpsr>=0.8 tail<=5"
+  row "method=traditional /viewport" "our IIIF region, same region" region traditional_viewport "p50 ≤ 1.1×, p99 ≤ 5× p50" "p50r<=1.1 tail<=5"
+  row "method=retarget-zoom /viewport" "our IIIF region, same zoom and centre" region retarget_viewport "p50 ≤ 1.1×, p99 ≤ 5× p50" "p50r<=1.1 tail<=5"
+  row "/mesh JSON (ICAZ)" "the engine alone (CPU ms per view, below)" engine mesh "server CPU per request ≤ 1.3× engine" "cpur<=1.3"
+  row "cached Deep Zoom tiles" "nginx, vips dzsave's files" nginx_dzi dzi "req/s ≥ 0.6×, p99 ≤ 5× p50" "rpsr>=0.6 tail<=5"
+  row "IIIF tiles, response cache on" "iipsrv, the same tiles" iipsrv_iiif_tiles iiif_tiles "p99 ≤ 5× p50" "tail<=5"
+  row "plain IIIF region → ${screen_w}×${screen_h}, no cache" "iipsrv, the same regions" iipsrv_region region "p99 ≤ 5× p50" "tail<=5"
+  echo
+  echo "Ingest of the test image, median of $(plural "$rounds" build) each (GNU time: wall, user + system CPU, peak RSS; \`du\` of what it wrote). Goal: zoomwarp wall ≤ 1.0× and peak RSS ≤ 1.5× vips dzsave's."
+  echo
+  echo "| pyramid | wall s | CPU s | peak RSS MB | on disk MB | zoomwarp wall / this | zoomwarp RSS / this |"
+  echo "|---|---:|---:|---:|---:|---:|---:|"
+  ingest_row zoomwarp "zoomwarp ingest (levels, analysis, warp models)"
+  ingest_row dzsave "vips dzsave (Deep Zoom, Q$quality)"
+  ingest_row tiffsave "vips tiffsave (iipsrv's TIFF, JPEG Q$stored_quality)"
+  echo
+  echo "Every run (medians): server CPU is that of all processes answering (nginx and iipsrv together for iipsrv), per second of run (cores) and per request; other cores: the rest of the machine (kernel, other processes); bytes per answer, headers included."
+  echo
+  echo "| run | connections | req/s | p50 ms | p99 ms | server cores | server CPU ms/req | wrk cores | other cores | bytes/answer | req/s per round |"
+  echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"
+  local name
+  for name in "${peers_runs[@]}"; do details_row "$name"; done
+  [ "$cache_misses" -eq 0 ] || { echo; echo "**Warning**: $cache_misses response-cache misses in the cached zoomwarp during the measured runs."; }
+}
+
+# cold_row WHAT PEER_RUN OUR_RUN: one row of the cold-tile table, iipsrv's figures and ours side by
+# side with the ratios ours/iipsrv, and the share of our answers sent as stored tiles.
+cold_row() {
+  local what=$1 peer=$2 ours=$3 op50 orps pp50 prps
+  op50=$(med "${res_p50[$ours]}"); orps=$(med "${res_rps[$ours]}" %.0f)
+  pp50=$(med "${res_p50[$peer]}"); prps=$(med "${res_rps[$peer]}" %.0f)
+  printf '| %s | %s / %s | %s | %s / %s | %s | %s | %s | %s / %s | %s / %s | %s %% |\n' "$what" \
+    "$pp50" "$(med "${res_p99[$peer]}")" "$prps" "$op50" "$(med "${res_p99[$ours]}")" "$orps" \
+    "$(ratio "$op50" "$pp50")" "$(ratio "$orps" "$prps")" \
+    "$(med "${res_cpu_ms[$peer]}" %.3f)" "$(med "${res_cpu_ms[$ours]}" %.3f)" \
+    "$(med "${res_bytes[$peer]}" %.0f)" "$(med "${res_bytes[$ours]}" %.0f)" "$(med "${res_passthrough[$ours]}" %.1f)"
+}
+
+report_cold_tiles() {
+  echo "## Cold tiles: zoomwarp and iipsrv with no caches (issue 18; scripts/bench-peers.sh, $(date -u +%Y-%m-%d))"
+  echo
+  echo "- run as: \`scripts/bench-peers.sh${invocation:+ $invocation}\`"
+  machine
+  echo "- test image: $image_note"
+  echo "- pyramids: zoomwarp's store with JPEG tiles, quality $stored_quality (from its manifest.json), YCbCr, chroma subsampling $stored_subsampling, 256 px; iipsrv's TIFF made after it with \`vips tiffsave --tile --pyramid --compression jpeg --Q $stored_quality\`, 256 px tiles (vips writes its JPEG tiles as RGB, without chroma subsampling)"
+  echo "- servers, no cache on either side: zoomwarp \`--response-cache 0 --dzi-tile-size 256 --dzi-overlap 0\` (a Deep Zoom or IIIF tile that is one stored tile is sent as stored, api/README.md; its decoded-tile cache, used by the other answers, at its default); iipsrv, $iipsrv_processes single-threaded FastCGI processes behind nginx as in the peers case, \`MAX_IMAGE_CACHE_SIZE=0\` (no tile cache; it decodes each stored tile and encodes it again, JPEG_QUALITY $stored_quality: the stored tiles' quality, which ours are sent with)"
+  echo "- tiles: $cold_tiles_note, the same set in both protocols: Deep Zoom (ours at /dzi, iipsrv's \`?DeepZoom=$image_id.tif_files/L/C_R.jpg\`) and the IIIF tile of the same pixels (\`x,y,w,h/w,/0/default.jpg\`)"
+  echo "- runs: wrk, $duration s each, $(plural "$rounds" round) (the order reversed every other round), ${warmup} s warm-up per run; medians over rounds; 1 thread, $connections connections walking the list in order, every answer checked to be a 200"
+  echo "- $cold_comparable_note"
+  quiet_note "${cold_runs[@]}"
+  echo
+  echo "| tiles, no cache | iipsrv p50 / p99 ms | iipsrv req/s | ours p50 / p99 ms | ours req/s | p50 ours/iipsrv | req/s ours/iipsrv | server CPU ms/req iipsrv / ours | bytes/answer iipsrv / ours | ours sent as stored |"
+  echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+  cold_row "IIIF tiles" iipsrv_cold_iiif cold_iiif
+  cold_row "Deep Zoom tiles (256 px, no overlap)" iipsrv_cold_dzi cold_dzi
+  echo
+  echo "\"Sent as stored\": zoomwarp_tiles_passthrough_total over the Deep Zoom tile and IIIF image requests it answered during the run (/metrics before and after). Every run (medians), columns as in the peers case:"
+  echo
+  echo "| run | connections | req/s | p50 ms | p99 ms | server cores | server CPU ms/req | wrk cores | other cores | bytes/answer | req/s per round |"
+  echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"
+  local name
+  for name in "${cold_runs[@]}"; do details_row "$name"; done
+}
+
 report() {
   {
-    echo "## zoomwarp and its peers (scripts/bench-peers.sh, $(date -u +%Y-%m-%d))"
-    echo
-    machine
-    echo "- test image: $image_note"
-    echo "- runs: wrk, $duration s each, $(plural "$rounds" round) (the order reversed every other round), ${warmup} s warm-up per run; medians over rounds. Computed answers: 1 thread, $connections connections, $views distinct views (seed $seed), zoomwarp with --response-cache 0. Cached tiles: 2 threads, $tile_connections connections, every tile of the $tile_levels highest levels fetched once before."
-    echo "- peers: iipsrv, $iipsrv_processes single-threaded FastCGI processes (Unix sockets) behind nginx \`fastcgi_pass\`, a JPEG-compressed tiled pyramidal TIFF (vips tiffsave, Q90, 256 px tiles), bilinear, 256 MB tile cache; nginx $("$nginx_bin" -v 2>&1 | sed 's#.*/##') (worker_processes auto, sendfile) serving vips dzsave's tiles (254 px, overlap 1). Answers: JPEG quality $quality everywhere (zoomwarp --jpeg-quality, iipsrv JPEG_QUALITY, dzsave Q)."
-    echo "- $comparable_note"
-    echo "- the engine alone: ${engine_note}. Its time is CPU time on one core, ours in that row is latency under $connections connections (queueing included), so the goal compares our server's CPU per /mesh request with it."
-    echo "- CPU of everything else during the runs: up to $other_max cores$(awk -v o="$other_max" 'BEGIN { if (o > 0.25) print " — **the machine was not quiet: figures are low and noisy**" }')"
-    echo
-    echo "| what | peer | peer p50 / p99 ms | peer req/s | ours p50 / p99 ms | ours req/s | p50 ours/peer | req/s ours/peer | p99/p50 ours (peer) | goal |"
-    echo "|---|---|---:|---:|---:|---:|---:|---:|---:|---|"
-    row "ICAZ /viewport ${screen_w}×${screen_h} jpg" "iipsrv IIIF region → ${screen_w}×${screen_h}" iipsrv_region icaz_viewport \
-      "p50 ≤ 1.3×, req/s ≥ 0.8×, p99 ≤ 5× p50" "p50r<=1.3 rpsr>=0.8 tail<=5"
-    row "method=traditional /viewport" "our IIIF region, same region" region traditional_viewport "p50 ≤ 1.1×, p99 ≤ 5× p50" "p50r<=1.1 tail<=5"
-    row "method=retarget-zoom /viewport" "our IIIF region, same zoom and centre" region retarget_viewport "p50 ≤ 1.1×, p99 ≤ 5× p50" "p50r<=1.1 tail<=5"
-    row "/mesh JSON (ICAZ)" "the engine alone (CPU ms per view, below)" engine mesh "server CPU per request ≤ 1.3× engine" "cpur<=1.3"
-    row "cached Deep Zoom tiles" "nginx, vips dzsave's files" nginx_dzi dzi "req/s ≥ 0.6×, p99 ≤ 5× p50" "rpsr>=0.6 tail<=5"
-    row "IIIF tiles, response cache on" "iipsrv, the same tiles" iipsrv_iiif_tiles iiif_tiles "p99 ≤ 5× p50" "tail<=5"
-    row "plain IIIF region → ${screen_w}×${screen_h}, no cache" "iipsrv, the same regions" iipsrv_region region "p99 ≤ 5× p50" "tail<=5"
-    echo
-    echo "Ingest of the test image, median of $(plural "$rounds" build) each (GNU time: wall, user + system CPU, peak RSS; \`du\` of what it wrote). Goal: zoomwarp wall ≤ 1.0× and peak RSS ≤ 1.5× vips dzsave's."
-    echo
-    echo "| pyramid | wall s | CPU s | peak RSS MB | on disk MB | zoomwarp wall / this | zoomwarp RSS / this |"
-    echo "|---|---:|---:|---:|---:|---:|---:|"
-    ingest_row zoomwarp "zoomwarp ingest (levels, analysis, warp models)"
-    ingest_row dzsave "vips dzsave (Deep Zoom, Q$quality)"
-    ingest_row tiffsave "vips tiffsave (iipsrv's TIFF, JPEG Q90)"
-    echo
-    echo "Every run (medians): server CPU is that of all processes answering (nginx and iipsrv together for iipsrv), per second of run (cores) and per request; other cores: the rest of the machine (kernel, other processes); bytes per answer, headers included."
-    echo
-    echo "| run | connections | req/s | p50 ms | p99 ms | server cores | server CPU ms/req | wrk cores | other cores | bytes/answer | req/s per round |"
-    echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"
-    local name
-    for name in "${run_names[@]}"; do details_row "$name"; done
-    [ "$cache_misses" -eq 0 ] || { echo; echo "**Warning**: $cache_misses response-cache misses in the cached zoomwarp during the measured runs."; }
+    if has_case peers; then report_peers; fi
+    if has_case cold_tiles; then
+      if has_case peers; then echo; fi
+      report_cold_tiles
+    fi
   } >"$work/report.md"
   echo
   cat "$work/report.md"
@@ -688,13 +925,12 @@ main() {
   log "load average before start: $(cut -d' ' -f1-3 /proc/loadavg) on $(nproc) cores"
   make_test_image
   build_pyramids
-  write_views
-  time_engine
+  if has_case peers; then write_views; time_engine; fi
   start_zoomwarps
   start_iipsrv
   start_nginx
-  prepare_tiles
-  check_comparable
+  if has_case peers; then prepare_tiles; check_comparable; fi
+  if has_case cold_tiles; then write_cold_tiles; check_cold_comparable; fi
   write_wrk_script
   define_runs
   log "set up in $((SECONDS - t0)) s; measuring takes about $(( ${#run_names[@]} * (warmup + rounds * (duration + 1)) )) s"

@@ -43,7 +43,11 @@ std::vector<OptionSpec> serve_specs() {
       {"iiif-max-width", "8192", "IIIF maxWidth: widest image returned"},
       {"iiif-max-height", "8192", "IIIF maxHeight: tallest image returned"},
       {"iiif-max-area", "16777216", "IIIF maxArea: most pixels in one image returned"},
-      {"jpeg-quality", "85", "JPEG quality, 1-100"},
+      // 256/0 is the stored tiles' grid: Deep Zoom JPEG tiles of JPEG-tiled images are then sent as
+      // stored, without decoding (api/README.md "Stored tiles sent as they are").
+      {"dzi-tile-size", "254", "Deep Zoom TileSize, 64-2048 (256 with --dzi-overlap 0: JPEG tiles sent as stored)"},
+      {"dzi-overlap", "1", "Deep Zoom Overlap, pixels, 0-8"},
+      {"jpeg-quality", "85", "JPEG quality of every answer that is encoded, 1-100 (stored tiles sent as they are keep the image's tile quality)"},
       {"webp-quality", "80", "WebP quality, 1-100"},
       {"cache-max-age", "60", "Cache-Control max-age of image responses, seconds"},
       {"public-url", "", "base URL clients see (for IIIF ids); default from the Host header"},
@@ -148,6 +152,8 @@ int serve_command(const std::vector<std::string>& args) {
     rc.iiif.max_width = int(o.integer("iiif-max-width", 1, 65535));
     rc.iiif.max_height = int(o.integer("iiif-max-height", 1, 65535));
     rc.iiif.max_area = o.integer("iiif-max-area", 1, 1LL << 32);
+    rc.dzi.tile_size = int(o.integer("dzi-tile-size", 64, 2048));
+    rc.dzi.overlap = int(o.integer("dzi-overlap", 0, 8));
     rc.cache_max_age = int(o.integer("cache-max-age", 0, 365 * 86400));
     rc.failure_cache_window = std::chrono::milliseconds(o.integer("failure-cache-ms", 0, 3'600'000));
     rc.compute_hook = compute_hook();
@@ -208,6 +214,8 @@ int serve_command(const std::vector<std::string>& args) {
           {"zoomwarp_worker_jobs_total", "Jobs handed to a worker pool.", "counter", R"(pool="cpu")", double(cpu.accepted())},
           {"zoomwarp_worker_jobs_total", "", "counter", R"(pool="ingest")", double(ingest.accepted())},
           {"zoomwarp_images", "Images published in the store.", "gauge", "", double(store.list().size())},
+          {"zoomwarp_tiles_passthrough_total", "Tile answers computed by sending a stored JPEG tile as it is, without decoding.",
+           "counter", "", double(router.tiles_passed_through())},
       };
     });
     log_event("info", "starting", {{"store", store.root()}, {"workers", workers}, {"tile_cache", tile_cache},
