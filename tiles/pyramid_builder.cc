@@ -233,16 +233,17 @@ PyramidInfo build_pyramid(const std::string& path, const std::string& out_dir,
   const int sw = in.spec().width, sh = in.spec().height;
 
   // Strips given to the pipeline and not yet encoded hold at most one level-0 strip's pixels (or
-  // four tiles per thread, for narrow images): the other threads compress a strip while the
-  // decoder fills the next. Memory stays that of the strips being filled plus one, and does not
-  // grow with the image's height. Half a strip (as with zip tiles, whose compression outweighed
-  // decoding 5:1) left JPEG tiles' encoders idle while the decoder, the pyramid's critical path,
-  // helped: the 952 MP image's pyramid took 6.5 s with half a strip, 5.8 s with one (1.5: 5.6 s,
-  // for 12 MB more at its 31 872 px width; issue 18).
+  // four tiles per thread, for narrow images; 64 MB at most, for very wide ones): the other
+  // threads compress a strip while the decoder fills the next. Memory stays that of the strips
+  // being filled plus this, and does not grow with the image's height. Half a strip (as with zip
+  // tiles, whose compression outweighed decoding 5:1) left JPEG tiles' encoders idle while the
+  // decoder, the pyramid's critical path, helped: the 952 MP image's pyramid took 6.5 s with half
+  // a strip, 5.8 s with one (1.5: 5.6 s, for 12 MB more at its 31 872 px width; issue 18).
+  constexpr std::size_t kMaxInFlightBytes = 64 << 20;
   const std::size_t tile_bytes = std::size_t(options.tile_size) * options.tile_size * ch;
   const std::size_t strip0_bytes = tile_bytes * std::size_t((info.width + options.tile_size - 1) / options.tile_size);
-  StripPipeline pipeline(options.threads,
-                         std::max(strip0_bytes, 4 * tile_bytes * std::size_t(std::max(options.threads, 1))));
+  const std::size_t per_thread = 4 * tile_bytes * std::size_t(std::max(options.threads, 1));
+  StripPipeline pipeline(options.threads, std::max(std::min(strip0_bytes, kMaxInFlightBytes), per_thread));
   LevelWriter level0(out_dir, 0, info.width, info.height, ch, options, info.compression, pipeline);
 
   if (info.source_orientation == 1) {
