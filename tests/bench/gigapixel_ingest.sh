@@ -95,6 +95,8 @@ measure() {  # measure NAME OUT_DIR COMMAND...
   echo "$wall $(echo "$user + $sys" | bc) $rss $(du -sb "$out" | cut -f1)" >>"$work/$name.runs"
   log "$name: wall $wall s, cpu $(echo "$user + $sys" | bc) s, peak RSS $((rss / 1024)) MB"
 }
+# The load average before the first round: other users' load, which the figures cannot show.
+load_before=$(cut -d' ' -f1-3 /proc/loadavg)
 for ((r = 1; r <= rounds; r++)); do
   measure zoomwarp "$work/store" "$zoomwarp_bin" ingest "$source" --store "$work/store" --id gigapixel --quiet
   measure vips "$work/dz_files" vips dzsave "$source" "$work/dz"
@@ -129,7 +131,7 @@ read -r zw_bytes _ _ < <(stat_of zoomwarp 4)
 read -r vi_bytes _ _ < <(stat_of vips 4)
 cat <<EOF
 
-Gigapixel ingest: ${width}x$height ($(((width * height + 500000) / 1000000)) MP) JPEG Q$source_quality, $((source_bytes / 1000000)) MB; $rounds interleaved rounds, $(nproc) cores, load before: $(cut -d' ' -f1-3 /proc/loadavg)
+Gigapixel ingest: ${width}x$height ($(((width * height + 500000) / 1000000)) MP) JPEG Q$source_quality, $((source_bytes / 1000000)) MB; $rounds interleaved rounds, $(nproc) cores, load before the rounds: $load_before
 
 | | wall, median (range) | CPU user+sys | peak RSS, median (max) | stored |
 |---|---|---|---|---|
