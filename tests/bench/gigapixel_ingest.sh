@@ -95,7 +95,8 @@ measure() {  # measure NAME OUT_DIR COMMAND...
   echo "$wall $(echo "$user + $sys" | bc) $rss $(du -sb "$out" | cut -f1)" >>"$work/$name.runs"
   log "$name: wall $wall s, cpu $(echo "$user + $sys" | bc) s, peak RSS $((rss / 1024)) MB"
 }
-# The load average before the first round: other users' load, which the figures cannot show.
+# The load average before the first round (building the source counts in it when it was just built;
+# --keep a source to leave that out): load the figures below cannot show.
 load_before=$(cut -d' ' -f1-3 /proc/loadavg)
 for ((r = 1; r <= rounds; r++)); do
   measure zoomwarp "$work/store" "$zoomwarp_bin" ingest "$source" --store "$work/store" --id gigapixel --quiet
