@@ -20,6 +20,7 @@ Response error_response(int status, const std::string& code, const std::string& 
 Response error_response(const ApiError& error) {
   Response r = error_response(error.status(), error.code(), error.what());
   r.log_detail = error.log_detail();
+  if (error.retry_after() > 0) r.set_header("Retry-After", std::to_string(error.retry_after()));
   if (error.status() == 500) r.failure = "internal_error";
   return r;
 }

@@ -23,11 +23,18 @@ class ApiError : public std::runtime_error {
   int status() const { return status_; }
   const std::string& code() const { return code_; }
   const std::string& log_detail() const { return log_detail_; }
+  // Seconds for a Retry-After header (429, 503); 0: none.
+  int retry_after() const { return retry_after_; }
+  ApiError&& with_retry_after(int seconds) && {
+    retry_after_ = seconds;
+    return std::move(*this);
+  }
 
  private:
   int status_;
   std::string code_;
   std::string log_detail_;
+  int retry_after_ = 0;
 };
 
 Response error_response(int status, const std::string& code, const std::string& message);

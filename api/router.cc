@@ -12,6 +12,7 @@
 #include "api/http_caching.h"
 #include "api/url.h"
 #include "tiles/image_id.h"
+#include "warp/analysis/derived_files.h"
 #include "tiles/raster_ops.h"
 
 namespace zoomwarp::api {
@@ -106,7 +107,11 @@ Router::Router(tiles::Store& store, tiles::PyramidReader& reader, RouterConfig c
       config_(std::move(config)),
       cache_(config_.response_cache_bytes),
       failures_(config_.failure_cache_window, kFailureCacheBytes),
-      engines_(reader, config_.warp_cache_bytes, config_.significance, config_.log) {}
+      engines_(reader,
+               {.budget_bytes = config_.warp_cache_bytes,
+                .significance = config_.significance,
+                .analysis_threads = config_.analysis_threads},
+               config_.log) {}
 
 bool Router::is_upload(std::string_view method, std::string_view path) {
   return method == "POST" && (path == "/v1/images" || path == "/v1/images/");
@@ -561,7 +566,10 @@ std::optional<Response> Router::describe_image(const Request& req, const PathPar
 }
 
 Response Router::describe(const tiles::ImageEntry& entry) const {
-  Response r = json_response(200, image_json(entry.manifest));
+  json j = image_json(entry.manifest);
+  // Which analyses the version holds (issue 28: made on first use, or by `zoomwarp analyse`).
+  j["analyses"] = warp::stored_analyses(entry);
+  Response r = json_response(200, j);
   r.route = "image_get";
   r.set_header("ETag", make_etag(entry.manifest.version, "image"));
   r.set_header("Cache-Control", entry.manifest.is_private ? "private, no-cache" : "no-cache");

@@ -46,6 +46,7 @@ struct RouterConfig {
   int cache_max_age = 60;  // Cache-Control max-age of image responses, seconds
   std::size_t warp_cache_bytes = 256u << 20;  // ICAZ operators (models, forests, coarse warps) kept in memory
   warp::SignificanceOptions significance;     // for models built from the pyramid (the face cascade)
+  int analysis_threads = 1;                   // background threads computing analyses on first use (warp_engines.h)
   EventLog log;                               // damaged models are reported here
   AccessPolicy access;                        // who may call the curator routes (api/authorize.h)
   // Verifies signed URLs of private images (api/url_signing.h); null: none is valid (no
@@ -87,6 +88,7 @@ class Router {
   tiles::ByteLruCache<Response>::Stats response_cache_stats() const { return cache_.stats(); }
   std::size_t failure_cache_bytes() const { return failures_.bytes(); }
   std::size_t warp_cache_bytes() { return engines_.memory_bytes(); }
+  WarpEngines::Counts analysis_counts() const { return engines_.counts(); }
   // Tile answers computed by sending a stored JPEG tile as it is, without decoding (api/README.md,
   // "Stored tiles sent as they are"); answers from the response cache are not counted again.
   std::uint64_t tiles_passed_through() const { return passed_through_.load(std::memory_order_relaxed); }

@@ -1,6 +1,7 @@
 #include "api/warp_engines.h"
 
 #include <algorithm>
+#include <chrono>
 #include <nlohmann/json.hpp>
 
 #include "api/errors.h"
@@ -9,20 +10,33 @@
 
 namespace zoomwarp::api {
 
-WarpEngines::WarpEngines(tiles::PyramidReader& reader, std::size_t budget_bytes, warp::SignificanceOptions significance,
-                         EventLog log)
+namespace {
+
+// How long a client is told to wait before retrying a view whose analysis is being computed:
+// most analyses of a ≤ 1024 px analysis image take about a second.
+constexpr int kRetryAfterSeconds = 1;
+constexpr std::size_t kMaxWarmed = 4096;
+
+std::string icaz_key(const tiles::ImageEntry& image, warp::Saliency saliency, bool auto_lines) {
+  return image.dir + "|icaz|" + std::string(warp::saliency_name(saliency)) + (auto_lines ? "|auto" : "");
+}
+
+}  // namespace
+
+WarpEngines::WarpEngines(tiles::PyramidReader& reader, WarpEngineOptions options, EventLog log)
     : reader_(reader),
-      budget_(budget_bytes),
-      significance_(std::move(significance)),
+      options_(std::move(options)),
       log_(std::move(log)),
-      engines_(budget_bytes, [](const Engine& e) { return std::visit([](const auto& p) { return p->memory_bytes(); }, e); }) {}
+      engines_(options_.budget_bytes,
+               [](const Engine& e) { return std::visit([](const auto& p) { return p->memory_bytes(); }, e); }),
+      background_(options_.analysis_threads, options_.max_pending) {}
 
 std::shared_ptr<warp::Icaz> WarpEngines::load_icaz(const tiles::ImageEntry& image, warp::Saliency saliency,
                                                    bool auto_lines) {
   const std::string& id = image.manifest.id;
   warp::LoadedModel loaded;
   try {
-    loaded = warp::load_image_model(image, reader_, significance_, {saliency, auto_lines});
+    loaded = warp::load_image_model(image, reader_, options_.significance, {saliency, auto_lines});
   } catch (const warp::ModelFileError& e) {
     if (log_)
       log_("error", "warp model damaged, curator edits unreadable",
@@ -32,18 +46,23 @@ std::shared_ptr<warp::Icaz> WarpEngines::load_icaz(const tiles::ImageEntry& imag
                        "' is damaged and its curator edits (lines, significance) cannot be read; its tiles still "
                        "work; an operator must restore the model files or re-ingest the image");
   }
+  (loaded.source == warp::ModelSource::kStored ? read_ : computed_)++;
   if (loaded.source == warp::ModelSource::kRebuiltWithEdits && log_)
     log_("warn", "warp model file damaged, rebuilt with the curator's lines and edits",
          {{"image", id}, {"version", image.manifest.version}, {"file", loaded.damaged_file}, {"error", loaded.reason}});
+  if (loaded.source == warp::ModelSource::kBuiltNoFiles && log_)
+    log_("info", "warp model computed on first use",
+         {{"image", id}, {"version", image.manifest.version}, {"saliency", warp::saliency_name(saliency)}});
   if (loaded.unmeshable_suggestions > 0 && log_)
     log_("info", "lines=auto: suggested lines left out, the coarsest mesh cannot be built with them",
          {{"image", id}, {"version", image.manifest.version}, {"left_out", loaded.unmeshable_suggestions}});
   warp::ImageModel& model = loaded.model;
-  warp::IcazOptions options;
+  warp::IcazOptions icaz;
   constexpr std::size_t kBytesPerLazyNode = 64;
-  options.max_forest_nodes = int(std::clamp<std::size_t>(model.forest.kept_nodes() + budget_ / 4 / kBytesPerLazyNode,
-                                                         model.forest.kept_nodes() + 10000, 1u << 22));
-  return std::make_shared<warp::Icaz>(std::move(model), options);
+  icaz.max_forest_nodes =
+      int(std::clamp<std::size_t>(model.forest.kept_nodes() + options_.budget_bytes / 4 / kBytesPerLazyNode,
+                                  model.forest.kept_nodes() + 10000, 1u << 22));
+  return std::make_shared<warp::Icaz>(std::move(model), icaz);
 }
 
 std::shared_ptr<warp::Retargeter> WarpEngines::load_retargeter(const tiles::ImageEntry& image,
@@ -51,29 +70,123 @@ std::shared_ptr<warp::Retargeter> WarpEngines::load_retargeter(const tiles::Imag
                                                                warp::Saliency saliency) {
   // Every method reads the version's model (size, lines, significance): the default ICAZ
   // engine's, loaded once and shared.
-  const auto icaz = get(image);
+  const auto icaz = icaz_now(image);
   warp::LoadedRetargeter loaded = warp::load_retargeter(image, reader_, icaz->model(), method, saliency);
-  if (loaded.source == warp::MethodSource::kRebuiltDamaged && log_)
-    log_("warn", "method model file damaged, precomputed again in memory",
-         {{"image", image.manifest.id}, {"version", image.manifest.version}, {"method", method.name},
-          {"saliency", warp::saliency_name(saliency)}, {"error", loaded.reason}});
+  (loaded.source == warp::MethodSource::kStored || loaded.source == warp::MethodSource::kNoFile ? read_ : computed_)++;
+  const nlohmann::json fields = {{"image", image.manifest.id},
+                                 {"version", image.manifest.version},
+                                 {"method", method.name},
+                                 {"saliency", warp::saliency_name(saliency)}};
+  if (loaded.source == warp::MethodSource::kRebuiltDamaged && log_) {
+    nlohmann::json f = fields;
+    f["error"] = loaded.reason;
+    log_("warn", "method model file damaged, precomputed again in memory", f);
+  }
+  if (loaded.source == warp::MethodSource::kBuiltInMemory && log_)
+    log_(loaded.stored ? "info" : "warn",
+         loaded.stored ? "method analysis computed on first use and stored with the image"
+                       : "method analysis computed on first use but could not be stored: kept in memory only",
+         fields);
   return std::move(loaded.engine);
 }
 
-std::shared_ptr<warp::Icaz> WarpEngines::get(const tiles::ImageEntry& image, warp::Saliency saliency, bool auto_lines) {
-  const std::string key = image.dir + "|icaz|" + std::string(warp::saliency_name(saliency)) + (auto_lines ? "|auto" : "");
+std::shared_ptr<warp::Icaz> WarpEngines::icaz_now(const tiles::ImageEntry& image) {
+  const std::string key = icaz_key(image, warp::Saliency::kDefault, false);
   return std::get<std::shared_ptr<warp::Icaz>>(
-      engines_.get(key, [&] { return Engine(load_icaz(image, saliency, auto_lines)); }).value);
+      engines_.get(key, [&] { return Engine(load_icaz(image, warp::Saliency::kDefault, false)); }).value);
 }
+
+WarpEngines::Engine WarpEngines::await(const tiles::BackgroundFlights<Engine>::Future& flight,
+                                       const warp::StopToken* stop) {
+  if (stop)
+    while (flight.wait_for(std::chrono::milliseconds(20)) != std::future_status::ready) {
+      if (!stop->stop_requested()) continue;
+      try {
+        stop->check();
+      } catch (const warp::Stopped& stopped) {
+        if (stopped.reason() == warp::Stopped::Reason::kCancelled) throw;
+      }
+      // Out of time, not failed: the work goes on, and the retry finds it done. Not a deadline
+      // failure, which the router's failure cache would answer the retry with.
+      throw ApiError(503, "analysis_pending",
+                     "this image's analysis for the method asked for is being computed (first use); retry shortly")
+          .with_retry_after(kRetryAfterSeconds);
+    }
+  return flight.get();  // rethrows what the loading threw
+}
+
+WarpEngines::Engine WarpEngines::engine(const std::string& key, std::function<Engine()> load,
+                                        const warp::StopToken* stop) {
+  if (auto kept = engines_.find(key)) return *kept;
+  tiles::BackgroundFlights<Engine>::Future flight;
+  try {
+    flight = background_.run(key, [this, key, load = std::move(load)] { return engines_.get(key, load).value; });
+  } catch (const tiles::BackgroundFlights<Engine>::Busy& busy) {
+    throw ApiError(503, "busy", std::string(busy.what()) + "; retry shortly").with_retry_after(kRetryAfterSeconds);
+  }
+  return await(flight, stop);
+}
+
+std::shared_ptr<warp::Icaz> WarpEngines::get(const tiles::ImageEntry& image, warp::Saliency saliency, bool auto_lines,
+                                             const warp::StopToken* stop) {
+  return std::get<std::shared_ptr<warp::Icaz>>(engine(
+      icaz_key(image, saliency, auto_lines),
+      [this, image, saliency, auto_lines] { return Engine(load_icaz(image, saliency, auto_lines)); }, stop));
+}
+
+namespace {
+std::string retargeter_key(const tiles::ImageEntry& image, const warp::RetargetingMethod& method,
+                           warp::Saliency saliency) {
+  return image.dir + "|" + std::string(method.name) + "|" + std::string(warp::saliency_name(saliency));
+}
+}  // namespace
 
 std::shared_ptr<warp::Retargeter> WarpEngines::retargeter(const tiles::ImageEntry& image,
                                                           const warp::RetargetingMethod& method,
-                                                          warp::Saliency saliency) {
-  const std::string key = image.dir + "|" + std::string(method.name) + "|" + std::string(warp::saliency_name(saliency));
-  return std::get<std::shared_ptr<warp::Retargeter>>(
-      engines_.get(key, [&] { return Engine(load_retargeter(image, method, saliency)); }).value);
+                                                          warp::Saliency saliency, const warp::StopToken* stop) {
+  return std::get<std::shared_ptr<warp::Retargeter>>(engine(
+      retargeter_key(image, method, saliency),
+      [this, image, &method, saliency] { return Engine(load_retargeter(image, method, saliency)); }, stop));
+}
+
+std::shared_ptr<warp::Retargeter> WarpEngines::retargeter_for_screen(const tiles::ImageEntry& image,
+                                                                     const warp::RetargetingMethod& method,
+                                                                     warp::Saliency saliency, int screen_width,
+                                                                     int screen_height, const warp::StopToken* stop) {
+  const std::string key = retargeter_key(image, method, saliency);
+  auto engine = retargeter(image, method, saliency, stop);
+  // The whole image retargeted to the screen's aspect ratio, cached inside the engine per target
+  // size: shared by every view of that screen, so computed in the background like the analysis.
+  const std::string warmed = std::to_string(reinterpret_cast<std::uintptr_t>(engine.get())) + "|" +
+                             std::to_string(screen_width) + "x" + std::to_string(screen_height);
+  {
+    std::lock_guard lock(warmed_mu_);
+    if (warmed_.count(warmed)) return engine;
+  }
+  tiles::BackgroundFlights<Engine>::Future flight;
+  try {
+    flight = background_.run(key + "|" + warmed, [engine, screen_width, screen_height] {
+      warp::ViewRequest whole;  // zoom 0: the whole retargeted image, no deadline
+      whole.cx = 0, whole.cy = 0, whole.screen_width = screen_width, whole.screen_height = screen_height;
+      try {
+        engine->view(whole);
+      } catch (const warp::NoMesh&) {
+        engine->screen_sources(whole);  // seam carving: its carving for the screen
+      }
+      return Engine(engine);
+    });
+  } catch (const tiles::BackgroundFlights<Engine>::Busy& busy) {
+    throw ApiError(503, "busy", std::string(busy.what()) + "; retry shortly").with_retry_after(kRetryAfterSeconds);
+  }
+  await(flight, stop);
+  std::lock_guard lock(warmed_mu_);
+  if (warmed_.size() >= kMaxWarmed) warmed_.clear();
+  warmed_.insert(warmed);
+  return engine;
 }
 
 std::size_t WarpEngines::memory_bytes() { return engines_.weight(); }
+
+WarpEngines::Counts WarpEngines::counts() const { return {computed_.load(), read_.load(), background_.in_flight()}; }
 
 }  // namespace zoomwarp::api

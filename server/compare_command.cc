@@ -287,7 +287,7 @@ json row_json(const std::string& method, const Cell& c) {
 // Renders and measures every cell of image `e`; fills `report` and returns the sheet's cells.
 std::vector<std::vector<warp::SheetCell>> run(const Settings& s, const tiles::ImageEntry& e, tiles::PyramidReader& reader,
                                               const warp::SignificanceOptions& significance, json& report) {
-  api::WarpEngines engines(reader, std::size_t(4) << 30, significance);
+  api::WarpEngines engines(reader, {.budget_bytes = std::size_t(4) << 30, .significance = significance});
   // The reference (traditional zoom), and the map that defines the salient region.
   const auto t0 = Clock::now();
   const std::shared_ptr<warp::Icaz> plain = engines.get(e);

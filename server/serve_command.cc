@@ -60,6 +60,9 @@ std::vector<OptionSpec> serve_specs() {
       {"request-timeout", "5", "seconds a computed request (view, tile, IIIF image, edit) may take from read to answer, queue included; then 503 + Retry-After"},
       // As long as the default --request-timeout: a client retrying a view that runs out of time
       // every time then holds one worker half of the time at most (server/README.md).
+      {"analysis-threads", "1",
+       "threads computing image analyses on first use and methods' warps for a new screen size, in the background below "
+       "request priority; a view waits for them until --request-timeout, then 503 analysis_pending + Retry-After"},
       {"failure-cache-ms", "5000", "milliseconds a view that ran out of time or failed with a 500 is answered with that failure again (+ Retry-After) instead of being computed; 0: never"},
       {"gc-grace", "600", "seconds a superseded or deleted image version stays on disk"},
       {"store-recheck-ms", "1000", "milliseconds an image's published version, once read from the store, is trusted: another process's re-ingest or delete is seen within this (this server's own at once); 0: read on every request"},
@@ -162,6 +165,7 @@ int serve_command(const std::vector<std::string>& args) {
     const AnalysisSettings analysis = analysis_settings(o);
     rc.ingest = ingest_options(o, analysis.significance);
     rc.significance = analysis.significance;
+    rc.analysis_threads = int(o.integer("analysis-threads", 1, 64));
     if (!o.str("signing-key").empty())
       rc.url_signer = std::make_shared<const api::UrlSigner>(api::UrlSigner::from_file(o.str("signing-key")));
     rc.log = [](std::string_view level, std::string_view msg, const nlohmann::json& fields) {
@@ -214,6 +218,11 @@ int serve_command(const std::vector<std::string>& args) {
           {"zoomwarp_worker_jobs_total", "Jobs handed to a worker pool.", "counter", R"(pool="cpu")", double(cpu.accepted())},
           {"zoomwarp_worker_jobs_total", "", "counter", R"(pool="ingest")", double(ingest.accepted())},
           {"zoomwarp_images", "Images published in the store.", "gauge", "", double(store.list().size())},
+          {"zoomwarp_analyses_total", "Warp engines loaded: their analysis computed here (first use) or read from the store.",
+           "counter", R"(source="computed")", double(router.analysis_counts().computed)},
+          {"zoomwarp_analyses_total", "", "counter", R"(source="read")", double(router.analysis_counts().read)},
+          {"zoomwarp_analyses_pending", "Background computations (analyses, warps for a new screen) queued or running.",
+           "gauge", "", double(router.analysis_counts().pending)},
           {"zoomwarp_tiles_passthrough_total", "Tile answers computed by sending a stored JPEG tile as it is, without decoding.",
            "counter", "", double(router.tiles_passed_through())},
       };
@@ -226,7 +235,9 @@ int serve_command(const std::vector<std::string>& args) {
     // After a drain that timed out, workers may still be in work that checks no token and hold
     // sessions of the stopped server: leave without waiting for them or destroying what they use.
     // The store survives this (it survives SIGKILL); only their answers are lost.
-    if (cpu.running() + cpu.queued() + ingest.running() + ingest.queued() > 0) std::_Exit(code);
+    // The same for an analysis still running in the background: it is kept only once finished.
+    if (cpu.running() + cpu.queued() + ingest.running() + ingest.queued() + router.analysis_counts().pending > 0)
+      std::_Exit(code);
     return code;
   } catch (const std::invalid_argument& e) {
     std::fprintf(stderr, "zoomwarp serve: %s\n", e.what());

@@ -21,6 +21,10 @@ std::vector<OptionSpec> store_option_specs() {
        "JPEG tiles' quality, 1-100, at most: a JPEG source of lower quality is stored at its own"},
       {"ingest-threads", std::to_string(std::max(1u, std::thread::hardware_concurrency())),
        "threads one ingest uses: tiles compressed and the warp analysis's parts run on all of them (same files for any count)"},
+      {"analyses", "none",
+       "what an ingest or upload analyses before it publishes: none (every analysis is made on a view's first use "
+       "and kept with the image), icaz (ICAZ's model and the detected lines), or all (every method, both saliency "
+       "kinds); `zoomwarp analyse` fills in a store later"},
       {"face-cascade", warp::kDefaultFaceCascade,
        "OpenCV Haar cascade for faces in significance maps (the default is also looked for in OpenCV's data folders); "
        "missing: face detection is off"},
@@ -53,9 +57,11 @@ tiles::IngestOptions ingest_options(const Options& o, const warp::SignificanceOp
   const bool zip_level = c.size() == 5 && c.rfind("zip:", 0) == 0 && c[4] >= '1' && c[4] <= '9';
   if (c != "auto" && c != "jpeg" && c != "zip" && !zip_level && c != "lzw" && c != "none")
     throw std::invalid_argument("--tile-compression must be auto, jpeg, zip:1 … zip:9, zip, lzw or none, not '" + c + "'");
-  // The warp engine's significance map, published with the image.
-  opt.analyse = [significance, method_timings, threads = opt.pyramid.threads](const tiles::ImageEntry& staged) {
-    auto timings = warp::write_image_analysis(staged, significance, threads);
+  const auto set = warp::parse_analysis_set(o.str("analyses"));
+  if (!set) throw std::invalid_argument("--analyses must be none, icaz or all, not '" + o.str("analyses") + "'");
+  // The warp engine's files published with the image: those asked for; the others on first use.
+  opt.analyse = [significance, method_timings, threads = opt.pyramid.threads, set = *set](const tiles::ImageEntry& staged) {
+    auto timings = warp::write_image_analysis(staged, significance, threads, set);
     if (method_timings) *method_timings = std::move(timings);
   };
   return opt;

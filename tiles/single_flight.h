@@ -27,6 +27,7 @@
 #include <iterator>
 #include <list>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -62,6 +63,11 @@ class SingleFlight {
   Result get(const std::string& key, Compute&& compute) {
     return get(key, std::forward<Compute>(compute), [](const Future& f) { f.wait(); });
   }
+
+  // The value kept under `key` (marked most recently used and weighed again), or nothing — also
+  // while its flight is in the air: for a caller that computes elsewhere (BackgroundFlights) and
+  // asks here first.
+  std::optional<V> find(const std::string& key);
 
   // The kept values' total weight, as last weighed. Lock-free.
   std::size_t weight() const { return total_.load(std::memory_order_relaxed); }
@@ -159,6 +165,22 @@ auto SingleFlight<V>::get(const std::string& key, Compute&& compute, Wait&& wait
   promise.set_value(value);
   reweigh(key, flight, value);
   return {std::move(value), true};
+}
+
+template <class V>
+std::optional<V> SingleFlight<V>::find(const std::string& key) {
+  std::optional<V> value;
+  std::uint64_t flight;
+  {
+    std::lock_guard lock(mu_);
+    const auto it = entries_.find(key);
+    if (it == entries_.end() || !it->second.kept) return std::nullopt;
+    order_.splice(order_.begin(), order_, it->second.position);
+    value = it->second.value.get();
+    flight = it->second.flight;
+  }
+  reweigh(key, flight, *value);
+  return value;
 }
 
 }  // namespace zoomwarp::tiles

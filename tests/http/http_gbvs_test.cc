@@ -25,7 +25,8 @@ class Gbvs : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new testing::TempDir;
-    server_ = new testing::ServerProcess(dir_->path() + "/store");
+    // Eager analyses (--analyses all): one test damages the stored GBVS map.
+    server_ = new testing::ServerProcess(dir_->path() + "/store", {"--analyses", "all"});
     // 640×400: the analysis image is the image, one map pixel per image pixel.
     const std::string small = dir_->path() + "/small.png";
     testing::write_image(small, testing::resize(testing::load_image(testing::samples_dir() + "/boats_lake_sunset.jpg"), 640, 400));

@@ -103,10 +103,12 @@ testing::TempDir* Lines::dir_ = nullptr;
 std::string* Lines::image_ = nullptr;
 testing::ServerProcess* Lines::server_ = nullptr;
 
-TEST_F(Lines, IngestSuggestsTheStraightEdges) {
+// Detected on first use (issue 28: an upload analyses nothing) and kept with the version.
+TEST_F(Lines, TheFirstReadSuggestsTheStraightEdgesAndKeepsThem) {
   upload("suggest");
-  EXPECT_TRUE(fs::exists(version_dir(store(), "suggest") + "/lines.detected.json"));
+  EXPECT_FALSE(fs::exists(version_dir(store(), "suggest") + "/lines.detected.json"));
   const json got = lines_of("suggest");
+  EXPECT_TRUE(fs::exists(version_dir(store(), "suggest") + "/lines.detected.json"));
   EXPECT_EQ(got["lines"], json::array());
   EXPECT_EQ(got["dismissed"], json::array());
   // Horizon, building top, bottom, left and right, longest first.
@@ -154,7 +156,7 @@ TEST_F(Lines, DroppedAndAcceptedSuggestionsStayDecidedAcrossVersionsAndRestarts)
   EXPECT_EQ(lines_of("decide")["suggested"].size(), suggested.size() - 1);
 }
 
-TEST_F(Lines, AVersionWithoutTheFileGetsTheSameSuggestionsInMemory) {
+TEST_F(Lines, AVersionWithoutTheFileGetsTheSameSuggestionsOnFirstUse) {
   upload("old-ingest");
   const json fresh = lines_of("old-ingest");
   ASSERT_FALSE(fresh["suggested"].empty());
@@ -173,7 +175,7 @@ TEST_F(Lines, AVersionWithoutTheFileGetsTheSameSuggestionsInMemory) {
   ASSERT_EQ(got["suggested"].size(), fresh["suggested"].size());
   for (std::size_t i = 0; i < got["suggested"].size(); ++i)
     for (int k = 0; k < 4; ++k) EXPECT_NEAR(double(got["suggested"][i][k]), double(fresh["suggested"][i][k]), 0.01);
-  EXPECT_FALSE(fs::exists(dir + "/lines.detected.json")) << "never written into a published version";
+  EXPECT_TRUE(fs::exists(dir + "/lines.detected.json")) << "kept with the version once detected";
   EXPECT_EQ(http().get("/v1/images/old-ingest/mesh?w=480&h=300&lines=auto").status, 200);
 }
 

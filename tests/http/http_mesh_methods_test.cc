@@ -96,10 +96,12 @@ class MeshMethods : public ::testing::Test {
     testing::write_image(*file_, testing::resize(testing::load_image(testing::samples_dir() + "/boats_lake_sunset.jpg"),
                                                  1280, 800));
     const auto ingest =
-        testing::run_command({testing::zoomwarp_binary(), "ingest", *file_, "--store", store(), "--id", "boats"});
+        testing::run_command({testing::zoomwarp_binary(), "ingest", *file_, "--store", store(), "--id", "boats",
+                              "--analyses", "all"});
     ingest_output_ = new std::string(ingest.output);
     ASSERT_EQ(ingest.exit_code, 0) << ingest.output;
-    server_ = new testing::ServerProcess(store());
+    // Eager analyses (--analyses all): some tests are about the stored files an edit rewrites.
+    server_ = new testing::ServerProcess(store(), {"--analyses", "all"});
   }
   static void TearDownTestSuite() {
     delete server_;

@@ -51,10 +51,12 @@ class Seam : public ::testing::Test {
     const std::string file = dir_->path() + "/boats.png";
     testing::write_image(file, bright_boats());
     const auto ingest =
-        testing::run_command({testing::zoomwarp_binary(), "ingest", file, "--store", store(), "--id", "boats"});
+        testing::run_command({testing::zoomwarp_binary(), "ingest", file, "--store", store(), "--id", "boats",
+                              "--analyses", "all"});
     ingest_output_ = new std::string(ingest.output);
     ASSERT_EQ(ingest.exit_code, 0) << ingest.output;
-    server_ = new testing::ServerProcess(store());
+    // Eager analyses (--analyses all): these tests are about the stored maps (damaged, edited).
+    server_ = new testing::ServerProcess(store(), {"--analyses", "all"});
   }
   static void TearDownTestSuite() {
     delete server_;

@@ -38,7 +38,7 @@ struct IngestedImage {
   TempDir dir;
   tiles::Store store{dir.path() + "/store"};
   tiles::PyramidReader reader{64u << 20};
-  api::WarpEngines engines{reader, 512u << 20};
+  api::WarpEngines engines{reader, {.budget_bytes = 512u << 20}};
   std::shared_ptr<const tiles::ImageEntry> entry;
 };
 

@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "warp/analysis/analysis_image.h"
+#include "warp/analysis/derived_files.h"
 #include "warp/analysis/model_file.h"
 #include "warp/core/limits.h"
 #include "warp/lines/line_detection.h"
@@ -58,13 +59,18 @@ bool meshes(const ImageModel& model, const std::vector<Segment>& lines) {
   }
 }
 
-}  // namespace
-
-void write_detected_lines(const tiles::ImageEntry& image, tiles::PyramidReader& reader) {
+// The file's text for the lines detected in `image`.
+std::string detected_lines_text(const tiles::ImageEntry& image, tiles::PyramidReader& reader) {
   json lines = json::array();
   for (const Segment& s : detect(image, reader))
     lines.push_back({rounded(s.a.x), rounded(s.a.y), rounded(s.b.x), rounded(s.b.y)});
-  replace_file(image.dir, kDetectedLinesFile, json{{"detector", kDetector}, {"lines", lines}}.dump(1) + "\n");
+  return json{{"detector", kDetector}, {"lines", lines}}.dump(1) + "\n";
+}
+
+}  // namespace
+
+void write_detected_lines(const tiles::ImageEntry& image, tiles::PyramidReader& reader) {
+  replace_file(image.dir, kDetectedLinesFile, detected_lines_text(image, reader));
 }
 
 std::vector<Segment> read_detected_lines(const tiles::ImageEntry& image, tiles::PyramidReader& reader) {
@@ -76,7 +82,14 @@ std::vector<Segment> read_detected_lines(const tiles::ImageEntry& image, tiles::
       // Vanished or unreadable between the two calls: detected again below, like a damaged one.
     }
   }
-  return detect(image, reader);
+  if (exists(image, kDetectedLinesFile)) return detect(image, reader);
+  // Never detected for this version (issue 28: on first use): detected now and kept with it, as
+  // the file gives them back (rounded), so that this process and every later one see one set.
+  const std::string text = detected_lines_text(image, reader);
+  auto lines = parse(text, image.manifest.width, image.manifest.height);
+  if (!lines) throw std::logic_error("the detector's own lines do not read back");
+  add_derived_file(image, kDetectedLinesFile, text);
+  return std::move(*lines);
 }
 
 std::vector<Segment> suggested_lines(const tiles::ImageEntry& image, tiles::PyramidReader& reader,

@@ -14,6 +14,7 @@
 
 #include "tiles/parallel_jobs.h"
 #include "warp/analysis/analysis_image.h"
+#include "warp/analysis/derived_files.h"
 #include "warp/analysis/detected_lines.h"
 #include "warp/analysis/method_files.h"
 #include "warp/analysis/model_file.h"
@@ -77,17 +78,6 @@ void validate_shapes(const ModelEdit& edit) {
   }
 }
 
-// The saliency kinds `image` has method files for (a version ingested before the methods: none).
-std::vector<Saliency> method_file_kinds(const tiles::ImageEntry& image) {
-  std::vector<Saliency> out;
-  for (Saliency kind : kSaliencies)
-    for (const RetargetingMethod* method : retargeting_methods())
-      if (method->precompute && exists(image, method_file_name(*method, kind).c_str())) {
-        out.push_back(kind);
-        break;
-      }
-  return out;
-}
 
 // warp.json: the curator's lines, significance edits and dismissed suggestions, checked like a
 // new edit would be. A warp.json from before line detection has no "dismissed_lines": none.
@@ -164,8 +154,17 @@ constexpr std::size_t kInputBytesPerPixel = 66, kMapBytesPerPixel = 36;
 
 }  // namespace
 
+std::optional<AnalysisSet> parse_analysis_set(std::string_view name) {
+  if (name == "none") return AnalysisSet::kNone;
+  if (name == "icaz") return AnalysisSet::kIcaz;
+  if (name == "all") return AnalysisSet::kAll;
+  return std::nullopt;
+}
+
 std::vector<MethodFileTiming> write_image_analysis(const tiles::ImageEntry& image,
-                                                   const SignificanceOptions& significance, int threads) {
+                                                   const SignificanceOptions& significance, int threads,
+                                                   AnalysisSet set) {
+  if (set == AnalysisSet::kNone) return {};
   tiles::PyramidReader reader(32 << 20);  // its own small cache: staged files are about to move
   const tiles::Raster analysis = read_reduced_image(image, reader);
   // The faces and the detected lines read only the analysis image; the model and the GBVS map
@@ -179,6 +178,11 @@ std::vector<MethodFileTiming> write_image_analysis(const tiles::ImageEntry& imag
   };
   tiles::run_jobs(inputs, threads, kAnalysisMemoryBudget);
   ImageModel model;
+  if (set == AnalysisSet::kIcaz) {
+    model = make_image_model(analysis, image.manifest.width, image.manifest.height, {}, {}, {}, with_faces);
+    write_image_model(image.dir, model);
+    return {};
+  }
   const tiles::Job maps[] = {
       {[&] {
          model = make_image_model(analysis, image.manifest.width, image.manifest.height, {}, {}, {}, with_faces);
@@ -189,14 +193,34 @@ std::vector<MethodFileTiming> write_image_analysis(const tiles::ImageEntry& imag
        kMapBytesPerPixel * pixels},
   };
   tiles::run_jobs(maps, threads, kAnalysisMemoryBudget);
-  return write_method_files(image.dir, image, reader, model, kSaliencies, MethodSelection::kAll, threads,
-                            kAnalysisMemoryBudget);
+  return write_method_files(image.dir, image, reader, model, method_files(kSaliencies), threads, kAnalysisMemoryBudget);
+}
+
+std::vector<std::string> add_missing_analyses(const tiles::ImageEntry& image, tiles::PyramidReader& reader,
+                                              const SignificanceOptions& significance, AnalysisSet set, int threads) {
+  const std::vector<std::string> before = stored_analyses(image);
+  if (set == AnalysisSet::kNone) return {};
+  // The lazy paths add what is missing (derived_files.h); the methods' files side by side, as ingest does.
+  const LoadedModel loaded = load_image_model(image, reader, significance);
+  read_detected_lines(image, reader);
+  if (set == AnalysisSet::kAll) {
+    load_saliency_map(image, reader, loaded.model, Saliency::kGbvs, significance);
+    std::vector<MethodFile> missing;
+    for (const MethodFile& f : method_files(kSaliencies))
+      if (!exists(image, method_file_name(*f.method, f.saliency).c_str())) missing.push_back(f);
+    write_method_files(image.dir, image, reader, loaded.model, missing, threads, kAnalysisMemoryBudget);
+  }
+  std::vector<std::string> added;
+  for (const std::string& name : stored_analyses(image))
+    if (std::find(before.begin(), before.end(), name) == before.end()) added.push_back(name);
+  return added;
 }
 
 void write_image_model(const std::string& dir, const ImageModel& model) {
+  // warp.json first: binary files without it would read as a model whose curator edits are lost.
+  replace_file(dir, kModelJsonFile, model_json(model));
   replace_file(dir, kSignificanceFile, saliency_map_bytes(model.significance, kSignificanceMagic2));
   replace_file(dir, kModelFile, model_bytes(model));
-  replace_file(dir, kModelJsonFile, model_json(model));
 }
 
 SignificanceMap read_significance(const tiles::ImageEntry& image) {
@@ -223,8 +247,19 @@ LoadedModel load_default_model(const tiles::ImageEntry& image, tiles::PyramidRea
     return make_image_model(read_reduced_image(image, reader), image.manifest.width, image.manifest.height, lines, {},
                             {}, significance);
   };
-  if (!exists(image, kSignificanceFile) && !exists(image, kModelFile) && !exists(image, kModelJsonFile))
-    return {rebuild({}), ModelSource::kBuiltNoFiles, "", ""};
+  if (!exists(image, kSignificanceFile) && !exists(image, kModelFile) && !exists(image, kModelJsonFile)) {
+    // Never analysed (issue 28: the model is made on first use): made now and kept with the
+    // version — warp.json first, so that no reader finds binary files without it — then read
+    // back as every later load reads it.
+    ImageModel model = rebuild({});
+    try {
+      write_image_model(image.dir, model);
+      model = read_image_model(image);
+    } catch (const std::exception&) {
+      // A folder we cannot write (read-only store, a version collected meanwhile): from memory.
+    }
+    return {std::move(model), ModelSource::kBuiltNoFiles, "", ""};
+  }
   // warp.json is the only copy of the curator's work: without it, no model (ModelFileError).
   const ModelEdit stored = read_model_json(image);
   try {
@@ -291,13 +326,15 @@ std::shared_ptr<const tiles::ImageEntry> edit_image_model(tiles::Store& store, c
   const std::string staging = store.make_staging_copy(current);
   try {
     write_image_model(staging, model);
-    // The methods read the significance map (as seam carving's bias, as mp's objects): all are
-    // precomputed again from the edited one, on the same pyramid; those that read lines (mp's
-    // constrained mesh) also when only the lines or the dismissed suggestions changed.
+    // The methods read the significance map (as seam carving's bias, as mp's objects): those the
+    // version holds are precomputed again from the edited one, on the same pyramid; those that
+    // read lines (mp's constrained mesh) also when only the lines or the dismissed suggestions
+    // changed. Those it does not hold are made on first use, as for any version (issue 28).
     if (!edit.significance.empty() || edit.lines || edit.dismissed_lines) {
       tiles::PyramidReader reader(32 << 20);
-      write_method_files(staging, current, reader, model, method_file_kinds(current),
-                         edit.significance.empty() ? MethodSelection::kReadingLines : MethodSelection::kAll);
+      write_method_files(staging, current, reader, model,
+                         stored_method_files(current, edit.significance.empty() ? MethodSelection::kReadingLines
+                                                                                : MethodSelection::kAll));
     }
   } catch (...) {
     store.discard(staging);

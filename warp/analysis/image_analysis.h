@@ -1,5 +1,6 @@
-// The warp engine's files in an image version's folder, written at ingest and by curator edits,
-// so that a view never touches full-resolution pixels and a server builds an image's operator
+// The warp engine's files in an image version's folder, written on the version's first view
+// (derived_files.h), at ingest when asked (AnalysisSet) and by curator edits, so that a view
+// never touches full-resolution pixels and a server builds an image's operator
 // without CGAL or the face detector:
 //
 //   significance.bin   the significance map (≤ 1024 px, floats), edits painted in
@@ -17,7 +18,9 @@
 // the binary files can be rebuilt from it and the pyramid (load_image_model).
 //
 // An edit never changes a published version: it publishes a new one (hard links to the same
-// pyramid, new model files), conditional on the version it started from.
+// pyramid, new model files), conditional on the version it started from. A version without any
+// model file is analysed on first use: warp.json (no lines, no edits) is written before the
+// binary files, so a reader never finds those without it.
 //
 // Thread safety: free functions on immutable published folders; safe to call concurrently.
 #pragma once
@@ -25,6 +28,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "tiles/pyramid_reader.h"
@@ -41,13 +45,30 @@ inline constexpr const char* kSignificanceFile = "significance.bin";
 inline constexpr const char* kModelFile = "warp_model.bin";
 inline constexpr const char* kModelJsonFile = "warp.json";
 
-// The ingest hook: builds the image's model (no lines yet) and writes its files into the (still
-// staged) folder, the retargeting methods' files (method_files.h) for every saliency kind
-// included, on up to `threads` threads — while the jobs running at once are estimated to hold at
-// most 72 MB, so fewer for large analysis images (the files are the same for any count). Returns how
-// long each method file took. Throws std::runtime_error if it cannot write.
+// What an ingest analyses before it publishes (issue 28): by default nothing — every analysis
+// is made on first use and kept with the version (derived_files.h) — or ICAZ's model and the
+// detected lines (kIcaz), or everything every method may need for both saliency kinds (kAll:
+// `zoomwarp ingest --analyses all`, `zoomwarp analyse`).
+enum class AnalysisSet { kNone, kIcaz, kAll };
+std::optional<AnalysisSet> parse_analysis_set(std::string_view name);  // "none", "icaz", "all"
+
+// The ingest hook: writes `set`'s files into the (still staged) folder — for kAll the model (no
+// lines yet), the GBVS map, the detected lines and the retargeting methods' files (method_files.h)
+// for every saliency kind — on up to `threads` threads, while the jobs running at once are
+// estimated to hold at most 72 MB, so fewer for large analysis images (the files are the same for
+// any count). Returns how long each method file took. Throws std::runtime_error if it cannot write.
 std::vector<MethodFileTiming> write_image_analysis(const tiles::ImageEntry& image,
-                                                   const SignificanceOptions& significance = {}, int threads = 1);
+                                                   const SignificanceOptions& significance = {}, int threads = 1,
+                                                   AnalysisSet set = AnalysisSet::kAll);
+
+// Adds to a published version what `set` asks for and it does not hold yet (`zoomwarp
+// analyse`: eagerly, for a store ingested with less), on up to `threads` threads; what it holds is
+// left as it is. Returns the names (derived_files.h stored_analyses) of what was added. Throws
+// ModelFileError when the curator's warp.json is damaged, std::runtime_error when the pyramid
+// cannot be read or the folder written.
+std::vector<std::string> add_missing_analyses(const tiles::ImageEntry& image, tiles::PyramidReader& reader,
+                                              const SignificanceOptions& significance, AnalysisSet set,
+                                              int threads = 1);
 
 // Writes the model's files into `dir` (each to a temporary name, then renamed into place).
 void write_image_model(const std::string& dir, const ImageModel& model);

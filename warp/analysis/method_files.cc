@@ -2,10 +2,12 @@
 
 #include <chrono>
 #include <functional>
+#include <map>
 #include <stdexcept>
 
 #include "tiles/parallel_jobs.h"
 #include "warp/analysis/analysis_image.h"
+#include "warp/analysis/derived_files.h"
 #include "warp/analysis/detected_lines.h"
 #include "warp/analysis/model_file.h"
 
@@ -38,31 +40,44 @@ std::string method_file_name(const RetargetingMethod& method, Saliency saliency)
   return std::string(method.name) + "." + std::string(saliency_name(saliency)) + ".bin";
 }
 
+std::vector<MethodFile> method_files(std::span<const Saliency> kinds, MethodSelection which) {
+  std::vector<MethodFile> out;
+  for (const RetargetingMethod* method : retargeting_methods())
+    if (method->precompute && (which == MethodSelection::kAll || method->reads_lines))
+      for (Saliency kind : kinds) out.push_back({method, kind});
+  return out;
+}
+
+std::vector<MethodFile> stored_method_files(const tiles::ImageEntry& image, MethodSelection which) {
+  std::vector<MethodFile> out;
+  for (const MethodFile& f : method_files(kSaliencies, which))
+    if (exists(image, method_file_name(*f.method, f.saliency).c_str())) out.push_back(f);
+  return out;
+}
+
 std::vector<MethodFileTiming> write_method_files(const std::string& dir, const tiles::ImageEntry& image,
                                                  tiles::PyramidReader& reader, const ImageModel& model,
-                                                 std::span<const Saliency> kinds, MethodSelection which, int threads,
+                                                 std::span<const MethodFile> files, int threads,
                                                  std::size_t memory_budget) {
-  std::vector<const RetargetingMethod*> methods;
-  for (const RetargetingMethod* method : retargeting_methods())
-    if (method->precompute && (which == MethodSelection::kAll || method->reads_lines)) methods.push_back(method);
-  if (methods.empty() || kinds.empty()) return {};
+  if (files.empty()) return {};
   const SharedInput shared = shared_input(image, reader, model);
-  std::vector<SignificanceMap> maps;
-  for (Saliency kind : kinds) maps.push_back(saliency_map(image, reader, model, kind));
-  // One job per (method, kind), each writing its own file and timing. Method-major: a method
-  // costs about the same for every kind, so threads taking jobs in this order finish together.
-  std::vector<MethodFileTiming> out(methods.size() * kinds.size());
+  // Each kind's map once, shared by its methods.
+  std::map<Saliency, SignificanceMap> maps;
+  for (const MethodFile& f : files)
+    if (!maps.count(f.saliency)) maps.emplace(f.saliency, saliency_map(image, reader, model, f.saliency));
+  // One job per file, each writing its file and timing it. Method-major (method_files' order): a
+  // method costs about the same for every kind, so threads taking jobs in this order finish together.
+  std::vector<MethodFileTiming> out(files.size());
   const std::size_t analysis_pixels = std::size_t(shared.analysis.width) * std::size_t(shared.analysis.height);
   std::vector<tiles::Job> jobs;
-  for (std::size_t m = 0; m < methods.size(); ++m)
-    for (std::size_t k = 0; k < kinds.size(); ++k)
-      jobs.push_back({[&, m, k, slot = jobs.size()] {
-        const auto start = std::chrono::steady_clock::now();
-        const RetargetingMethod& method = *methods[m];
-        const std::string file = method_file_name(method, kinds[k]);
-        replace_file(dir, file, sealed(method, precompute(method, model, kinds[k], maps[k], shared)));
-        out[slot] = {file, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()};
-      }, methods[m]->precompute_bytes_per_pixel * analysis_pixels});
+  for (std::size_t i = 0; i < files.size(); ++i)
+    jobs.push_back({[&, i] {
+      const auto start = std::chrono::steady_clock::now();
+      const RetargetingMethod& method = *files[i].method;
+      const std::string file = method_file_name(method, files[i].saliency);
+      replace_file(dir, file, sealed(method, precompute(method, model, files[i].saliency, maps.at(files[i].saliency), shared)));
+      out[i] = {file, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()};
+    }, files[i].method->precompute_bytes_per_pixel * analysis_pixels});
   tiles::run_jobs(jobs, threads, memory_budget);
   return out;
 }
@@ -72,9 +87,11 @@ LoadedRetargeter load_retargeter(const tiles::ImageEntry& image, tiles::PyramidR
   const SignificanceMap map = saliency_map(image, reader, model, saliency);
   if (!method.precompute) return {method.load(model, map, ""), MethodSource::kNoFile, ""};
   const std::string file = method_file_name(method, saliency);
-  if (!exists(image, file.c_str()))
-    return {method.load(model, map, precompute(method, model, saliency, map, shared_input(image, reader, model))),
-            MethodSource::kBuiltInMemory, ""};
+  if (!exists(image, file.c_str())) {
+    const std::string payload = precompute(method, model, saliency, map, shared_input(image, reader, model));
+    const bool stored = add_derived_file(image, file.c_str(), sealed(method, payload));
+    return {method.load(model, map, payload), MethodSource::kBuiltInMemory, "", stored};
+  }
   try {
     // The same magic twice: these files have always had the trailer.
     auto [payload, format] = checked_payload(file.c_str(), read_whole(image, file.c_str()), method.magic, method.magic);

@@ -3,11 +3,11 @@
 //   <method>.<saliency>.bin   a method's precomputation for one saliency kind: the method's
 //                             magic, its bytes, the trailer of model_file.h
 //
-// written at ingest (write_image_analysis) and by edits whose inputs changed, each to a temporary
-// name and renamed into place. A version without a method's file (ingested before the method
-// existed) gets the precomputation built in memory on first use — never written into a
-// published version. A damaged file is rebuilt in memory the same way: it is derived data, a pure
-// function of the version's pixels and warp.json.
+// computed on first use and added to the published version (derived_files.h), or eagerly at
+// ingest (write_image_analysis, AnalysisSet::kAll); an edit precomputes again those its version
+// holds whose inputs changed. Each is written to a temporary name and renamed into place. A
+// damaged file is rebuilt in memory: it is derived data, a pure function of the version's pixels
+// and warp.json.
 //
 // Thread safety: free functions on immutable published folders; safe to call concurrently.
 #pragma once
@@ -30,21 +30,36 @@ namespace zoomwarp::warp {
 // "<name>.<saliency>.bin", e.g. "seam.default.bin".
 std::string method_file_name(const RetargetingMethod& method, Saliency saliency);
 
-// Precomputes every registered method that keeps a file (kReadingLines: only those whose
-// precomputation reads lines — what an edit of the lines alone makes stale), for each kind in
-// `kinds`, and writes the files into `dir`; up to `threads` precomputations at once (they are
-// independent) while their RetargetingMethod::precompute_bytes_per_pixel for the analysis image
-// sum to at most `memory_budget` (tiles::run_jobs). Returns how long each took (for `zoomwarp ingest`'s report), for each
-// method in the registry's order each kind in `kinds`.
+// One method file: a registered method that keeps one (RetargetingMethod::precompute), for one
+// saliency kind.
+struct MethodFile {
+  const RetargetingMethod* method;
+  Saliency saliency;
+};
+
+// Which precomputations: every one, or only those that read lines (RetargetingMethod::
+// reads_lines) — what an edit of the lines alone makes stale.
+enum class MethodSelection { kAll, kReadingLines };
+
+// The selected methods' files for each kind in `kinds`, in the registry's order, each method's
+// kinds together.
+std::vector<MethodFile> method_files(std::span<const Saliency> kinds, MethodSelection which = MethodSelection::kAll);
+
+// The selected methods' files that `image` holds (an edit precomputes again only those: issue 28,
+// the others are made on first use).
+std::vector<MethodFile> stored_method_files(const tiles::ImageEntry& image, MethodSelection which);
+
+// Precomputes `files` and writes them into `dir`; up to `threads` precomputations at once (they
+// are independent) while their RetargetingMethod::precompute_bytes_per_pixel for the analysis
+// image sum to at most `memory_budget` (tiles::run_jobs). Returns how long each took (for
+// `zoomwarp ingest`'s report), in the order of `files`.
 struct MethodFileTiming {
   std::string file;
   double seconds = 0;
 };
-enum class MethodSelection { kAll, kReadingLines };
 std::vector<MethodFileTiming> write_method_files(const std::string& dir, const tiles::ImageEntry& image,
                                                  tiles::PyramidReader& reader, const ImageModel& model,
-                                                 std::span<const Saliency> kinds,
-                                                 MethodSelection which = MethodSelection::kAll, int threads = 1,
+                                                 std::span<const MethodFile> files, int threads = 1,
                                                  std::size_t memory_budget = 0);
 
 // How load_retargeter got the precomputation.
@@ -54,10 +69,13 @@ struct LoadedRetargeter {
   std::unique_ptr<Retargeter> engine;
   MethodSource source = MethodSource::kStored;
   std::string reason;  // for kRebuiltDamaged: the file and what was wrong with it
+  bool stored = false;  // for kBuiltInMemory: the file was added to the version
 };
 
-// The method's Retargeter for a version: from its file when intact, else precomputed in memory.
-// Throws std::runtime_error when the pyramid cannot be read.
+// The method's Retargeter for a version: from its file when intact, else precomputed — and,
+// when the version has no file yet (issue 28: precomputed on first use), the file added to it
+// (derived_files.h) so that later loads read it; a damaged file is left as it is, for an operator
+// to see, and precomputed in memory. Throws std::runtime_error when the pyramid cannot be read.
 LoadedRetargeter load_retargeter(const tiles::ImageEntry& image, tiles::PyramidReader& reader, const ImageModel& model,
                                  const RetargetingMethod& method, Saliency saliency);
 

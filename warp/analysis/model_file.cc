@@ -1,6 +1,9 @@
 #include "warp/analysis/model_file.h"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <atomic>
 #include <boost/crc.hpp>
 #include <cstring>
 #include <filesystem>
@@ -33,13 +36,27 @@ ModelFileError::ModelFileError(std::string file, const std::string& why)
 // Writes `bytes` to dir/name through a temporary file renamed into place: a reader never sees a
 // partial file, and a hard link to an older version's file is replaced, not written through.
 void replace_file(const std::string& dir, const std::string& name, const std::string& bytes) {
-  const fs::path tmp = fs::path(dir) / (name + ".tmp"), path = fs::path(dir) / name;
+  // A name of this writer's own: replicas and threads computing the same analysis for a published
+  // version write the same file at once (derived_files.h), and must not write into one temporary.
+  static std::atomic<std::uint64_t> writes{0};
+  const fs::path path = fs::path(dir) / name,
+                 tmp = fs::path(dir) / (name + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(++writes));
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     out.write(bytes.data(), std::streamsize(bytes.size()));
-    if (!out.flush()) throw std::runtime_error("cannot write " + tmp.string());
+    if (!out.flush()) {
+      out.close();
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      throw std::runtime_error("cannot write " + tmp.string());
+    }
   }
-  fs::rename(tmp, path);
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    throw std::runtime_error("cannot rename " + tmp.string() + " into place");
+  }
 }
 
 std::string read_whole(const tiles::ImageEntry& image, const char* file) {

@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "warp/analysis/analysis_image.h"
+#include "warp/analysis/derived_files.h"
 #include "warp/saliency/gbvs.h"
 
 namespace zoomwarp::warp {
@@ -61,8 +62,13 @@ LoadedSaliency load_saliency_map(const tiles::ImageEntry& image, tiles::PyramidR
   try {
     out.map = read_gbvs_map(image);
   } catch (const ModelFileError& e) {
-    if (exists(image, kGbvsFile)) out.damaged = e.what();
+    const bool damaged = exists(image, kGbvsFile);
+    if (damaged) out.damaged = e.what();
     out.map = gbvs_significance(read_reduced_image(image, reader), image.manifest.width, significance);
+    // Never computed for this version (issue 28: on first use): kept with it, and read back as
+    // every later load reads it.
+    if (!damaged && add_derived_file(image, kGbvsFile, saliency_map_bytes(out.map, kGbvsMagic)))
+      out.map = read_gbvs_map(image);
   }
   // The curator's regions apply to every kind of map, painted in the order they were made.
   for (const SignificanceEdit& edit : model.edits) paint_polygon(out.map, edit.polygon, edit.weight);
