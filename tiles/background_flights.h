@@ -11,7 +11,7 @@
 //
 // The threads run below request priority: each lowers its own nice value (Linux schedules
 // threads, so this touches no other thread of the process), so a machine busy with views gives
-// them the CPU first. At most `max_flights` keys are queued or running; run() of a new key
+// the views the CPU first. At most `max_flights` keys are queued or running; run() of a new key
 // beyond that throws Busy — the caller answers 503 rather than queue without bound.
 //
 // Destruction waits for the flight running on each thread and drops those still queued (their
@@ -22,9 +22,9 @@
 #pragma once
 
 #include <sys/resource.h>
-#include <sys/syscall.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <condition_variable>
 #include <cstddef>
 #include <deque>
@@ -49,11 +49,13 @@ class BackgroundFlights {
     using std::runtime_error::runtime_error;
   };
 
-  // `threads` ≥ 1 threads, each at nice value `nice` (0: as the process; > 0: below it).
+  // `threads` ≥ 1 threads, each `nice` levels below the thread constructing it (0: at its level).
   BackgroundFlights(int threads, std::size_t max_flights, int nice = 10) : max_flights_(max_flights) {
     for (int i = 0; i < std::max(1, threads); ++i)
       threads_.emplace_back([this, nice] {
-        if (nice > 0) ::setpriority(PRIO_PROCESS, pid_t(::syscall(SYS_gettid)), nice);
+        // Linux schedules threads: this thread alone, `nice` levels below the one that made it.
+        const id_t tid = id_t(::gettid());
+        if (nice > 0) ::setpriority(PRIO_PROCESS, tid, std::min(19, ::getpriority(PRIO_PROCESS, tid) + nice));
         serve();
       });
   }
