@@ -107,6 +107,10 @@ TEST_F(AnalysisOnDemand, AFirstViewOutOfTimeLeavesTheWorkToFinishForItsRetry) {
   EXPECT_EQ(json::parse(first.body)["error"]["code"], "analysis_pending") << first.body;
   EXPECT_FALSE(first.header("retry-after").empty());
   ASSERT_TRUE(wait_for_analysis(http, "boats", "polyfem.gbvs")) << "the work was not cancelled with its request";
+  // Counted once its flight lands, a moment after the file is written.
+  for (int i = 0; i < 600 && testing::metric(server.port(), "zoomwarp_analyses_pending") > 0; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  ASSERT_EQ(testing::metric(server.port(), "zoomwarp_analyses_pending"), 0);
   const double computed = testing::metric(server.port(), kComputed);
   const auto retry = http.get(view);
   EXPECT_EQ(retry.status, 200) << retry.body;

@@ -18,8 +18,10 @@ namespace zoomwarp::testing {
 class PanoServer : public ::testing::Test {
  protected:
   // Starts `executable` (the shipped zoomwarp unless given) with `args`, writes open, and uploads
-  // the panorama; fails the test if the upload is not 201.
-  void start(const std::vector<std::string>& args, const ServerExecutable& executable = {}) {
+  // the panorama with ICAZ's model (--analyses icaz: these tests are about views that run out of
+  // time, not about a first view waiting for its analysis); fails the test if the upload is not 201.
+  void start(std::vector<std::string> args, const ServerExecutable& executable = {}) {
+    args.insert(args.begin(), {"--analyses", "icaz"});
     server_.emplace(dir_.path() + "/store", args, ServerProcess::Writes::kOpen, executable);
     ASSERT_EQ(HttpClient(port())
                   .request("POST", "/v1/images?id=pano", read_file(samples_dir() + "/pano_grossmugl_field_4to1.png"))

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <memory>
+#include <unordered_map>
 #include <opencv2/core/utility.hpp>
 #include <stdexcept>
 #include <opencv2/imgproc.hpp>
@@ -99,12 +101,30 @@ FaceCascade find_face_cascade(const std::string& configured) {
   return {found, ""};
 }
 
+namespace {
+
+// The cascade at `path`, parsed once per thread (issue 28: parsing its XML cost as much as the
+// detection on a small image, paid again by every image's analysis; OpenCV's classifier is not to
+// be shared between threads). Null when it does not load.
+cv::CascadeClassifier* loaded_cascade(const std::string& path) {
+  thread_local std::unordered_map<std::string, std::unique_ptr<cv::CascadeClassifier>> loaded;
+  auto [it, first] = loaded.try_emplace(path);
+  if (first) {
+    auto cascade = std::make_unique<cv::CascadeClassifier>();
+    if (cascade->load(path)) it->second = std::move(cascade);
+  }
+  return it->second.get();
+}
+
+}  // namespace
+
 std::vector<tiles::Rect> detect_faces(const tiles::Raster& image, const std::string& cascade_path) {
   std::vector<tiles::Rect> out;
   std::error_code ec;
   if (cascade_path.empty() || !std::filesystem::exists(cascade_path, ec)) return out;
-  cv::CascadeClassifier cascade;
-  if (!cascade.load(cascade_path)) return out;
+  cv::CascadeClassifier* loaded = loaded_cascade(cascade_path);
+  if (!loaded) return out;
+  cv::CascadeClassifier& cascade = *loaded;
   // An image smaller than the cascade's window holds no face it could find (and OpenCV's
   // scaling loop is not meant for it): checked rather than left to detectMultiScale.
   const cv::Size window = cascade.getOriginalWindowSize();
