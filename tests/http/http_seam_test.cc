@@ -13,7 +13,7 @@
 #include "tests/support/http_client.h"
 #include "tests/support/images.h"
 #include "tests/support/server_process.h"
-#include "warp/analysis/model_file.h"
+#include "warp/analysis/method_files.h"
 #include "warp/methods/seam/seam_carving.h"
 
 namespace zoomwarp {
@@ -141,9 +141,8 @@ TEST_F(Seam, ANarrowScreenCarvesInsteadOfCropping) {
 TEST_F(Seam, TheViewCentreIsTrackedThroughTheCarving) {
   const warp::RetargetingMethod& seam = *warp::find_retargeting_method("seam");
   const std::string file = version_dir(store(), "boats") + "/seam.default.bin";
-  const auto [sealed, format] = warp::checked_payload("seam.default.bin", testing::read_file(file), seam.magic, seam.magic);
   const warp::VisibilityMap map =
-      warp::parse_visibility_maps(std::string_view(sealed).substr(seam.magic.size())).horizontal;
+      warp::parse_visibility_maps(warp::method_payload("seam.default.bin", testing::read_file(file), seam)).horizontal;
   ASSERT_EQ(1280 % map.length, 0);
   const int r = 1280 / map.length, k = map.length - 800 / r;
   const tiles::Raster source = bright_boats();

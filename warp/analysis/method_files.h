@@ -1,7 +1,9 @@
 // The retargeting methods' model files in an image version's folder (methods/retargeting_method.h):
 //
-//   <method>.<saliency>.bin   a method's precomputation for one saliency kind: the method's
-//                             magic, its bytes, the trailer of model_file.h
+//   <method>.<saliency>.bin   a method's precomputation for one saliency kind: a container
+//                             magic, the method's magic, its bytes deflated (deflated_payload.h),
+//                             the trailer of model_file.h (format 2; format 1, the method's
+//                             magic and its bytes as they are, is still read)
 //
 // written at ingest (write_image_analysis) and by edits whose inputs changed, each to a temporary
 // name and renamed into place. A version without a method's file (ingested before the method
@@ -29,6 +31,10 @@ namespace zoomwarp::warp {
 
 // "<name>.<saliency>.bin", e.g. "seam.default.bin".
 std::string method_file_name(const RetargetingMethod& method, Saliency saliency);
+
+// The method's precomputation in `bytes`, the whole file `file` of either format. Throws
+// ModelFileError(file, …) when the trailer, the magics or the compressed stream are wrong.
+std::string method_payload(const std::string& file, std::string bytes, const RetargetingMethod& method);
 
 // Precomputes every registered method that keeps a file (kReadingLines: only those whose
 // precomputation reads lines — what an edit of the lines alone makes stale), for each kind in
