@@ -13,10 +13,9 @@ namespace zoomwarp::warp {
 
 namespace {
 
-// libdeflate's level 9: model files are written once per version and read on every engine load,
-// so size over write speed, short of levels 10-12 (libdeflate's near-optimal parsing), which
-// took several times as long for a few per cent less here (measured in docs/ingest.md,
-// "Compact analysis files").
+// libdeflate's level 9, its strongest short of the near-optimal parsing of 10–12: a file is
+// written once per version and read on every engine load, and inflating costs the same at any
+// level.
 constexpr int kLevel = 9;
 
 constexpr std::size_t kSizeBytes = sizeof(std::uint64_t);
