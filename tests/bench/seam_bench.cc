@@ -1,5 +1,6 @@
 // Seam carving's costs (method=seam, warp/methods/seam/): the precomputation — both visibility
-// maps by liblqr — at the analysis sizes of a 16:9 and a 4:3 photo (1024×576, 1024×768), and
+// maps by liblqr — at the analysis sizes of a 16:9 and a 4:3 photo (1024×576, 1024×768), carved
+// at that size and reduced as ingest carves them (compute_seam_maps), and
 // what a request costs: a carve table for a new screen aspect, and a rendered 480×360 / 360×640
 // screen at zoom 0 and 0.5 from an ingested pyramid.
 //
@@ -13,6 +14,7 @@
 #include "tiles/ingest.h"
 #include "warp/analysis/analysis_image.h"
 #include "warp/methods/seam/seam_carving.h"
+#include "warp/methods/seam/seam_resolution.h"
 #include "warp/saliency/significance.h"
 
 namespace {
@@ -37,6 +39,16 @@ void BM_VisibilityMaps(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(warp::compute_visibility_maps(image, saliency));
 }
 BENCHMARK(BM_VisibilityMaps)->Args({1024, 576})->Args({1024, 768})->Unit(benchmark::kMillisecond)->Iterations(2);
+
+// What ingest pays per seam.<saliency>.bin: the same analysis images carved reduced to a long
+// side of kSeamMaxSide (seam_resolution.h).
+void BM_SeamMaps(benchmark::State& state) {
+  const tiles::Raster image =
+      testing::resize(testing::load_image(image_path()), int(state.range(0)), int(state.range(1)));
+  const warp::SignificanceMap saliency = significance_of(image);
+  for (auto _ : state) benchmark::DoNotOptimize(warp::compute_seam_maps(image, saliency));
+}
+BENCHMARK(BM_SeamMaps)->Args({1024, 576})->Args({1024, 768})->Unit(benchmark::kMillisecond)->Iterations(2);
 
 // An ingested image, its engine from the stored maps, and a reader: what a server holds.
 struct Served {

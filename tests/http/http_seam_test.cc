@@ -5,6 +5,7 @@
 // writes the new version's file from the edited map.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -13,7 +14,7 @@
 #include "tests/support/http_client.h"
 #include "tests/support/images.h"
 #include "tests/support/server_process.h"
-#include "warp/analysis/model_file.h"
+#include "warp/analysis/method_files.h"
 #include "warp/methods/seam/seam_carving.h"
 
 namespace zoomwarp {
@@ -135,29 +136,29 @@ TEST_F(Seam, ANarrowScreenCarvesInsteadOfCropping) {
 
 // The view centre is carried through the carving: at zoom 1 the screen's centre pixel is the
 // image pixel the request named, wherever seams removed columns left of it. 1280×800 on 400×400
-// keeps 800 of 1280 image columns: with the analysis image at r image px per column (the pyramid
-// level ≤ 1024 px: 640×400, r = 2), a kept analysis column p stands for image columns r·p …
-// r·p + r − 1, and screen pixel 200 samples carved x + 0.5 — the centre of image pixel r·p. The
-// stored map says which columns are kept, and so where p lands (centres whose view would be
-// clamped at the carved image's edges are left out).
+// keeps 800 of 1280 image columns: with the maps at r image px per column (carved at a long side
+// ≤ 512 px from the 640×400 analysis image: 512×320, r = 2.5), a kept map column p stands for
+// image columns r·p … r·p + r, and screen pixel 200 samples carved x + 0.5 — the centre of image
+// pixel r·p, for p whose r·p is whole. The stored map says which columns are kept, and so where p
+// lands (centres whose view would be clamped at the carved image's edges are left out).
 TEST_F(Seam, TheViewCentreIsTrackedThroughTheCarving) {
   const warp::RetargetingMethod& seam = *warp::find_retargeting_method("seam");
   const std::string file = version_dir(store(), "boats") + "/seam.default.bin";
-  const auto [sealed, format] = warp::checked_payload("seam.default.bin", testing::read_file(file), seam.magic, seam.magic);
   const warp::VisibilityMap map =
-      warp::parse_visibility_maps(std::string_view(sealed).substr(seam.magic.size())).horizontal;
-  ASSERT_EQ(1280 % map.length, 0);
-  const int r = 1280 / map.length, k = map.length - 800 / r;
+      warp::parse_visibility_maps(warp::method_payload("seam.default.bin", testing::read_file(file), seam)).horizontal;
+  const double r = 1280.0 / map.length;
+  const int k = map.length - int(std::lround(800 / r));
   const tiles::Raster source = bright_boats();
   int checked = 0;
   for (int cy : {250, 400, 520})
     for (int p = map.length / 4; p < map.length * 3 / 4 && checked < 4 * (cy / 250); p += 11) {
-      const auto kept = [&](int q) { return map.at(cy / r, q) == 0 || map.at(cy / r, q) > k; };
-      if (!kept(p)) continue;  // carved away: no image pixel of it is shown
+      const int line = int(cy / r);
+      const auto kept = [&](int q) { return map.at(line, q) == 0 || map.at(line, q) > k; };
+      if (!kept(p) || r * p != std::floor(r * p)) continue;  // carved away, or not at a whole image pixel
       int left = 0;  // kept columns left of p: its carved position is r · left
       for (int q = 0; q < p; ++q) left += kept(q);
       if (r * left < 200 || r * left > 600) continue;  // the view would be clamped at an edge
-      const int cx = r * p;
+      const int cx = int(r * p);
       SCOPED_TRACE("cx " + std::to_string(cx) + " cy " + std::to_string(cy));
       const tiles::Raster shown =
           viewport("boats", "zoom=1&w=400&h=400&cx=" + std::to_string(cx) + "&cy=" + std::to_string(cy));

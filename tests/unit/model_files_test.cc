@@ -1,7 +1,8 @@
 // The model files kept with an image version under damage: each binary file truncated, flipped
 // in the middle or deleted is rebuilt with the curator's lines and significance edits; a damaged
-// or missing warp.json is refused (the edits cannot be recovered); files of the previous format
-// (no checksum trailer) are still read.
+// or missing warp.json is refused (the edits cannot be recovered); files of the previous formats
+// (no checksum trailer, float maps, uncompressed method files) are still read; a damaged
+// compressed method file is precomputed again in memory.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -13,6 +14,8 @@
 #include "tiles/ingest.h"
 #include "warp/analysis/detected_lines.h"
 #include "warp/analysis/image_analysis.h"
+#include "warp/analysis/method_files.h"
+#include "warp/analysis/model_file.h"
 #include "warp/lines/line_detection.h"
 
 namespace zoomwarp {
@@ -147,20 +150,76 @@ TEST_F(ModelFiles, NoModelFilesAtAllIsAVersionFromBeforeModelsAndIsBuilt) {
   EXPECT_TRUE(again.model.significance.values == loaded.model.significance.values);
 }
 
-// Format 1 is format 2 without the trailer (length + CRC-32, 12 bytes) and with '1' in the magic.
-TEST_F(ModelFiles, FilesOfThePreviousFormatAreStillRead) {
-  const tiles::ImageEntry c = copy();
-  for (const char* file : {warp::kSignificanceFile, warp::kModelFile}) {
-    std::string bytes = testing::read_file(c.dir + "/" + file);
-    bytes.resize(bytes.size() - 12);
-    const std::size_t digit = bytes.find('2');
-    ASSERT_LT(digit, 8u);
-    bytes[digit] = '1';
-    write_bytes(c.dir + "/" + file, bytes);
+// A map file of the float formats: magic, width, height, scale, a float per value; format 2 with
+// the trailer, format 1 without.
+std::string float_map_file(const char* magic, const warp::SignificanceMap& m, bool trailer) {
+  std::string bytes(magic);
+  bytes.resize(8, '\0');
+  const std::int32_t size[2] = {m.width, m.height};
+  bytes.append(reinterpret_cast<const char*>(size), sizeof size);
+  bytes.append(reinterpret_cast<const char*>(&m.scale), sizeof m.scale);
+  bytes.append(reinterpret_cast<const char*>(m.values.data()), m.values.size() * sizeof(float));
+  return trailer ? warp::with_trailer(bytes) : bytes;
+}
+
+// The formats before the compact files (issue 28) are still read: significance.bin as floats with
+// (format 2) and without (format 1) the trailer, warp_model.bin without it (format 1: '1' in the
+// magic), gbvs.bin as floats, and the methods' files uncompressed (their own magic first).
+TEST_F(ModelFiles, FilesOfThePreviousFormatsAreStillRead) {
+  const warp::ImageModel stored = warp::read_image_model(*edited_);
+  for (const char* magic : {"ZWSIG1", "ZWSIG2"}) {
+    SCOPED_TRACE(magic);
+    const tiles::ImageEntry c = copy();
+    write_bytes(c.dir + "/" + warp::kSignificanceFile, float_map_file(magic, stored.significance, magic[5] == '2'));
+    std::string bytes = testing::read_file(c.dir + "/" + warp::kModelFile);
+    bytes.resize(bytes.size() - 12);  // the trailer: length + CRC-32
+    ASSERT_EQ(bytes[7], '2');
+    bytes[7] = '1';
+    write_bytes(c.dir + "/" + warp::kModelFile, bytes);
+    const warp::LoadedModel loaded = warp::load_image_model(c, reader_);
+    EXPECT_EQ(loaded.source, warp::ModelSource::kStored);
+    EXPECT_TRUE(loaded.model.node_mean == stored.node_mean);
+    EXPECT_TRUE(loaded.model.significance.values == stored.significance.values);
   }
-  const warp::LoadedModel loaded = warp::load_image_model(c, reader_);
-  EXPECT_EQ(loaded.source, warp::ModelSource::kStored);
-  EXPECT_TRUE(loaded.model.node_mean == warp::read_image_model(*edited_).node_mean);
+  const tiles::ImageEntry c = copy();
+  const warp::SignificanceMap gbvs = warp::read_gbvs_map(*edited_);
+  write_bytes(c.dir + "/" + warp::kGbvsFile, float_map_file("ZWGBVS1", gbvs, true));
+  EXPECT_TRUE(warp::read_gbvs_map(c).values == gbvs.values);
+  const warp::ImageModel model = warp::read_image_model(c);
+  for (const char* name : {"seam", "patch"}) {
+    SCOPED_TRACE(name);
+    const warp::RetargetingMethod& method = *warp::find_retargeting_method(name);
+    const std::string file = warp::method_file_name(method, warp::Saliency::kDefault);
+    const std::string payload = warp::method_payload(file, testing::read_file(c.dir + "/" + file), method);
+    write_bytes(c.dir + "/" + file, warp::with_trailer(std::string(method.magic.begin(), method.magic.end()) + payload));
+    EXPECT_EQ(warp::method_payload(file, testing::read_file(c.dir + "/" + file), method), payload);
+    EXPECT_EQ(warp::load_retargeter(c, reader_, model, method, warp::Saliency::kDefault).source,
+              warp::MethodSource::kStored);
+  }
+}
+
+// A method's compressed file that is damaged — a flip the trailer's CRC-32 catches before the
+// stream is inflated, a truncation, another method's file under its name — is precomputed again
+// in memory and reported, never written into the version, as damaged files were before.
+TEST_F(ModelFiles, ADamagedCompressedMethodFileIsPrecomputedAgainInMemory) {
+  const warp::ImageModel model = warp::read_image_model(*edited_);
+  const warp::RetargetingMethod& seam = *warp::find_retargeting_method("seam");
+  const std::string file = warp::method_file_name(seam, warp::Saliency::kDefault);
+  EXPECT_EQ(warp::load_retargeter(*edited_, reader_, model, seam, warp::Saliency::kDefault).source,
+            warp::MethodSource::kStored);
+  for (int k = 0; k < 3; ++k) {
+    SCOPED_TRACE(k);
+    const tiles::ImageEntry c = copy();
+    const std::string path = c.dir + "/" + file;
+    if (k < 2) damage(path, k == 0 ? Damage::kFlipMiddle : Damage::kTruncate);
+    else fs::copy_file(c.dir + "/patch.default.bin", path, fs::copy_options::overwrite_existing);
+    const std::string before = testing::read_file(path);
+    const warp::LoadedRetargeter loaded = warp::load_retargeter(c, reader_, model, seam, warp::Saliency::kDefault);
+    EXPECT_EQ(loaded.source, warp::MethodSource::kRebuiltDamaged);
+    EXPECT_EQ(loaded.reason.rfind(file, 0), 0u) << loaded.reason;
+    EXPECT_TRUE(loaded.engine);
+    EXPECT_EQ(testing::read_file(path), before) << "never written into a published version";
+  }
 }
 
 TEST_F(ModelFiles, AChecksumCatchesAFlipThatParsesAndAFileOfAnotherImageIsRefused) {

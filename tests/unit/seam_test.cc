@@ -1,7 +1,7 @@
 // Seam carving (method=seam, warp/methods/seam/): the visibility maps liblqr records, the carve
 // tables made from them against liblqr's own resize, nesting, the saliency bias, degenerate
-// images, the model file's bytes, and the carved image's geometry (identity at equal aspects,
-// the target sizes, the view centre carried through).
+// images, the model file's bytes, the reduced resolution seams are carved at, and the carved
+// image's geometry (identity at equal aspects, the target sizes, the view centre carried through).
 #include <gtest/gtest.h>
 #include <lqr.h>
 
@@ -15,6 +15,7 @@
 #include "tests/support/server_process.h"
 #include "warp/methods/retargeting_method.h"
 #include "warp/methods/seam/seam_carving.h"
+#include "warp/methods/seam/seam_resolution.h"
 #include "warp/methods/seam/visibility_map.h"
 #include "warp/saliency/significance.h"
 
@@ -249,6 +250,52 @@ TEST(SeamFile, BytesRoundTripAndDamageIsRefused) {
   std::string deeper = bytes;
   deeper[8] = char(64);  // depth 64 on a 64 px side
   EXPECT_THROW(warp::parse_visibility_maps(deeper), std::runtime_error);
+}
+
+// Seams are carved at a long side of at most kSeamMaxSide (seam_resolution.h): the maps of a
+// larger analysis image are made from it reduced, keep the format, carve to the screen's aspect
+// and back, and the loader takes maps of the reduced size or of the analysis size itself (files
+// written before) but no other.
+TEST(SeamResolution, LargeAnalysisImagesAreCarvedReduced) {
+  EXPECT_EQ(warp::seam_map_size(1024, 640).width, 512);
+  EXPECT_EQ(warp::seam_map_size(1024, 640).height, 320);
+  EXPECT_EQ(warp::seam_map_size(681, 1024).width, 341);
+  EXPECT_EQ(warp::seam_map_size(512, 300).width, 512) << "small enough: as it is";
+  EXPECT_EQ(warp::seam_map_size(1024, 1).height, 1);
+
+  const tiles::Raster image = boats(640, 400);
+  const warp::SignificanceMap saliency = significance_of(image);
+  const VisibilityMaps reduced = warp::compute_seam_maps(image, saliency);
+  expect_map_format(reduced.horizontal, 512, 320);
+  expect_map_format(reduced.vertical, 320, 512);
+
+  warp::SeamCarving engine(1280, 800, reduced);
+  const warp::CarvedImage square = engine.carved(400, 400);
+  EXPECT_DOUBLE_EQ(square.width, 800);
+  EXPECT_EQ(square.seams, 192);  // 512 − 320 reduced columns
+  const warp::CarvedImage wide = engine.carved(640, 200);
+  ASSERT_TRUE(wide.vertical);
+  EXPECT_EQ(wide.seams, 160);
+  for (double x = 5; x < 1280; x += 97)
+    for (double y = 3; y < wide.height; y += 41) {
+      const warp::Point back = wide.from_source(wide.to_source({x, y}));
+      EXPECT_NEAR(back.x, x, 1e-9);
+      EXPECT_NEAR(back.y, y, 1e-6);
+    }
+
+  warp::ImageModel model;
+  model.width = 1280, model.height = 800, model.significance = saliency;
+  const warp::RetargetingMethod& seam = warp::seam_carving_method();
+  EXPECT_NO_THROW(seam.load(model, saliency, warp::visibility_map_bytes(reduced)));
+  EXPECT_NO_THROW(seam.load(model, saliency, warp::visibility_map_bytes(warp::compute_visibility_maps(image, saliency))))
+      << "a file from before the reduction";
+  const tiles::Raster smaller = boats(320, 200);
+  EXPECT_THROW(seam.load(model, saliency,
+                         warp::visibility_map_bytes(warp::compute_visibility_maps(smaller, significance_of(smaller)))),
+               std::runtime_error);
+  EXPECT_EQ(seam.precompute(warp::MethodInput{model, warp::Saliency::kDefault, saliency, image, {}}),
+            warp::visibility_map_bytes(reduced))
+      << "the precomputation is the reduced maps";
 }
 
 TEST(SeamRegistry, SeamIsRegisteredWithoutAMesh) {

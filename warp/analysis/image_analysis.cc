@@ -28,9 +28,10 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-// Format 1 (no trailer) is still read; format 2 is written.
-constexpr Magic kSignificanceMagic1 = {'Z', 'W', 'S', 'I', 'G', '1', 0, 0};
-constexpr Magic kSignificanceMagic2 = {'Z', 'W', 'S', 'I', 'G', '2', 0, 0};
+// Formats 1 (no trailer) and 2 (floats) are still read; format 3 (compact) is written.
+constexpr SaliencyFileMagics kSignificanceMagics = {{'Z', 'W', 'S', 'I', 'G', '1', 0, 0},
+                                                    {'Z', 'W', 'S', 'I', 'G', '2', 0, 0},
+                                                    {'Z', 'W', 'S', 'I', 'G', '3', 0, 0}};
 constexpr Magic kModelMagic1 = {'Z', 'W', 'M', 'O', 'D', 'E', 'L', '1'};
 constexpr Magic kModelMagic2 = {'Z', 'W', 'M', 'O', 'D', 'E', 'L', '2'};
 
@@ -219,12 +220,12 @@ std::vector<std::string> add_missing_analyses(const tiles::ImageEntry& image, ti
 void write_image_model(const std::string& dir, const ImageModel& model) {
   // warp.json first: binary files without it would read as a model whose curator edits are lost.
   replace_file(dir, kModelJsonFile, model_json(model));
-  replace_file(dir, kSignificanceFile, saliency_map_bytes(model.significance, kSignificanceMagic2));
+  replace_file(dir, kSignificanceFile, saliency_map_bytes(model.significance, kSignificanceMagics));
   replace_file(dir, kModelFile, model_bytes(model));
 }
 
 SignificanceMap read_significance(const tiles::ImageEntry& image) {
-  return read_saliency_map_file(image, kSignificanceFile, kSignificanceMagic1, kSignificanceMagic2);
+  return read_saliency_map_file(image, kSignificanceFile, kSignificanceMagics);
 }
 
 ImageModel read_image_model(const tiles::ImageEntry& image) {

@@ -7,6 +7,7 @@
 
 #include "tiles/parallel_jobs.h"
 #include "warp/analysis/analysis_image.h"
+#include "warp/analysis/deflated_payload.h"
 #include "warp/analysis/derived_files.h"
 #include "warp/analysis/detected_lines.h"
 #include "warp/analysis/model_file.h"
@@ -30,11 +31,29 @@ std::string precompute(const RetargetingMethod& method, const ImageModel& model,
   return method.precompute(MethodInput{model, kind, saliency, shared.analysis, shared.detected});
 }
 
+// Format 2 of every method's file: this magic, the method's own, the payload deflated
+// (deflated_payload.h), the trailer. Format 1 — the method's magic, the payload as it is, the
+// trailer — is still read.
+constexpr Magic kDeflatedMagic = {'Z', 'W', 'D', 'E', 'F', 'L', '2', 0};
+
 std::string sealed(const RetargetingMethod& method, const std::string& payload) {
-  return with_trailer(std::string(method.magic.begin(), method.magic.end()) + payload);
+  return with_trailer(std::string(kDeflatedMagic.begin(), kDeflatedMagic.end()) +
+                      std::string(method.magic.begin(), method.magic.end()) + deflated(payload));
 }
 
 }  // namespace
+
+std::string method_payload(const std::string& file, std::string bytes, const RetargetingMethod& method) {
+  const std::string_view magic(method.magic.data(), method.magic.size());
+  if (bytes.compare(0, kDeflatedMagic.size(), kDeflatedMagic.data(), kDeflatedMagic.size()) != 0) {
+    // Format 1. The same magic twice: these files have always had the trailer.
+    return checked_payload(file.c_str(), std::move(bytes), method.magic, method.magic).first.substr(magic.size());
+  }
+  const std::string body = checked_payload(file.c_str(), std::move(bytes), kDeflatedMagic, kDeflatedMagic).first;
+  const std::string_view rest = std::string_view(body).substr(kDeflatedMagic.size());
+  if (rest.substr(0, magic.size()) != magic) throw ModelFileError(file, "another method's file");
+  return inflated(file.c_str(), rest.substr(magic.size()));
+}
 
 std::string method_file_name(const RetargetingMethod& method, Saliency saliency) {
   return std::string(method.name) + "." + std::string(saliency_name(saliency)) + ".bin";
@@ -93,10 +112,9 @@ LoadedRetargeter load_retargeter(const tiles::ImageEntry& image, tiles::PyramidR
     return {method.load(model, map, payload), MethodSource::kBuiltInMemory, "", stored};
   }
   try {
-    // The same magic twice: these files have always had the trailer.
-    auto [payload, format] = checked_payload(file.c_str(), read_whole(image, file.c_str()), method.magic, method.magic);
+    const std::string payload = method_payload(file, read_whole(image, file.c_str()), method);
     try {
-      return {method.load(model, map, std::string_view(payload).substr(method.magic.size())), MethodSource::kStored, ""};
+      return {method.load(model, map, payload), MethodSource::kStored, ""};
     } catch (const std::runtime_error& e) {
       throw ModelFileError(file, e.what());
     }

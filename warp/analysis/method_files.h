@@ -1,7 +1,9 @@
 // The retargeting methods' model files in an image version's folder (methods/retargeting_method.h):
 //
-//   <method>.<saliency>.bin   a method's precomputation for one saliency kind: the method's
-//                             magic, its bytes, the trailer of model_file.h
+//   <method>.<saliency>.bin   a method's precomputation for one saliency kind: a container
+//                             magic, the method's magic, its bytes deflated (deflated_payload.h),
+//                             the trailer of model_file.h (format 2; format 1, the method's
+//                             magic and its bytes as they are, is still read)
 //
 // computed on first use and added to the published version (derived_files.h), or eagerly at
 // ingest (write_image_analysis, AnalysisSet::kAll); an edit precomputes again those its version
@@ -29,6 +31,10 @@ namespace zoomwarp::warp {
 
 // "<name>.<saliency>.bin", e.g. "seam.default.bin".
 std::string method_file_name(const RetargetingMethod& method, Saliency saliency);
+
+// The method's precomputation in `bytes`, the whole file `file` of either format. Throws
+// ModelFileError(file, …) when the trailer, the magics or the compressed stream are wrong.
+std::string method_payload(const std::string& file, std::string bytes, const RetargetingMethod& method);
 
 // One method file: a registered method that keeps one (RetargetingMethod::precompute), for one
 // saliency kind.

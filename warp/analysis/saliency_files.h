@@ -5,7 +5,10 @@
 //                      the curator's edits: they are painted when it is loaded, so an edit's new
 //                      version keeps it as a hard link
 //
-// Both have one layout: magic, width, height, scale, the values, the model_file.h trailer.
+// Both have one layout: magic, the map, the model_file.h trailer. The map is written compact
+// (format 3, compact_map.h: one byte per value, predicted and deflated); the float maps of
+// formats 1 (significance.bin without the trailer) and 2 — width, height, scale, a float per
+// value — are still read.
 //
 // Thread safety: free functions on immutable published folders; safe to call concurrently.
 #pragma once
@@ -23,11 +26,18 @@ namespace zoomwarp::warp {
 
 inline constexpr const char* kGbvsFile = "gbvs.bin";
 
-// A map file's bytes (trailer included), and a map file read back and checked against the
-// image's size; throws ModelFileError naming `file`.
-std::string saliency_map_bytes(const SignificanceMap& map, const Magic& magic);
-SignificanceMap read_saliency_map_file(const tiles::ImageEntry& image, const char* file, const Magic& magic1,
-                                       const Magic& magic2);
+// A map file kind's magic per format (a kind that never had format 1 names format 2's twice).
+struct SaliencyFileMagics {
+  Magic floats_untrailed;  // format 1
+  Magic floats;            // format 2
+  Magic compact;           // format 3, written
+};
+
+// A map file's bytes (format 3, trailer included), and a map file of any format read back and
+// checked against the image's size; throws ModelFileError naming `file`.
+std::string saliency_map_bytes(const SignificanceMap& map, const SaliencyFileMagics& magics);
+SignificanceMap read_saliency_map_file(const tiles::ImageEntry& image, const char* file,
+                                       const SaliencyFileMagics& magics);
 
 // gbvs.bin. read_gbvs_map throws ModelFileError.
 void write_gbvs_map(const std::string& dir, const SignificanceMap& map);

@@ -8,6 +8,8 @@
 #include <utility>
 #include <opencv2/imgproc.hpp>
 
+#include "warp/saliency/precision.h"
+
 namespace zoomwarp::warp {
 
 namespace {
@@ -210,6 +212,7 @@ SignificanceMap compute_gbvs(const tiles::Raster& image, int image_width, int ou
 SignificanceMap gbvs_significance(const tiles::Raster& image, int image_width, const SignificanceOptions& options) {
   SignificanceMap map = compute_gbvs(image, image_width, image.width, image.height);
   paint_faces(map, faces_of(image, options));
+  quantise(map);  // at the precision it is stored at (precision.h)
   return map;
 }
 

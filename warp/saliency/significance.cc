@@ -10,6 +10,8 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/objdetect.hpp>
 
+#include "warp/saliency/precision.h"
+
 namespace zoomwarp::warp {
 
 namespace {
@@ -150,6 +152,7 @@ SignificanceMap compute_significance(const tiles::Raster& image, int image_width
   map.scale = double(s.cols) / image_width;
   map.values.assign(s.begin<float>(), s.end<float>());
   paint_faces(map, faces_of(image, options));
+  quantise(map);  // at the precision it is stored at (precision.h)
   return map;
 }
 
@@ -173,7 +176,8 @@ void paint_polygon(SignificanceMap& map, const std::vector<Point>& polygon, floa
   // fillPoly works in fixed point: 4 fractional bits keep sub-pixel vertices.
   for (const Point& p : polygon)
     pts.emplace_back(int(std::lround(p.x * map.scale * 16)), int(std::lround(p.y * map.scale * 16)));
-  cv::fillPoly(m, std::vector<std::vector<cv::Point>>{pts}, cv::Scalar(std::clamp(weight, 0.0f, 1.0f)), cv::LINE_8, 4);
+  // The weight at the maps' precision (precision.h), as every other value of the map.
+  cv::fillPoly(m, std::vector<std::vector<cv::Point>>{pts}, cv::Scalar(quantised_significance(weight)), cv::LINE_8, 4);
 }
 
 double mean_over_triangle(const SignificanceMap& map, const Point& a, const Point& b, const Point& c) {

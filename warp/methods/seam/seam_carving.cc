@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "warp/core/uniform_zoom.h"
+#include "warp/methods/seam/seam_resolution.h"
 #include "warp/render/level_patch.h"
 
 namespace zoomwarp::warp {
@@ -42,9 +43,10 @@ VisibilityMap take_map(std::string_view& bytes) {
 
 std::unique_ptr<Retargeter> load(const ImageModel& model, const SignificanceMap&, std::string_view bytes) {
   VisibilityMaps maps = parse_visibility_maps(bytes);
-  // The maps are the analysis image's, which the significance map is made from pixel for pixel.
+  // The maps are the analysis image's reduced (seam_resolution.h); the significance map is made
+  // from the analysis image pixel for pixel.
   const SignificanceMap& analysis = model.significance;
-  if (maps.horizontal.length != analysis.width || maps.horizontal.lines != analysis.height)
+  if (!seam_maps_fit(maps, analysis.width, analysis.height))
     throw std::runtime_error("visibility maps made for another image size");
   return std::make_unique<SeamCarving>(model.width, model.height, std::move(maps));
 }
@@ -63,7 +65,7 @@ const RetargetingMethod& seam_carving_method() {
       .magic = {'Z', 'W', 'S', 'E', 'A', 'M', '1', 0},
       .precompute =
           [](const MethodInput& in) {
-            return visibility_map_bytes(compute_visibility_maps(in.analysis_image, in.saliency));
+            return visibility_map_bytes(compute_seam_maps(in.analysis_image, in.saliency));
           },
       .precompute_bytes_per_pixel = 48,  // liblqr's carver, one axis at a time, and the bias: 42-45 MB at 996×934
       .load = load,

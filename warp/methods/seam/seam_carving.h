@@ -2,11 +2,12 @@
 // §III-D] and of [Guo09 §4.1]'s user study. It removes pixels instead of moving them, so it has no
 // mesh: /mesh answers 501 and only render() shows it.
 //
-//   precompute  both visibility maps of the analysis image (visibility_map.h), the saliency map
-//               as liblqr's bias, stored as seam.<saliency>.bin (uint16 per pixel and axis);
+//   precompute  both visibility maps of the analysis image reduced to a long side ≤ 512 px
+//               (seam_resolution.h, visibility_map.h), the saliency map as liblqr's bias,
+//               stored as seam.<saliency>.bin (uint16 per map pixel and axis);
 //   request     the target keeps one side and shrinks the other to the screen's aspect —
 //               W_s = min(W, H·sw/sh), H_s = min(H, W·sh/sw), removal only — by removing
-//               k = L_a − round(σ_a·T) seams from the analysis image (σ_a analysis px per image
+//               k = L_a − round(σ_a·T) seams from the maps' image (σ_a map px per image
 //               px); below a tenth of the side the recorded seams run out and the kept lines are
 //               scaled to fill T. Then traditional zoom (core/uniform_zoom.h) into the carved
 //               W_s × H_s image, centred on the view centre's carved position.
