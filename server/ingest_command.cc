@@ -1,59 +1,83 @@
-// `zoomwarp ingest FILE`: builds an image's pyramid into the store, with a progress bar on a
-// terminal. Exit codes: 0 done, 2 usage, 3 unsupported format, 4 over the limits, 5 corrupt
-// image, 1 anything else.
+// `zoomwarp ingest FILE|FOLDER|-...`: publishes images' tile pyramids in the store — one file, or
+// many in one process, --jobs side by side (ingest_inputs.h, ingest_batch.h, ingest_display.h).
+// Exit codes: kHelp below.
 #include <malloc.h>
-#include <unistd.h>
 
-#include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <iostream>
 #include <string>
 
 #include "server/commands.h"
+#include "server/ingest_batch.h"
+#include "server/ingest_display.h"
+#include "server/ingest_inputs.h"
 #include "server/settings.h"
-#include "tiles/image_id.h"
-#include "tiles/ingest.h"
 
 namespace zoomwarp::server {
 
 namespace {
 
-void draw_progress(const std::string& id, double fraction) {
-  constexpr int kWidth = 30;
-  const int filled = int(fraction * kWidth + 0.5);
-  std::fprintf(stderr, "\r%s [%s%s] %3d%%", id.c_str(), std::string(filled, '#').c_str(),
-               std::string(kWidth - filled, ' ').c_str(), int(fraction * 100 + 0.5));
-  std::fflush(stderr);
+constexpr const char* kHelp =
+    "usage: zoomwarp ingest FILE|FOLDER|-... [OPTIONS]\n"
+    "\n"
+    "Decodes each image (JPEG, PNG, TIFF or WebP; 8 or 16 bit; grey, RGB or RGBA; EXIF\n"
+    "orientation applied) and publishes its tile pyramid in the store, named after its file name\n"
+    "without the extension (--id names a single FILE's). Re-ingesting an id replaces the image\n"
+    "atomically, also while a server is serving it.\n"
+    "\n"
+    "Many images in one run: a FOLDER is walked (its regular files, sorted by path; names\n"
+    "starting with '.' left out) and '-' reads paths from standard input, one per line. --jobs\n"
+    "images are ingested side by side, each on --ingest-threads / --jobs threads (at least 1).\n"
+    "An id already published from the same bytes (the source's SHA-256, kept in its manifest) is\n"
+    "skipped, so a run that was stopped resumes where it stopped; --force ingests it again. Of\n"
+    "two inputs with the same id the later is refused. A refused file stops nothing else.\n"
+    "\n"
+    "A line per image as it ends (ingested or skipped on stdout, refused and why on stderr), one\n"
+    "progress line over the run on a terminal, and for several inputs a summary: how many were\n"
+    "added, skipped and refused, and each refused file with its reason. --quiet prints only the\n"
+    "ids published (added or unchanged), one per line, and the refusals.\n"
+    "\n"
+    "Exit codes: 0 nothing refused, 2 usage. One FILE: 3 unsupported format, 4 over the limits,\n"
+    "5 corrupt or truncated, 1 anything else. Several inputs (or a FOLDER, or -): 6 some were\n"
+    "refused, 1 the run could not go on (e.g. the store cannot be made).\n"
+    "\n";
+
+constexpr int kSomeRefused = 6;
+
+// A single FILE's exit code, as before bulk ingest existed.
+int exit_code(Refusal::Kind kind) {
+  switch (kind) {
+    case Refusal::Kind::kUnsupportedFormat: return 3;
+    case Refusal::Kind::kTooLarge: return 4;
+    case Refusal::Kind::kCorrupt: return 5;
+    default: return 1;
+  }
 }
 
 }  // namespace
 
 int ingest_command(const std::vector<std::string>& args) {
   std::vector<OptionSpec> specs = {
-      {"id", "", "image id (default: from the file name)"},
-      {"quiet", "0", "print only the id, no progress", true},
+      {"id", "", "image id of a single FILE (default: from the file name)"},
+      {"jobs", "1", "images ingested side by side, each on --ingest-threads / --jobs threads"},
+      {"force", "0", "ingest even an image already published from the same bytes", true},
+      {"quiet", "0", "print only the ids published and the refusals, no progress", true},
   };
   for (auto& s : store_option_specs()) specs.push_back(s);
   try {
     Options o(specs, args);
     if (o.help_requested()) {
-      std::printf("usage: zoomwarp ingest FILE [OPTIONS]\n\n"
-                  "Decodes FILE (JPEG, PNG, TIFF or WebP; 8 or 16 bit; grey, RGB or RGBA; EXIF\n"
-                  "orientation applied) and publishes its tile pyramid in the store. Re-ingesting an\n"
-                  "id replaces the image atomically, also while a server is serving it.\n\n%s",
-                  o.usage().c_str());
+      std::printf("%s%s", kHelp, o.usage().c_str());
       return 0;
     }
-    if (o.positionals().size() != 1) throw std::invalid_argument("give exactly one image file (see --help)");
-    const std::string file = o.positionals()[0];
-    if (!std::filesystem::is_regular_file(file)) throw std::invalid_argument("no such file: " + file);
-    std::string id = o.str("id");
-    if (id.empty()) id = tiles::image_id_from_filename(file);
-    if (!tiles::is_valid_image_id(id))
-      throw std::invalid_argument("invalid image id '" + id +
-                                  "': use 1-128 characters from A-Z a-z 0-9 . _ - starting with a letter or digit");
-    const bool quiet = o.flag("quiet");
-    const bool bar = !quiet && ::isatty(STDERR_FILENO);
+    const std::vector<std::string>& paths = o.positionals();
+    if (paths.empty()) throw std::invalid_argument("give image files, folders, or - to read paths from standard input (see --help)");
+    // One file named alone is the single-file form: its refusal is the exit code.
+    const bool single = paths.size() == 1 && paths[0] != "-" && !std::filesystem::is_directory(paths[0]);
+    const std::string id = o.str("id");
+    if (!id.empty() && !single) throw std::invalid_argument("--id names one image: give a single file, not several, a folder or -");
+    const int jobs = int(o.integer("jobs", 1, 256));
 
     // glibc raises its mmap threshold to the largest block freed, so the pyramid's strips and the
     // analysis's maps come to be carved from heaps that are kept when freed — worse with one heap
@@ -61,52 +85,31 @@ int ingest_command(const std::vector<std::string>& args) {
     // every large block back when it is freed: on the 952 MP image peak RSS 277 -> 212 MB, for no
     // measurable time (issue 18). Only here: a server's caches are long-lived anyway.
     mallopt(M_MMAP_THRESHOLD, 256 << 10);
-    // Time the warp engine's analysis apart from the pyramid: it is the part that grows with
-    // the model, not with the pixels.
-    using Clock = std::chrono::steady_clock;
+    // The analysis hook has one vector for the method files' timings: kept with one job only.
     std::vector<warp::MethodFileTiming> method_timings;
+    std::vector<warp::MethodFileTiming>* timings = jobs == 1 ? &method_timings : nullptr;
+    BatchOptions batch;
+    batch.jobs = jobs;
+    batch.force = o.flag("force");
+    batch.method_timings = timings;
+    const bool quiet = o.flag("quiet");
     // Options checked before the store is opened: a bad flag creates nothing.
-    tiles::IngestOptions options = ingest_options(o, analysis_settings(o).significance, &method_timings);
+    batch.ingest = ingest_options(o, analysis_settings(o).significance, timings);
+    const std::vector<IngestInput> inputs = ingest_inputs(paths, std::cin, id);
+    // A single file that is missing or gives no valid id is a usage error, found before the
+    // store is made.
+    if (single && inputs[0].refused) throw std::invalid_argument(inputs[0].path + ": " + inputs[0].refused->reason);
+
     tiles::Store store(o.str("store"));
-    tiles::ProgressFn progress;
-    if (bar) progress = [&](double f) { draw_progress(id, f); };
-    double analysis_s = 0;
-    options.analyse = [&, analyse = options.analyse](const tiles::ImageEntry& staged) {
-      const auto t0 = Clock::now();
-      analyse(staged);
-      analysis_s = std::chrono::duration<double>(Clock::now() - t0).count();
-    };
-    const auto t0 = Clock::now();
-    tiles::Manifest m = tiles::ingest_image(store, file, id, options, progress);
-    const double total_s = std::chrono::duration<double>(Clock::now() - t0).count();
-    if (bar) std::fputc('\n', stderr);
-    if (quiet) std::printf("%s\n", m.id.c_str());
-    else {
-      // The methods' precomputations are part of the warp analysis: each one's share.
-      std::string methods;
-      for (const auto& t : method_timings) {
-        char took[32];
-        std::snprintf(took, sizeof took, " %.2f s", t.seconds);
-        methods += (methods.empty() ? "; " : ", ") + t.file + took;
-      }
-      std::printf("ingested %s: %dx%d, %d levels, version %s, in %s; %.2f s on %d threads (pyramid %.2f s, "
-                  "warp analysis %.2f s%s)\n",
-                  m.id.c_str(), m.width, m.height, m.levels, m.version.c_str(), store.root().c_str(), total_s,
-                  options.pyramid.threads, total_s - analysis_s, analysis_s, methods.c_str());
-    }
-    return 0;
+    IngestDisplay display(inputs.size(), jobs, quiet, store.root());
+    ingest_batch(store, inputs, batch, display);
+    const auto& refusals = display.refusals();
+    if (single) return refusals.empty() ? 0 : exit_code(refusals[0].input.refused->kind);
+    display.print_summary();
+    return refusals.empty() ? 0 : kSomeRefused;
   } catch (const std::invalid_argument& e) {
     std::fprintf(stderr, "zoomwarp ingest: %s\n", e.what());
     return 2;
-  } catch (const tiles::IngestError& e) {
-    std::fprintf(stderr, "\nzoomwarp ingest: %s\n", e.what());
-    switch (e.kind()) {
-      case tiles::IngestError::Kind::kUnsupportedFormat: return 3;
-      case tiles::IngestError::Kind::kTooLarge: return 4;
-      case tiles::IngestError::Kind::kCorrupt: return 5;
-      case tiles::IngestError::Kind::kIo: return 1;
-    }
-    return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "zoomwarp ingest: %s\n", e.what());
     return 1;

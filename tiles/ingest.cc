@@ -34,6 +34,7 @@ Manifest ingest_image(Store& store, const std::string& source_path, const std::s
     m.source_orientation = info.source_orientation;
     std::error_code ec;
     m.source_bytes = std::int64_t(std::filesystem::file_size(source_path, ec));
+    m.source_sha256 = options.source_sha256;
     if (options.analyse) {
       options.analyse(ImageEntry{m, staging});
       if (progress) progress(0.99);

@@ -20,6 +20,9 @@ struct IngestOptions {
   // The entry's manifest has no version yet.
   std::function<void(const ImageEntry& staged)> analyse;
   bool is_private = false;  // Manifest::is_private of the published version
+  // Manifest::source_sha256 of the published version: the source file's digest when the caller
+  // has it (file_sha256_hex, `zoomwarp ingest`), empty when not.
+  std::string source_sha256;
 };
 
 // Throws IngestError (bad input or write failure) or std::invalid_argument (invalid id).

@@ -13,6 +13,18 @@ int pyramid_levels(int width, int height) {
   return n;
 }
 
+namespace {
+
+// 64 lower-case hex digits, as file_sha256_hex writes them.
+bool is_sha256_hex(const std::string& s) {
+  if (s.size() != 64) return false;
+  for (char c : s)
+    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
+  return true;
+}
+
+}  // namespace
+
 std::string manifest_to_json(const Manifest& m) {
   nlohmann::json j = {
       {"id", m.id},
@@ -32,6 +44,7 @@ std::string manifest_to_json(const Manifest& m) {
         {"bytes", m.source_bytes}}},
       {"private", m.is_private},
   };
+  if (!m.source_sha256.empty()) j["source"]["sha256"] = m.source_sha256;
   if (m.compression == "jpeg")
     j["jpeg"] = {{"quality", m.jpeg.quality}, {"chroma_subsampling", {m.jpeg.chroma_h, m.jpeg.chroma_v}}};
   return j.dump(2) + "\n";
@@ -57,6 +70,9 @@ Manifest manifest_from_json(std::string_view text) {
       m.source_channels = s->value("channels", 3);
       m.source_orientation = s->value("orientation", 1);
       m.source_bytes = s->value("bytes", std::int64_t(0));
+      // Anything but a digest is read as unknown: it decides only whether `zoomwarp ingest` may
+      // skip the file, never how the image is served, so it is no reason to refuse the image.
+      if (std::string digest = s->value("sha256", ""); is_sha256_hex(digest)) m.source_sha256 = std::move(digest);
     }
     if (m.compression == "jpeg") {
       const auto& q = j.at("jpeg");

@@ -26,6 +26,11 @@ struct Manifest {
   int source_channels = 3;
   int source_orientation = 1;   // EXIF orientation that was applied
   std::int64_t source_bytes = 0;
+  // SHA-256 of the source file's bytes, 64 lower-case hex digits, when the ingest was given it
+  // (IngestOptions::source_sha256): `zoomwarp ingest` skips a file whose bytes are already
+  // published under its id. Empty when unknown: uploads, manifests written before it existed. An
+  // edit publishes from the old manifest, so it stays: the edited image still comes from them.
+  std::string source_sha256;
   // Readable only with a curator key or a signed URL (api/README.md, "Private images"). Set at
   // upload; edits publish from the old manifest, so it carries over; a re-upload states it again.
   // Manifests written before it existed have no "private" member and are public.

@@ -2,9 +2,7 @@
 // restart persistence, an ingest killed half-way, and every way an upload or an id can be bad.
 #include <gtest/gtest.h>
 
-#include <fcntl.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -280,21 +278,6 @@ TEST(IngestCli, ExitCodesAndMessages) {
   EXPECT_FALSE(fs::exists(untouched));
 }
 
-// Starts a command without waiting for it (output to /dev/null); the caller reaps it.
-pid_t spawn_quietly(const std::vector<std::string>& argv) {
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
-  posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, "/dev/null", O_WRONLY, 0);
-  std::vector<char*> args;
-  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-  args.push_back(nullptr);
-  pid_t pid = -1;
-  const int rc = ::posix_spawn(&pid, args[0], &actions, nullptr, args.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  return rc == 0 ? pid : -1;
-}
-
 // The staging folder of process `pid` (HOST.PID.RANDOM), or "".
 std::string staging_dir_of(const std::string& store, pid_t pid) {
   std::error_code ec;
@@ -327,7 +310,7 @@ TEST(Images, IngestKilledMidwayIsNeverServedAndIsCleanedUpAtStart) {
   ASSERT_EQ(http.get("/v1/images/big").status, 404);
   const std::vector<std::string> ingest = {testing::zoomwarp_binary(), "ingest", source, "--store", store, "--id", "big", "--quiet"};
 
-  const pid_t pid = spawn_quietly(ingest);
+  const pid_t pid = testing::spawn_quietly(ingest);
   ASSERT_GT(pid, 0);
   std::string staging;
   bool exited = false;

@@ -190,4 +190,6 @@ RunResult run_command(const std::vector<std::string>& argv) {
   return r;
 }
 
+pid_t spawn_quietly(const std::vector<std::string>& argv) { return spawn(argv, "/dev/null"); }
+
 }  // namespace zoomwarp::testing

@@ -88,4 +88,7 @@ struct RunResult {
 };
 RunResult run_command(const std::vector<std::string>& argv);
 
+// Starts a command without waiting for it, its output to /dev/null; the caller reaps it (waitpid).
+pid_t spawn_quietly(const std::vector<std::string>& argv);
+
 }  // namespace zoomwarp::testing

@@ -1,0 +1,17 @@
+// The SHA-256 of a source file, as recorded in the manifest of the version made from it
+// (Manifest::source_sha256): what lets `zoomwarp ingest` skip a file whose bytes are already
+// published under its id, so that an interrupted bulk ingest resumes where it stopped.
+//
+// Threads: any; each call reads the file on its own.
+#pragma once
+
+#include <string>
+
+namespace zoomwarp::tiles {
+
+// 64 lower-case hex digits. Streams the file through OpenSSL's EVP digest 1 MiB at a time, so any
+// size costs the same memory. Throws std::system_error (the errno of the open or read that failed)
+// when the file cannot be read.
+std::string file_sha256_hex(const std::string& path);
+
+}  // namespace zoomwarp::tiles
