@@ -154,18 +154,25 @@ std::shared_ptr<warp::Retargeter> WarpEngines::retargeter_for_screen(const tiles
                                                                      warp::Saliency saliency, int screen_width,
                                                                      int screen_height, const warp::StopToken* stop) {
   const std::string key = retargeter_key(image, method, saliency);
-  auto engine = retargeter(image, method, saliency, stop);
-  // The whole image retargeted to the screen's aspect ratio, cached inside the engine per target
-  // size: shared by every view of that screen, so computed in the background like the analysis.
-  const std::string warmed = std::to_string(reinterpret_cast<std::uintptr_t>(engine.get())) + "|" +
-                             std::to_string(screen_width) + "x" + std::to_string(screen_height);
-  {
+  const std::string screen = std::to_string(screen_width) + "x" + std::to_string(screen_height);
+  // The engines whose warp for a screen has been computed, by address: an engine evicted and
+  // loaded again is another object, whose caches are empty.
+  const auto warmed = [&](const std::shared_ptr<warp::Retargeter>& engine) {
+    return std::to_string(reinterpret_cast<std::uintptr_t>(engine.get())) + "|" + screen;
+  };
+  if (auto kept = engines_.find(key)) {
+    auto engine = std::get<std::shared_ptr<warp::Retargeter>>(*kept);
     std::lock_guard lock(warmed_mu_);
-    if (warmed_.count(warmed)) return engine;
+    if (warmed_.count(warmed(engine))) return engine;
   }
+  // One flight for the engine (loaded there unless kept) and the whole image retargeted to the
+  // screen's aspect ratio, cached inside the engine per target size: a first view that runs out
+  // of time leaves both to finish, so that its retry is answered from them.
   tiles::BackgroundFlights<Engine>::Future flight;
   try {
-    flight = background_.run(key + "|" + warmed, [engine, screen_width, screen_height] {
+    flight = background_.run(key + "|" + screen, [this, key, image, &method, saliency, screen_width, screen_height] {
+      const auto engine = std::get<std::shared_ptr<warp::Retargeter>>(
+          engines_.get(key, [&] { return Engine(load_retargeter(image, method, saliency)); }).value);
       warp::ViewRequest whole;  // zoom 0: the whole retargeted image, no deadline
       whole.cx = 0, whole.cy = 0, whole.screen_width = screen_width, whole.screen_height = screen_height;
       try {
@@ -178,10 +185,10 @@ std::shared_ptr<warp::Retargeter> WarpEngines::retargeter_for_screen(const tiles
   } catch (const tiles::BackgroundFlights<Engine>::Busy& busy) {
     throw ApiError(503, "busy", std::string(busy.what()) + "; retry shortly").with_retry_after(kRetryAfterSeconds);
   }
-  await(flight, stop);
+  auto engine = std::get<std::shared_ptr<warp::Retargeter>>(await(flight, stop));
   std::lock_guard lock(warmed_mu_);
   if (warmed_.size() >= kMaxWarmed) warmed_.clear();
-  warmed_.insert(warmed);
+  warmed_.insert(warmed(engine));
   return engine;
 }
 

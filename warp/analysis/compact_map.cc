@@ -12,7 +12,7 @@ namespace zoomwarp::warp {
 
 namespace {
 
-static_assert(kSignificanceLevels == 255, "one byte per value");
+static_assert(kSignificanceLevels == 65535, "two bytes per value");
 
 struct Header {
   std::int32_t width, height;
@@ -21,7 +21,7 @@ struct Header {
 
 // [LOCO-I §2.1]'s median edge detector: the left or the upper neighbour across an edge, else the
 // plane through the three. On the first row the left neighbour, on the first column the upper.
-int predicted(const std::uint8_t* q, int x, int y, int width) {
+int predicted(const std::uint16_t* q, int x, int y, int width) {
   const std::size_t at = std::size_t(y) * width + x;
   if (y == 0) return x == 0 ? 0 : q[at - 1];
   if (x == 0) return q[at - width];
@@ -33,15 +33,19 @@ int predicted(const std::uint8_t* q, int x, int y, int width) {
 
 }  // namespace
 
+// The residuals are written as two planes, every value's high byte, then every low byte: most
+// high bytes are 0 or 255 (small residuals either way), which deflate codes in a few bits.
 std::string compact_map_bytes(const SignificanceMap& map) {
-  std::vector<std::uint8_t> q(map.values.size());
-  for (std::size_t i = 0; i < q.size(); ++i)
-    q[i] = std::uint8_t(quantised_significance(map.values[i]) * kSignificanceLevels + 0.5f);
-  std::string residuals(q.size(), '\0');
+  const std::size_t n = map.values.size();
+  std::vector<std::uint16_t> q(n);
+  for (std::size_t i = 0; i < n; ++i)
+    q[i] = std::uint16_t(quantised_significance(map.values[i]) * kSignificanceLevels + 0.5f);
+  std::string residuals(2 * n, '\0');
   for (int y = 0; y < map.height; ++y)
     for (int x = 0; x < map.width; ++x) {
       const std::size_t at = std::size_t(y) * map.width + x;
-      residuals[at] = char(std::uint8_t(q[at] - predicted(q.data(), x, y, map.width)));
+      const auto r = std::uint16_t(q[at] - predicted(q.data(), x, y, map.width));
+      residuals[at] = char(r >> 8), residuals[n + at] = char(r & 0xff);
     }
   const Header h{map.width, map.height, map.scale};
   std::string out(sizeof h, '\0');
@@ -57,16 +61,17 @@ SignificanceMap parse_compact_map(const char* file, std::string_view bytes) {
       !(h.scale > 0))
     throw ModelFileError(file, "bad map size");
   const std::size_t n = std::size_t(h.width) * std::size_t(h.height);
-  const std::string residuals = inflated(file, bytes.substr(sizeof h), n);
-  if (residuals.size() != n) throw ModelFileError(file, "the values are not the map's size");
-  std::vector<std::uint8_t> q(n);
+  const std::string residuals = inflated(file, bytes.substr(sizeof h), 2 * n);
+  if (residuals.size() != 2 * n) throw ModelFileError(file, "the values are not the map's size");
+  std::vector<std::uint16_t> q(n);
   SignificanceMap map;
   map.width = h.width, map.height = h.height, map.scale = h.scale;
   map.values.resize(n);
   for (int y = 0; y < h.height; ++y)
     for (int x = 0; x < h.width; ++x) {
       const std::size_t at = std::size_t(y) * h.width + x;
-      q[at] = std::uint8_t(std::uint8_t(residuals[at]) + predicted(q.data(), x, y, h.width));
+      const auto r = std::uint16_t(std::uint8_t(residuals[at]) << 8 | std::uint8_t(residuals[n + at]));
+      q[at] = std::uint16_t(r + predicted(q.data(), x, y, h.width));
       map.values[at] = float(q[at]) / float(kSignificanceLevels);
     }
   return map;

@@ -1,13 +1,13 @@
 // The compact payload of the saliency maps' files (significance.bin and gbvs.bin, format 3;
 // saliency_files.h): a map's values are multiples of 1 / kSignificanceLevels (saliency/precision.h), so
-// each is one byte q = round(255 v); each byte is stored as its difference (mod 256) from the
+// each is a 16-bit q = round(65535 v); each is stored as its difference (mod 2^16) from the
 // LOCO-I median predictor of its left, upper and upper-left neighbours [LOCO-I §2.1], and the
-// differences — mostly near 0 on a smooth map — are deflated (deflated_payload.h).
+// differences — mostly near 0 on a smooth map — are deflated (deflated_payload.h) as two planes,
+// the high bytes, then the low bytes.
 //
-//   int32 width, int32 height, double scale, deflated(width · height residual bytes)
+//   int32 width, int32 height, double scale, deflated(width · height high bytes, then low bytes)
 //
-// A 1024×682 photo's maps: 2.8 MB of floats each → 275 KB (default), 47 KB (gbvs)
-// (docs/ingest.md, "Compact analysis files (issue 28)").
+// Sizes: docs/ingest.md, "Compact analysis files (issue 28)".
 //
 // Thread safety: free functions; safe to call concurrently.
 #pragma once
@@ -19,7 +19,7 @@
 
 namespace zoomwarp::warp {
 
-// `map`'s payload; values off the 1/255 grid (a map read from a float file of format 1 or 2) are
+// `map`'s payload; values off the 1/65535 grid (a map read from a float file of format 1 or 2) are
 // rounded to it.
 std::string compact_map_bytes(const SignificanceMap& map);
 
