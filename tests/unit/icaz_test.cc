@@ -153,13 +153,16 @@ void check_view(const warp::Icaz& icaz, const warp::ViewRequest& r, const warp::
     EXPECT_NEAR(c->y, r.screen_height / 2.0, 0.5);
   }
   // z = 1: the identity crop, exactly — the target is the image's size, where the warp's start
-  // (the affine stretch) is already the optimum.
+  // (the affine stretch) is already the optimum. Exactly up to the solve's rounding: with line
+  // constraints a back-substitution leaves ~1e-9 px (1.06e-9 seen with 16-bit saliency maps, issue
+  // 28), a millionth of what could change a rendered pixel (Views.ViewportAtZoomOneIsTheIiifCrop
+  // compares the pixels themselves).
   if (r.zoom == 1 && W >= r.screen_width && H >= r.screen_height) {
     const double ox = std::clamp(r.cx - r.screen_width / 2.0, 0.0, W - r.screen_width);
     const double oy = std::clamp(r.cy - r.screen_height / 2.0, 0.0, H - r.screen_height);
     for (std::size_t i = 0; i < m.vertices.size(); ++i) {
-      ASSERT_NEAR(v.screen[i].x, m.vertices[i].x - ox, 1e-9);
-      ASSERT_NEAR(v.screen[i].y, m.vertices[i].y - oy, 1e-9);
+      ASSERT_NEAR(v.screen[i].x, m.vertices[i].x - ox, 1e-6);
+      ASSERT_NEAR(v.screen[i].y, m.vertices[i].y - oy, 1e-6);
     }
   }
   // Lines stay straight on screen (within 1 px of their chord), for visible line vertices.
