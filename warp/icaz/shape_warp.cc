@@ -221,9 +221,9 @@ struct ShapeWarp::Impl {
   }
 
   // The optimal isotropic scale s_f of each triangle for positions p (the "local" step) and, if
-  // asked, the shape energy D_Shape of p at those scales: one pass for both, as an accelerated
-  // step needs the energy of the positions whose scales the next step starts from.
-  std::vector<double> scales(const std::vector<Point>& p, double* energy = nullptr) const {
+  // asked, the shape energy D_Shape of p at those scales under weights w: one pass for both, as
+  // an accelerated step needs the energy of the positions whose scales the next step starts from.
+  std::vector<double> scales(const std::vector<Point>& p, const std::vector<double>& w, double* energy = nullptr) const {
     std::vector<double> s(mesh.triangles.size());
     double e = 0;
     for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
@@ -239,7 +239,7 @@ struct ShapeWarp::Impl {
       if (!energy) continue;
       for (int k = 0; k < 3; ++k) {
         const double ex = warped[k].x - s[f] * edge[f][k].x, ey = warped[k].y - s[f] * edge[f][k].y;
-        e += weights[f] * (ex * ex + ey * ey);
+        e += w[f] * (ex * ex + ey * ey);
       }
     }
     if (energy) *energy = e;
@@ -305,7 +305,7 @@ struct ShapeWarp::Impl {
     const int n = n_free_x + n_free_y;
     if (n == 0) return;  // every coordinate fixed: nothing to solve, and nothing CHOLMOD accepts
     auto [a, b] = joint_system(cur, tw, th, alpha, iteration % 2 == 0, w, cur);
-    b += joint_shape_rhs(scales(cur), w);
+    b += joint_shape_rhs(scales(cur, w), w);
     Solver solver;
     solver.compute(a);
     if (solver.info() != Eigen::Success) throw std::runtime_error("CHOLMOD could not factor the warp system");
@@ -336,7 +336,13 @@ struct ShapeWarp::Impl {
     const int n = n_free_x + n_free_y;
     auto vx = [&](int i) { return free_x[i]; };
     auto vy = [&](int i) { return free_y[i] < 0 ? -1 : n_free_x + free_y[i]; };
+    // Only the lower triangle: the solvers read the matrix as selfadjointView<Lower>. Reserved
+    // for the most a term adds (2 axes × 3 edges × 3 per triangle; 12 per line vertex), which on
+    // retarget-zoom's 48k-triangle mesh spares ~20 reallocations of the list per factorization.
     Triplets t;
+    std::size_t line_vertices = 0;
+    for (const Line& l : lines) line_vertices += l.vertices.size();
+    t.reserve(18 * mesh.triangles.size() + 12 * line_vertices);
     Eigen::VectorXd b = Eigen::VectorXd::Zero(n);
     // Adds w·(Σ a_k u_k − c)² where some u_k may be fixed (index −1, value known).
     auto add = [&](std::array<int, 4> var, std::array<double, 4> a, std::array<double, 4> known, double w) {
@@ -347,7 +353,7 @@ struct ShapeWarp::Impl {
         if (var[p] < 0) continue;
         b[var[p]] -= w * a[p] * k0;
         for (int q = 0; q < 4; ++q)
-          if (var[q] >= 0) t.emplace_back(var[p], var[q], w * a[p] * a[q]);
+          if (var[q] >= 0 && var[q] <= var[p]) t.emplace_back(var[p], var[q], w * a[p] * a[q]);
       }
     };
     const auto fixed = fixed_positions(cur, tw, th);
@@ -460,14 +466,15 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
   }
   // The fast path's factorization was made with the default α; another α needs the joint path.
   const bool fast = !m.has_oblique && options.alpha == WarpOptions{}.alpha;
-  // Anderson acceleration (window 5) of the fast path's fixed-point map u ← G(u): local–global
-  // converges linearly, and extrapolating from the last few steps cuts the iterations several
-  // times. Safeguard [Peng et al. 2018, "Anderson acceleration for geometry optimization"]: an
-  // accelerated step whose energy is not below the previous iterate's is dropped (and the history
-  // cleared) in favour of the plain step — local–global never raises it, so the energy still
-  // falls monotonically, and only the accelerated positions' energy is evaluated (comparing
-  // against the plain step's too cost a second pass over the triangles per iteration and, on
-  // 440 views of 4 images, never chose differently).
+  // Anderson acceleration (window 5) of the fixed-point map u ← G(u) of a constant system (the
+  // fast path, or the joint one with fixed line normals): local–global converges linearly, and
+  // extrapolating from the last few steps cuts the iterations several times. Safeguard [Peng et
+  // al. 2018, "Anderson acceleration for geometry optimization"]: an accelerated step whose
+  // energy is not below the previous iterate's is dropped (and the history cleared) in favour of
+  // the plain step — local–global never raises it, so the energy still falls monotonically, and
+  // only the accelerated positions' energy is evaluated (comparing against the plain step's too
+  // cost a second pass over the triangles per iteration and, on 440 views of 4 images, never
+  // chose differently).
   constexpr int kWindow = 5;
   const int n2 = int(2 * r.positions.size());
   auto stack = [&](const std::vector<Point>& p) {
@@ -480,47 +487,37 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
     for (std::size_t i = 0; i < p.size(); ++i) p[i] = {v[2 * i], v[2 * i + 1]};
     return p;
   };
-  // The last kWindow differences of steps (G) and of residuals (F), one per column in the order
-  // they fill the ring (least squares does not care which column is which); `history` of them.
-  Eigen::MatrixXd dg(n2, kWindow), df(n2, kWindow);
-  int history = 0, next_column = 0;
-  Eigen::VectorXd g_prev, f_prev;
   const std::vector<Point> start = r.positions;
   const auto fixed = fast && options.max_iterations > 0 ? m.fixed_rhs(start) : std::pair<Eigen::VectorXd, Eigen::VectorXd>{};
-  // The joint system with line normals fixed from `from` and weights `w`, factored once.
-  auto constant_joint = [&](const std::vector<Point>& from, const std::vector<double>& w) {
-    auto joint = std::make_unique<ConstantJoint>();
-    auto [a, b] = m.joint_system(from, tw, th, options.alpha, false, w, from);
-    joint->solver.compute(a);
-    if (joint->solver.info() != Eigen::Success) throw std::runtime_error("CHOLMOD could not factor the warp system");
-    joint->constant = std::move(b);
-    return joint;
-  };
-  const bool has_unknowns = m.n_free_x + m.n_free_y > 0;
-  // Oblique lines with their normals fixed from the start: one factorization for the solve.
-  std::unique_ptr<ConstantJoint> joint;
-  if (!fast && options.fixed_line_normals && has_unknowns) joint = constant_joint(start, m.weights);
-  const bool accelerated_path = fast || joint;
-  // What an accelerated step must lower: the shape energy (the fast path's H/V line terms are
-  // nearly met by construction), plus the line energy when oblique lines are in the system. The
-  // scales of p come with it: the next step starts from whichever positions are kept.
-  auto objective = [&](const std::vector<Point>& p, std::vector<double>& scales_of_p) {
-    double shape = 0;
-    scales_of_p = m.scales(p, &shape);
-    return joint ? shape + m.line_energy(p, start, options.alpha) : shape;
-  };
-  std::vector<double> scales;  // of r.positions, when `scales_current`
-  double energy = 0;           // objective of r.positions, likewise
-  bool scales_current = false;
-  for (r.iterations = 0; r.iterations < options.max_iterations;) {
-    check_stop(options.stop);
-    const std::vector<Point> before = r.positions;
-    if (accelerated_path) {
+  // Iterates r.positions on weights `w` — the fast path when `joint` is null, else `joint`'s
+  // system, whose lines' normals come from `normals` — until no vertex moves more than the
+  // tolerance or `max_iterations` are spent; says whether it converged.
+  auto accelerated = [&](const std::vector<double>& w, const ConstantJoint* joint, const std::vector<Point>& normals,
+                         int max_iterations) {
+    // The last kWindow differences of steps (G) and of residuals (F), one per column in the order
+    // they fill the ring (least squares does not care which column is which); `history` of them.
+    Eigen::MatrixXd dg(n2, kWindow), df(n2, kWindow);
+    int history = 0, next_column = 0;
+    Eigen::VectorXd g_prev, f_prev;
+    // What an accelerated step must lower: the shape energy (the fast path's H/V line terms are
+    // nearly met by construction), plus the line energy when oblique lines are in the system.
+    // The scales of p come with it: the next step starts from whichever positions are kept.
+    auto objective = [&](const std::vector<Point>& p, std::vector<double>& scales_of_p) {
+      double shape = 0;
+      scales_of_p = m.scales(p, w, &shape);
+      return joint ? shape + m.line_energy(p, normals, options.alpha) : shape;
+    };
+    std::vector<double> scales;  // of r.positions, when `scales_current`
+    double energy = 0;           // objective of r.positions, likewise
+    bool scales_current = false;
+    for (int k = 0; k < max_iterations; ++k) {
+      check_stop(options.stop);
+      const std::vector<Point> before = r.positions;
       // The energy is compared from the second step on, once there is a step to extrapolate from.
-      if (!scales_current && r.iterations == 0) scales = m.scales(r.positions);
+      if (!scales_current && k == 0) scales = m.scales(r.positions, w);
       else if (!scales_current) energy = objective(r.positions, scales);
       std::vector<Point> step = r.positions;
-      if (joint) m.write_joint(step, joint->solver.solve(joint->constant + m.joint_shape_rhs(scales, m.weights)));
+      if (joint) m.write_joint(step, joint->solver.solve(joint->constant + m.joint_shape_rhs(scales, w)));
       else m.solve_decoupled(step, scales, fixed);
       const Eigen::VectorXd u = stack(r.positions), g = stack(step), f = g - u;
       if (g_prev.size() == n2) {
@@ -537,24 +534,55 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
         // tenth of a solve less; an ill-conditioned history gives at worst a step the safeguard
         // rejects (LDLT leaves a zero pivot's coefficient at 0).
         const Eigen::VectorXd gamma = (F.transpose() * F).ldlt().solve(F.transpose() * f);
-        std::vector<Point> accelerated = unstack(g - G * gamma);
-        std::vector<double> accelerated_scales;
-        const double accelerated_energy = objective(accelerated, accelerated_scales);
-        if (accelerated_energy < energy) {
-          r.positions = std::move(accelerated), scales = std::move(accelerated_scales);
-          energy = accelerated_energy, scales_current = true;
+        std::vector<Point> extrapolated = unstack(g - G * gamma);
+        std::vector<double> extrapolated_scales;
+        const double extrapolated_energy = objective(extrapolated, extrapolated_scales);
+        if (extrapolated_energy < energy) {
+          r.positions = std::move(extrapolated), scales = std::move(extrapolated_scales);
+          energy = extrapolated_energy, scales_current = true;
         } else {
           history = next_column = 0;
         }
       }
-    } else if (m.n_free_x + m.n_free_y > 0) {
-      m.solve_joint(r.positions, tw, th, options.alpha, r.iterations, m.weights);
+      ++r.iterations;
+      if (largest_move(before, r.positions) < options.tolerance) return true;
     }
-    ++r.iterations;
-    // Oblique lines alternate two forms: judge convergence after a pair of iterations.
-    if (largest_move(before, r.positions) < options.tolerance && (accelerated_path || r.iterations % 2 == 0)) {
-      r.converged = true;
-      break;
+    return false;
+  };
+  // The joint system with line normals fixed from `from` and weights `w`, factored once. Every
+  // such system of a solve has one sparsity pattern (weights and normals change only values),
+  // so after the first only the numeric factorization is redone, in `joint`'s own solver: the
+  // fill-reducing ordering and symbolic analysis were ~10 % of a guard round.
+  auto constant_joint = [&](const std::vector<Point>& from, const std::vector<double>& w,
+                            std::unique_ptr<ConstantJoint> joint) {
+    auto [a, b] = m.joint_system(from, tw, th, options.alpha, false, w, from);
+    if (joint) {
+      joint->solver.factorize(a);
+    } else {
+      joint = std::make_unique<ConstantJoint>();
+      joint->solver.compute(a);
+    }
+    if (joint->solver.info() != Eigen::Success) throw std::runtime_error("CHOLMOD could not factor the warp system");
+    joint->constant = std::move(b);
+    return joint;
+  };
+  const bool has_unknowns = m.n_free_x + m.n_free_y > 0;
+  // Oblique lines with their normals fixed from the start: one factorization for the solve.
+  std::unique_ptr<ConstantJoint> joint;
+  if (!fast && options.fixed_line_normals && has_unknowns) joint = constant_joint(start, m.weights, nullptr);
+  if (fast || joint) {
+    r.converged = accelerated(m.weights, joint.get(), start, options.max_iterations);
+  } else {
+    for (r.iterations = 0; r.iterations < options.max_iterations;) {
+      check_stop(options.stop);
+      const std::vector<Point> before = r.positions;
+      m.solve_joint(r.positions, tw, th, options.alpha, r.iterations, m.weights);
+      ++r.iterations;
+      // Oblique lines alternate two forms: judge convergence after a pair of iterations.
+      if (largest_move(before, r.positions) < options.tolerance && r.iterations % 2 == 0) {
+        r.converged = true;
+        break;
+      }
     }
   }
   // Fold-over guard. The shape energy alone can invert triangles where weights are low next to
@@ -581,19 +609,19 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
       if (last) w[f] = 1;
       else if (near[t[0]] || near[t[1]] || near[t[2]]) w[f] = std::min(1.0, w[f] * 4);
     }
-    // With fixed line normals a round's weights make its system constant: factored once a round.
-    const auto round_joint = options.fixed_line_normals && has_unknowns ? constant_joint(r.positions, w) : nullptr;
-    for (int k = 0; k < options.max_guard_iterations; ++k) {
-      check_stop(options.stop);
-      const std::vector<Point> before = r.positions;
-      if (round_joint) {
-        m.write_joint(r.positions,
-                      round_joint->solver.solve(round_joint->constant + m.joint_shape_rhs(m.scales(r.positions), w)));
-        ++r.iterations;
-      } else {
+    // With fixed line normals a round's weights make its system constant: factored once a round
+    // (normals from where the round starts) and iterated like the main solve.
+    if (options.fixed_line_normals && has_unknowns) {
+      const std::vector<Point> from = r.positions;
+      joint = constant_joint(from, w, std::move(joint));
+      accelerated(w, joint.get(), from, options.max_guard_iterations);
+    } else {
+      for (int k = 0; k < options.max_guard_iterations; ++k) {
+        check_stop(options.stop);
+        const std::vector<Point> before = r.positions;
         m.solve_joint(r.positions, tw, th, options.alpha, r.iterations++, w);
+        if (largest_move(before, r.positions) < options.tolerance && k % 2 == 1) break;
       }
-      if (largest_move(before, r.positions) < options.tolerance && (round_joint || k % 2 == 1)) break;
     }
     bad = m.inverted(r.positions);
     r.guard_rounds = round + 1;

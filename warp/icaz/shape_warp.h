@@ -48,7 +48,8 @@ struct WarpOptions {
   // false: no fold-over guard at all (neither rounds nor the affine blend), so that a test can see
   // what the shape energy alone folds; every caller in the product keeps it on.
   bool fold_guard = true;
-  // Local–global iterations per guard round (each refactors the joint system). Bounded well
+  // Local–global iterations per guard round (each round refactors the joint system and, with
+  // fixed_line_normals, iterates it Anderson-accelerated like the main solve). Bounded well
   // below max_iterations: a round only has to unfold, and what it leaves folded the affine blend
   // unfolds — so the guard's cost is bounded (a 4:1 panorama on a square screen at z = 0).
   int max_guard_iterations = 20;
