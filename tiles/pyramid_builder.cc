@@ -22,21 +22,11 @@ namespace {
 using Kind = IngestError::Kind;
 
 // Averages two rows (b may be a, for the last row of an odd height) into one row of half the
-// width, rounded up; an odd last column averages with itself. With alpha, colours are weighted by
-// alpha so that invisible pixels do not bleed their colour into the coarser levels.
-void halve_rows(const std::uint8_t* a, const std::uint8_t* b, int w, int ch, std::uint8_t* out) {
-  const int half = (w + 1) / 2;
-  int x = 0;
-  if (ch == 3 && b == a + std::size_t(w) * 3 && w >= 2) {
-    // Opaque RGB rows one above the other (every pair but an odd height's last): OpenCV's 2×2
-    // area reduction, SIMD, the same (sum + 2) / 4 as below — half of the decoding thread's
-    // halving time on the 952 MP image, and that thread is the pyramid's critical path.
-    const cv::Mat pair(2, w & ~1, CV_8UC3, const_cast<std::uint8_t*>(a), std::size_t(w) * 3);
-    cv::Mat halved(1, w / 2, CV_8UC3, out);
-    cv::resize(pair, halved, halved.size(), 0, 0, cv::INTER_AREA);
-    x = w / 2;
-  }
-  for (; x < half; ++x) {
+// width, rounded up, from output column `x` on; an odd last column averages with itself. With
+// alpha, colours are weighted by alpha so that invisible pixels do not bleed their colour into the
+// coarser levels.
+void halve_pair(const std::uint8_t* a, const std::uint8_t* b, int w, int ch, int x, std::uint8_t* out) {
+  for (const int half = (w + 1) / 2; x < half; ++x) {
     const int x0 = 2 * x, x1 = std::min(2 * x + 1, w - 1);
     const std::uint8_t* p[4] = {a + x0 * ch, a + x1 * ch, b + x0 * ch, b + x1 * ch};
     std::uint8_t* o = out + x * ch;
@@ -52,6 +42,27 @@ void halve_rows(const std::uint8_t* a, const std::uint8_t* b, int w, int ch, std
     } else {
       for (int c = 0; c < ch; ++c) o[c] = std::uint8_t((p[0][c] + p[1][c] + p[2][c] + p[3][c] + 2) / 4);
     }
+  }
+}
+
+// Halves `pairs` pairs of consecutive rows at `rows` (w pixels of ch channels each) into as many
+// rows at `out`, as halve_pair() does. Opaque RGB goes through OpenCV's 2×2 area reduction, SIMD,
+// the same (sum + 2) / 4 — half of the decoding thread's halving time on the 952 MP image, and
+// that thread is the pyramid's critical path — called once for every pair given, not per pair:
+// each call allocates and frees its width's buffers, which at a 31 872 px width made glibc trim
+// its heap (brk, a TLB flush on every core) twice per pair of rows, 16 % of the ingest's CPU.
+void halve_rows(const std::uint8_t* rows, int pairs, int w, int ch, std::uint8_t* out) {
+  const std::size_t in_row = std::size_t(w) * ch, out_row = std::size_t((w + 1) / 2) * ch;
+  int x = 0;
+  if (ch == 3 && w >= 2) {
+    const cv::Mat in(2 * pairs, w & ~1, CV_8UC3, const_cast<std::uint8_t*>(rows), in_row);
+    cv::Mat halved(pairs, w / 2, CV_8UC3, out, out_row);
+    cv::resize(in, halved, halved.size(), 0, 0, cv::INTER_AREA);
+    x = w / 2;
+  }
+  for (int p = 0; p < pairs; ++p) {
+    const std::uint8_t* a = rows + 2 * std::size_t(p) * in_row;
+    halve_pair(a, a + in_row, w, ch, x, out + std::size_t(p) * out_row);
   }
 }
 
@@ -74,16 +85,26 @@ class LevelWriter {
   std::uint8_t* free_rows() { return row(strip_rows_); }
   int rows_free() const { return tile_ - strip_rows_; }
 
+  // Every whole pair of rows not yet halved goes to the next level, as many at once as fit in its
+  // strip; a level fed one row at a time keeps an odd row until its pair comes.
   void add_rows(int n) {
-    for (int i = 0; i < n; ++i)
-      if (++strip_rows_ % 2 == 0 && next_) halve_into_next(strip_rows_ - 2, strip_rows_ - 1);
+    strip_rows_ += n;
+    while (next_ && strip_rows_ - halved_rows_ >= 2) {
+      const int pairs = std::min((strip_rows_ - halved_rows_) / 2, next_->rows_free());
+      halve_rows(row(halved_rows_), pairs, w_, ch_, next_->free_rows());
+      halved_rows_ += 2 * pairs;
+      next_->add_rows(pairs);
+    }
     if (strip_rows_ == tile_) flush_strip();
   }
 
   // Hands over the last partial strips of this level and the coarser ones; an odd last row is
   // halved with itself.
   void flush() {
-    if (strip_rows_ % 2 == 1 && next_) halve_into_next(strip_rows_ - 1, strip_rows_ - 1);
+    if (strip_rows_ % 2 == 1 && next_) {
+      halve_pair(row(strip_rows_ - 1), row(strip_rows_ - 1), w_, ch_, 0, next_->free_rows());
+      next_->add_rows(1);
+    }
     if (strip_rows_ > 0) flush_strip();
     if (next_) next_->flush();
   }
@@ -98,20 +119,13 @@ class LevelWriter {
   std::uint8_t* row(int r) { return strip_.get() + std::size_t(r) * w_ * ch_; }
 
   // Not zeroed: only written rows are read (the pipeline pads a partial strip from its last row).
-  std::unique_ptr<std::uint8_t[]> new_strip() const {
-    return std::make_unique_for_overwrite<std::uint8_t[]>(std::size_t(tile_) * w_ * ch_);
-  }
-
-  void halve_into_next(int a, int b) {
-    halve_rows(row(a), row(b), w_, ch_, next_->free_rows());
-    next_->add_rows(1);
-  }
+  std::unique_ptr<std::uint8_t[]> new_strip() { return pipeline_.strip_buffer(std::size_t(tile_) * w_ * ch_); }
 
   void flush_strip() {
     pipeline_.submit(file_, strip_y_ / tile_, w_, strip_rows_, std::move(strip_));
     strip_ = new_strip();
     strip_y_ += strip_rows_;
-    strip_rows_ = 0;
+    strip_rows_ = halved_rows_ = 0;
   }
 
   LevelFile file_;
@@ -119,6 +133,7 @@ class LevelWriter {
   int w_, ch_, tile_;
   std::unique_ptr<std::uint8_t[]> strip_;
   int strip_rows_ = 0, strip_y_ = 0;
+  int halved_rows_ = 0;  // rows of the strip already halved into the next level (even)
   std::unique_ptr<LevelWriter> next_;
 };
 

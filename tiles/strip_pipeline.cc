@@ -97,7 +97,20 @@ void StripPipeline::write_front() {
   }
   for (std::size_t tx = 0; tx < s.tiles.size(); ++tx) s.file->write(int(tx), s.ty, s.tiles[tx]);
   pixel_bytes_ -= s.bytes();
+  if (spare_bytes_ + s.bytes() <= 2 * max_pixel_bytes_) {
+    spare_bytes_ += s.bytes();
+    spare_.emplace_back(s.bytes(), std::move(s.pixels));
+  }
   strips_.pop_front();
+}
+
+std::unique_ptr<std::uint8_t[]> StripPipeline::strip_buffer(std::size_t bytes) {
+  const auto it = std::find_if(spare_.begin(), spare_.end(), [bytes](const auto& b) { return b.first == bytes; });
+  if (it == spare_.end()) return std::make_unique_for_overwrite<std::uint8_t[]>(bytes);
+  auto buffer = std::move(it->second);
+  spare_bytes_ -= bytes;
+  spare_.erase(it);
+  return buffer;
 }
 
 void StripPipeline::write_finished() {

@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <deque>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "tiles/level_file.h"
@@ -39,6 +40,12 @@ class StripPipeline {
   // Encodes and writes everything submitted. Throws as submit() does.
   void drain();
 
+  // A buffer of `bytes` for a strip's pixels, not zeroed: one that a written strip of that size
+  // left, or a new one. Recycled because every strip a fresh allocation cost the 952 MP image
+  // ~2.8 GB of page faults, and glibc growing and trimming its heap around them, a third of the
+  // ingest's CPU — much of it on the decoding thread, the critical path (docs/ingest.md).
+  std::unique_ptr<std::uint8_t[]> strip_buffer(std::size_t bytes);
+
  private:
   struct Strip;
   struct Pool;
@@ -49,6 +56,10 @@ class StripPipeline {
   const std::size_t max_pixel_bytes_;
   std::size_t pixel_bytes_ = 0;  // of the strips in strips_ (given, not yet written)
   std::deque<std::unique_ptr<Strip>> strips_;
+  // Pixel buffers of written strips, by size, kept for strip_buffer() up to 2 × max_pixel_bytes_
+  // (a level's strips are all one size; every level together is under twice level 0's).
+  std::vector<std::pair<std::size_t, std::unique_ptr<std::uint8_t[]>>> spare_;
+  std::size_t spare_bytes_ = 0;
 };
 
 }  // namespace zoomwarp::tiles
