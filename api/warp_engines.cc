@@ -18,7 +18,7 @@ constexpr int kRetryAfterSeconds = 1;
 constexpr std::size_t kMaxWarmed = 4096;
 
 std::string icaz_key(const tiles::ImageEntry& image, warp::Saliency saliency, bool auto_lines) {
-  return image.dir + "|icaz|" + std::string(warp::saliency_name(saliency)) + (auto_lines ? "|auto" : "");
+  return image.files->location() + "|icaz|" + std::string(warp::saliency_name(saliency)) + (auto_lines ? "|auto" : "");
 }
 
 }  // namespace
@@ -137,7 +137,7 @@ std::shared_ptr<warp::Icaz> WarpEngines::get(const tiles::ImageEntry& image, war
 namespace {
 std::string retargeter_key(const tiles::ImageEntry& image, const warp::RetargetingMethod& method,
                            warp::Saliency saliency) {
-  return image.dir + "|" + std::string(method.name) + "|" + std::string(warp::saliency_name(saliency));
+  return image.files->location() + "|" + std::string(method.name) + "|" + std::string(warp::saliency_name(saliency));
 }
 }  // namespace
 

@@ -36,7 +36,7 @@ Manifest ingest_image(Store& store, const std::string& source_path, const std::s
     m.source_bytes = std::int64_t(std::filesystem::file_size(source_path, ec));
     m.source_sha256 = options.source_sha256;
     if (options.analyse) {
-      options.analyse(ImageEntry{m, staging});
+      options.analyse(ImageEntry{m, folder_files(staging)});
       if (progress) progress(0.99);
     }
     Manifest published = store.publish(staging, std::move(m))->manifest;

@@ -1,25 +1,23 @@
-// The on-disk store of published images, shared by every process (CLI ingest, server replicas).
+// The store of published images, shared by every process (CLI ingest, server replicas): a folder
+// (tiles/folder_store.h) or a bucket of an S3-compatible object store, behind one interface
+// (tiles/store_backend.h); nothing above tiles/ knows which.
 //
-//   ROOT/images/ID          symlink to ../versions/ID@VERSION: the published version of ID
-//   ROOT/versions/ID@VERSION/manifest.json, level_K.tif   one immutable image version
-//   ROOT/staging/HOST.PID.RANDOM/                        work in progress, never read
-//   ROOT/locks/ID                                        flock()ed around conditional publishes
+// Each image id points to one immutable version (ID@VERSION: its manifest, pyramid and analyses).
+// Publishing builds a version in a local staging folder, commits it whole, and only then points
+// the id at it, so a reader sees the old version or the new one, never a half-written one.
+// Superseded and deleted versions stay for a grace period, for readers that resolved them just
+// before; collect_garbage() removes them and staging folders of processes that died.
 //
-// Publishing renames a finished staging folder into versions/ and then atomically replaces the
-// images/ID link, so a reader sees the old version or the new one, never a half-written one.
-// Superseded and deleted versions stay on disk for a grace period, for readers that resolved them
-// just before; collect_garbage() removes them and staging folders of processes that died.
+// Which version an id names is read at most once per `recheck` interval (1 s by default) and
+// remembered meanwhile: a cached tile then costs no store access besides its write. This process's
+// own publish() and remove() take effect at once; another process's (a replica sharing the store,
+// a CLI ingest) within `recheck`. A version read just before it was superseded stays in the store
+// for the garbage collector's grace period (minutes), so it is still readable. An id not found is
+// never remembered: a new image is visible at once.
 //
-// Which version an id names is read from its link at most once per `recheck` interval (1 s by
-// default) and remembered meanwhile: a cached tile then costs no system call besides its write.
-// This process's own publish() and remove() take effect at once; another process's (a replica
-// sharing the store, a CLI ingest) within `recheck`. A version read just before it was superseded
-// stays on disk for the garbage collector's grace period (minutes), so it is still readable. An id
-// not found is never remembered: a new image is visible at once.
-//
-// Threads: every member may be called from any thread (the caches of links and of loaded versions
-// are under mutexes); across processes, publishing is atomic by rename and conditional publishes
-// of one id are serialised by the flock on ROOT/locks/ID.
+// Threads: every member may be called from any thread (the caches of pointers and of loaded
+// versions are under mutexes); across processes, conditional publishes of one id are serialised
+// by the backend's lock on the id.
 #pragma once
 
 #include <chrono>
@@ -32,12 +30,15 @@
 #include <vector>
 
 #include "tiles/manifest.h"
+#include "tiles/store_backend.h"
+#include "tiles/version_files.h"
 
 namespace zoomwarp::tiles {
 
 struct ImageEntry {
   Manifest manifest;
-  std::string dir;  // absolute path of the version's folder
+  std::shared_ptr<const VersionFiles> files;  // its levels, manifest and analyses
+  // Level k's file as a local path, for the readers that open it themselves (tiles/ only).
   std::string level_path(int k) const;
 };
 
@@ -49,11 +50,14 @@ class Store {
  public:
   static constexpr std::chrono::milliseconds kDefaultRecheck{1000};
 
-  // Creates ROOT and its folders if missing. Throws std::runtime_error if it cannot. `recheck`:
-  // how long a link once read is trusted (see above); 0 reads it on every find().
-  explicit Store(const std::string& root, std::chrono::milliseconds recheck = kDefaultRecheck);
+  // The store at `location`, a folder (created with its subfolders if missing). Throws
+  // std::runtime_error if it cannot be opened. `recheck`: how long a pointer once read is trusted
+  // (see above); 0 reads it on every find().
+  explicit Store(const std::string& location, std::chrono::milliseconds recheck = kDefaultRecheck);
+  ~Store();
 
-  const std::string& root() const { return root_; }
+  // The folder, or s3://BUCKET/PREFIX: for messages and logs.
+  const std::string& root() const;
 
   // The published version of `id` (which must be valid), or null. The link is read again once the
   // last reading is `recheck` old, so another process's publish or remove is seen within that;
@@ -61,7 +65,7 @@ class Store {
   std::shared_ptr<const ImageEntry> find(const std::string& id) const;
 
   // Whether images/ID exists, whatever it points to: find() is null for a published image whose
-  // version folder or manifest is missing or damaged, and such an image can still be removed.
+  // version or manifest is missing or damaged, and such an image can still be removed.
   bool published(const std::string& id) const;
 
   // Every published image that can be read, sorted by id.
@@ -76,8 +80,8 @@ class Store {
   // never writing through a link, which would change the published version too).
   std::string make_staging_copy(const ImageEntry& from) const;
 
-  // Moves `staging_dir` (holding the pyramid; manifest.json is written here) into place as a new
-  // version of m.id and points the id at it. Fills m.version and m.created_ms.
+  // Commits `staging_dir` (holding the pyramid; manifest.json is written here) as a new version
+  // of m.id and points the id at it. Fills m.version and m.created_ms.
   //
   // With `expected_version`, publishing is conditional (optimistic concurrency for edits): if
   // the published version of m.id is no longer that one — another edit, a re-ingest or a delete
@@ -89,19 +93,19 @@ class Store {
   // Unpublishes `id`, even when its manifest is damaged; false if it was not published.
   bool remove(const std::string& id);
 
-  // Removes versions no link points to that are older than `grace`, and staging folders whose
-  // process is gone (or that are older than a day). Returns how many folders it removed.
+  // Removes versions no pointer names that are older than `grace`, and staging folders whose
+  // process is gone (or that are older than a day). Returns how many it removed.
   int collect_garbage(std::chrono::seconds grace);
 
-  // Whether the store's folders can be read (readiness).
+  // Whether the store can be read (readiness).
   bool readable() const;
 
  private:
-  // Reads the link of `id` now (no caching): the published version, or null.
+  // Reads the pointer of `id` now (no caching): the published version, or null.
   std::shared_ptr<const ImageEntry> read_link(const std::string& id) const;
   std::shared_ptr<const ImageEntry> load_version(const std::string& id,
                                                  const std::string& version_dir) const;
-  // This process changed the link of `id`: forget its reading, and any reading in progress.
+  // This process changed the pointer of `id`: forget its reading, and any reading in progress.
   void forget_link(const std::string& id);
 
   struct LinkReading {
@@ -109,7 +113,7 @@ class Store {
     std::chrono::steady_clock::time_point read_at;
   };
 
-  std::string root_;
+  std::unique_ptr<StoreBackend> backend_;
   std::chrono::steady_clock::duration recheck_;
   mutable std::shared_mutex links_mu_;
   // Published ids as last read (entries leave when an id is found unpublished); generation_ counts

@@ -34,7 +34,7 @@ void BM_Ingest(benchmark::State& state, std::string compression) {
   options.pyramid.compression = compression;
   tiles::Manifest m;
   for (auto _ : state) m = tiles::ingest_image(store, g_image, "img", options);
-  state.counters["MB_on_disk"] = double(folder_bytes(store.find("img")->dir)) / 1e6;
+  state.counters["MB_on_disk"] = double(folder_bytes(store.find("img")->files->location())) / 1e6;
   state.counters["megapixels"] = double(m.width) * m.height / 1e6;
   state.counters["MP_per_s"] = benchmark::Counter(double(m.width) * m.height / 1e6 * double(state.iterations()),
                                                   benchmark::Counter::kIsRate);

@@ -52,7 +52,7 @@ tiles::ImageEntry* GbvsModel::original_ = nullptr;
 tiles::ImageEntry* GbvsModel::edited_ = nullptr;
 
 TEST_F(GbvsModel, IngestWritesGbvsAndIcazKeepsItsMeshWithTheGbvsMeans) {
-  ASSERT_TRUE(fs::exists(original_->dir + "/" + warp::kGbvsFile));
+  ASSERT_TRUE(fs::exists(original_->files->location() + "/" + warp::kGbvsFile));
   const warp::ImageModel by_default = warp::load_image_model(*original_, reader_).model;
   const warp::LoadedModel gbvs = gbvs_model(*original_);
   EXPECT_EQ(gbvs.source, warp::ModelSource::kStored);
@@ -76,7 +76,7 @@ TEST_F(GbvsModel, IngestWritesGbvsAndIcazKeepsItsMeshWithTheGbvsMeans) {
 }
 
 TEST_F(GbvsModel, CuratorEditsApplyToTheGbvsMapAndItsFileIsCarriedOver) {
-  EXPECT_EQ(testing::read_file(edited_->dir + "/" + warp::kGbvsFile), testing::read_file(original_->dir + "/" + warp::kGbvsFile));
+  EXPECT_EQ(testing::read_file(edited_->files->location() + "/" + warp::kGbvsFile), testing::read_file(original_->files->location() + "/" + warp::kGbvsFile));
   const warp::ImageModel before = gbvs_model(*original_).model, after = gbvs_model(*edited_).model;
   const double s = after.significance.scale;
   const int x = int(1800 * s), y = int(1000 * s);
@@ -90,9 +90,9 @@ TEST_F(GbvsModel, ADamagedGbvsFileIsComputedAgainInMemoryAndReported) {
   const warp::ImageModel intact = gbvs_model(*edited_).model;
   for (const std::string damage : {"truncated", "flipped", "deleted"}) {
     SCOPED_TRACE(damage);
-    const tiles::ImageEntry c{edited_->manifest, copies_.path() + "/" + damage};
-    fs::copy(edited_->dir, c.dir);
-    const std::string path = c.dir + "/" + warp::kGbvsFile;
+    const tiles::ImageEntry c{edited_->manifest, tiles::folder_files(copies_.path() + "/" + damage)};
+    fs::copy(edited_->files->location(), c.files->location());
+    const std::string path = c.files->location() + "/" + warp::kGbvsFile;
     std::string bytes = testing::read_file(path);
     if (damage == "truncated") bytes.resize(bytes.size() / 2);
     if (damage == "flipped") bytes[bytes.size() / 2] ^= 0x10;

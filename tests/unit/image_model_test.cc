@@ -86,7 +86,7 @@ TEST(ImageModel, WrittenAtIngestAndReadBackIdentically) {
   ingest_with_analysis(store, "boats_lake_sunset.jpg", "b");
   const auto entry = store.find("b");
   for (const char* f : {warp::kSignificanceFile, warp::kModelFile, warp::kModelJsonFile})
-    EXPECT_TRUE(fs::exists(entry->dir + "/" + f)) << f;
+    EXPECT_TRUE(fs::exists(entry->files->location() + "/" + f)) << f;
   const warp::ImageModel m = warp::read_image_model(*entry);
   EXPECT_EQ(m.significance.width, 640);  // level 2 (640×400) is the first ≤ 1024 px
   EXPECT_DOUBLE_EQ(m.significance.scale, 0.25);
@@ -95,9 +95,9 @@ TEST(ImageModel, WrittenAtIngestAndReadBackIdentically) {
   EXPECT_EQ(m.node_mean.size(), std::size_t(m.forest.kept_nodes()));
 
   // Written again and read back, the model gives the very same views.
-  tiles::ImageEntry copy{entry->manifest, dir.path() + "/copy"};
-  fs::create_directories(copy.dir);
-  warp::write_image_model(copy.dir, m);
+  tiles::ImageEntry copy{entry->manifest, tiles::folder_files(dir.path() + "/copy")};
+  fs::create_directories(copy.files->location());
+  warp::write_image_model(*copy.files, m);
   warp::Icaz a(m), b(warp::read_image_model(copy));
   for (double z : {0.0, 0.5, 1.0}) {
     warp::ViewRequest r;
@@ -109,7 +109,7 @@ TEST(ImageModel, WrittenAtIngestAndReadBackIdentically) {
       ASSERT_EQ(va.screen[i].y, vb.screen[i].y);
     }
   }
-  std::ofstream(copy.dir + "/" + warp::kModelFile, std::ios::trunc) << "ZWMODEL1 and then nothing";
+  std::ofstream(copy.files->location() + "/" + warp::kModelFile, std::ios::trunc) << "ZWMODEL1 and then nothing";
   EXPECT_THROW(warp::read_image_model(copy), std::runtime_error);
 }
 
@@ -137,7 +137,7 @@ TEST(ImageModel, AnEditIsANewVersionConditionalOnTheOneItStartedFrom) {
   tiles::Store store(dir.path() + "/store");
   ingest_with_analysis(store, "boats_lake_sunset.jpg", "b");
   const auto v1 = store.find("b");
-  const std::string v1_json = read_text(v1->dir + "/" + warp::kModelJsonFile);
+  const std::string v1_json = read_text(v1->files->location() + "/" + warp::kModelJsonFile);
 
   warp::ModelEdit edit;
   edit.lines = std::vector<warp::Segment>{{{0, 1000}, {2560, 1000}}};
@@ -150,7 +150,7 @@ TEST(ImageModel, AnEditIsANewVersionConditionalOnTheOneItStartedFrom) {
   EXPECT_EQ(m2.edits.size(), 1u);
   EXPECT_EQ(m2.coarse.line_vertices.size(), 1u);
   EXPECT_GE(m2.coarse.line_vertices[0].size(), 2u) << "the line is in the coarsest mesh";
-  EXPECT_EQ(read_text(v1->dir + "/" + warp::kModelJsonFile), v1_json) << "the old version is untouched";
+  EXPECT_EQ(read_text(v1->files->location() + "/" + warp::kModelJsonFile), v1_json) << "the old version is untouched";
   EXPECT_TRUE(fs::equivalent(v1->level_path(0), v2->level_path(0))) << "the pyramid is shared, not copied";
 
   // A stale edit (from v1 again) and a bad one publish nothing.

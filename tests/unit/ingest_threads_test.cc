@@ -21,7 +21,7 @@ using testing::TempDir;
 // Every file of the published version but the manifest (its version and time differ by design).
 std::map<std::string, std::string> version_files(const tiles::ImageEntry& image) {
   std::map<std::string, std::string> files;
-  for (const auto& e : fs::directory_iterator(image.dir))
+  for (const auto& e : fs::directory_iterator(image.files->location()))
     if (e.path().filename() != "manifest.json")
       files[e.path().filename().string()] = testing::read_file(e.path().string());
   return files;

@@ -74,8 +74,8 @@ class ModelFiles : public ::testing::Test {
 
   // A copy of the edited version's folder to damage.
   tiles::ImageEntry copy() {
-    tiles::ImageEntry c{edited_->manifest, copies_.path() + "/" + std::to_string(next_++)};
-    fs::copy(edited_->dir, c.dir);
+    tiles::ImageEntry c{edited_->manifest, tiles::folder_files(copies_.path() + "/" + std::to_string(next_++))};
+    fs::copy(edited_->files->location(), c.files->location());
     return c;
   }
 
@@ -101,7 +101,7 @@ TEST_F(ModelFiles, ADamagedBinaryFileIsRebuiltWithTheCuratorsLinesAndEdits) {
     for (Damage d : {Damage::kTruncate, Damage::kFlipMiddle, Damage::kDelete}) {
       SCOPED_TRACE(std::string(file) + " " + name(d));
       const tiles::ImageEntry c = copy();
-      damage(c.dir + "/" + file, d);
+      damage(c.files->location() + "/" + file, d);
       EXPECT_THROW(warp::read_image_model(c), warp::ModelFileError);
       const warp::LoadedModel loaded = warp::load_image_model(c, reader_);
       EXPECT_EQ(loaded.source, warp::ModelSource::kRebuiltWithEdits);
@@ -125,20 +125,20 @@ TEST_F(ModelFiles, ADamagedOrMissingWarpJsonIsRefusedNotRebuiltWithoutTheEdits) 
   for (Damage d : {Damage::kTruncate, Damage::kFlipMiddle, Damage::kDelete, Damage::kGarbage}) {
     SCOPED_TRACE(name(d));
     const tiles::ImageEntry c = copy();
-    damage(c.dir + "/" + warp::kModelJsonFile, d);
+    damage(c.files->location() + "/" + warp::kModelJsonFile, d);
     try {
       warp::load_image_model(c, reader_);
       ADD_FAILURE() << "a model without the curator's edits was served";
     } catch (const warp::ModelFileError& e) {
       EXPECT_EQ(e.file(), warp::kModelJsonFile);
-      EXPECT_EQ(std::string(e.what()).find(c.dir), std::string::npos) << "names the file, not its folder";
+      EXPECT_EQ(std::string(e.what()).find(c.files->location()), std::string::npos) << "names the file, not its folder";
     }
   }
 }
 
 TEST_F(ModelFiles, NoModelFilesAtAllIsAVersionFromBeforeModelsAndIsBuilt) {
   const tiles::ImageEntry c = copy();
-  for (const char* file : {warp::kSignificanceFile, warp::kModelFile, warp::kModelJsonFile}) fs::remove(c.dir + "/" + file);
+  for (const char* file : {warp::kSignificanceFile, warp::kModelFile, warp::kModelJsonFile}) fs::remove(c.files->location() + "/" + file);
   const warp::LoadedModel loaded = warp::load_image_model(c, reader_);
   EXPECT_EQ(loaded.source, warp::ModelSource::kBuiltNoFiles);
   EXPECT_TRUE(loaded.model.lines.empty());
@@ -170,12 +170,12 @@ TEST_F(ModelFiles, FilesOfThePreviousFormatsAreStillRead) {
   for (const char* magic : {"ZWSIG1", "ZWSIG2"}) {
     SCOPED_TRACE(magic);
     const tiles::ImageEntry c = copy();
-    write_bytes(c.dir + "/" + warp::kSignificanceFile, float_map_file(magic, stored.significance, magic[5] == '2'));
-    std::string bytes = testing::read_file(c.dir + "/" + warp::kModelFile);
+    write_bytes(c.files->location() + "/" + warp::kSignificanceFile, float_map_file(magic, stored.significance, magic[5] == '2'));
+    std::string bytes = testing::read_file(c.files->location() + "/" + warp::kModelFile);
     bytes.resize(bytes.size() - 12);  // the trailer: length + CRC-32
     ASSERT_EQ(bytes[7], '2');
     bytes[7] = '1';
-    write_bytes(c.dir + "/" + warp::kModelFile, bytes);
+    write_bytes(c.files->location() + "/" + warp::kModelFile, bytes);
     const warp::LoadedModel loaded = warp::load_image_model(c, reader_);
     EXPECT_EQ(loaded.source, warp::ModelSource::kStored);
     EXPECT_TRUE(loaded.model.node_mean == stored.node_mean);
@@ -183,16 +183,16 @@ TEST_F(ModelFiles, FilesOfThePreviousFormatsAreStillRead) {
   }
   const tiles::ImageEntry c = copy();
   const warp::SignificanceMap gbvs = warp::read_gbvs_map(*edited_);
-  write_bytes(c.dir + "/" + warp::kGbvsFile, float_map_file("ZWGBVS1", gbvs, true));
+  write_bytes(c.files->location() + "/" + warp::kGbvsFile, float_map_file("ZWGBVS1", gbvs, true));
   EXPECT_TRUE(warp::read_gbvs_map(c).values == gbvs.values);
   const warp::ImageModel model = warp::read_image_model(c);
   for (const char* name : {"seam", "patch"}) {
     SCOPED_TRACE(name);
     const warp::RetargetingMethod& method = *warp::find_retargeting_method(name);
     const std::string file = warp::method_file_name(method, warp::Saliency::kDefault);
-    const std::string payload = warp::method_payload(file, testing::read_file(c.dir + "/" + file), method);
-    write_bytes(c.dir + "/" + file, warp::with_trailer(std::string(method.magic.begin(), method.magic.end()) + payload));
-    EXPECT_EQ(warp::method_payload(file, testing::read_file(c.dir + "/" + file), method), payload);
+    const std::string payload = warp::method_payload(file, testing::read_file(c.files->location() + "/" + file), method);
+    write_bytes(c.files->location() + "/" + file, warp::with_trailer(std::string(method.magic.begin(), method.magic.end()) + payload));
+    EXPECT_EQ(warp::method_payload(file, testing::read_file(c.files->location() + "/" + file), method), payload);
     EXPECT_EQ(warp::load_retargeter(c, reader_, model, method, warp::Saliency::kDefault).source,
               warp::MethodSource::kStored);
   }
@@ -210,9 +210,9 @@ TEST_F(ModelFiles, ADamagedCompressedMethodFileIsPrecomputedAgainInMemory) {
   for (int k = 0; k < 3; ++k) {
     SCOPED_TRACE(k);
     const tiles::ImageEntry c = copy();
-    const std::string path = c.dir + "/" + file;
+    const std::string path = c.files->location() + "/" + file;
     if (k < 2) damage(path, k == 0 ? Damage::kFlipMiddle : Damage::kTruncate);
-    else fs::copy_file(c.dir + "/patch.default.bin", path, fs::copy_options::overwrite_existing);
+    else fs::copy_file(c.files->location() + "/patch.default.bin", path, fs::copy_options::overwrite_existing);
     const std::string before = testing::read_file(path);
     const warp::LoadedRetargeter loaded = warp::load_retargeter(c, reader_, model, seam, warp::Saliency::kDefault);
     EXPECT_EQ(loaded.source, warp::MethodSource::kRebuiltDamaged);
@@ -225,9 +225,9 @@ TEST_F(ModelFiles, ADamagedCompressedMethodFileIsPrecomputedAgainInMemory) {
 TEST_F(ModelFiles, AChecksumCatchesAFlipThatParsesAndAFileOfAnotherImageIsRefused) {
   // A flip inside the significance values still parses as floats: only the checksum sees it.
   tiles::ImageEntry c = copy();
-  std::string bytes = testing::read_file(c.dir + "/" + warp::kSignificanceFile);
+  std::string bytes = testing::read_file(c.files->location() + "/" + warp::kSignificanceFile);
   bytes[bytes.size() / 2] ^= 0x01;
-  write_bytes(c.dir + "/" + warp::kSignificanceFile, bytes);
+  write_bytes(c.files->location() + "/" + warp::kSignificanceFile, bytes);
   EXPECT_THROW(warp::read_significance(c), warp::ModelFileError);
 
   tiles::ImageEntry other = copy();
@@ -244,7 +244,7 @@ TEST_F(ModelFiles, AChecksumCatchesAFlipThatParsesAndAFileOfAnotherImageIsRefuse
 // when damaged, missing or from another detector the lines are detected again in memory — the
 // same lines — without writing into the version.
 TEST_F(ModelFiles, ADamagedOrMissingDetectedLinesFileIsDetectedAgain) {
-  ASSERT_TRUE(fs::exists(edited_->dir + "/" + warp::kDetectedLinesFile)) << "carried into the edited version";
+  ASSERT_TRUE(fs::exists(edited_->files->location() + "/" + warp::kDetectedLinesFile)) << "carried into the edited version";
   const std::vector<warp::Segment> stored = warp::read_detected_lines(*edited_, reader_);
   ASSERT_FALSE(stored.empty());
   const auto other_detector = [](const std::string& path) {
@@ -255,7 +255,7 @@ TEST_F(ModelFiles, ADamagedOrMissingDetectedLinesFileIsDetectedAgain) {
   for (int k = 0; k < 5; ++k) {
     SCOPED_TRACE(k < 4 ? name(Damage(k)) : "from another detector");
     const tiles::ImageEntry c = copy();
-    const std::string path = c.dir + "/" + warp::kDetectedLinesFile;
+    const std::string path = c.files->location() + "/" + warp::kDetectedLinesFile;
     if (k < 4) damage(path, Damage(k));
     else other_detector(path);
     const std::string before = fs::exists(path) ? testing::read_file(path) : "";
@@ -263,7 +263,7 @@ TEST_F(ModelFiles, ADamagedOrMissingDetectedLinesFileIsDetectedAgain) {
     ASSERT_EQ(again.size(), stored.size());
     for (std::size_t i = 0; i < again.size(); ++i) EXPECT_TRUE(warp::same_segment(again[i], stored[i], 0.01)) << i;
     if (k == int(Damage::kDelete))  // never detected for this version: detected on first use and kept (issue 28)
-      EXPECT_EQ(testing::read_file(path), testing::read_file(edited_->dir + "/" + warp::kDetectedLinesFile));
+      EXPECT_EQ(testing::read_file(path), testing::read_file(edited_->files->location() + "/" + warp::kDetectedLinesFile));
     else
       EXPECT_EQ(fs::exists(path) ? testing::read_file(path) : "", before) << "a damaged file is left as it is";
   }
@@ -278,19 +278,19 @@ TEST_F(ModelFiles, DismissedLinesLiveInWarpJson) {
   const std::vector<warp::Segment> suggested = warp::suggested_lines(c, reader_, model);
   ASSERT_FALSE(suggested.empty());
   model.dismissed_lines = {suggested[0]};
-  warp::write_image_model(c.dir, model);
+  warp::write_image_model(*c.files, model);
   EXPECT_TRUE(warp::same_segment(warp::read_image_model(c).dismissed_lines.at(0), suggested[0], 0));
   const auto left = warp::suggested_lines(c, reader_, warp::read_image_model(c));
   EXPECT_EQ(left.size(), suggested.size() - 1);
-  damage(c.dir + "/" + warp::kModelFile, Damage::kFlipMiddle);
+  damage(c.files->location() + "/" + warp::kModelFile, Damage::kFlipMiddle);
   const warp::LoadedModel rebuilt = warp::load_image_model(c, reader_);
   ASSERT_EQ(rebuilt.source, warp::ModelSource::kRebuiltWithEdits);
   EXPECT_EQ(rebuilt.model.dismissed_lines.size(), 1u);
 
   const tiles::ImageEntry old = copy();
-  nlohmann::json stored = nlohmann::json::parse(testing::read_file(old.dir + "/" + warp::kModelJsonFile));
+  nlohmann::json stored = nlohmann::json::parse(testing::read_file(old.files->location() + "/" + warp::kModelJsonFile));
   ASSERT_EQ(stored.erase("dismissed_lines"), 1u);
-  write_bytes(old.dir + "/" + warp::kModelJsonFile, stored.dump(2));
+  write_bytes(old.files->location() + "/" + warp::kModelJsonFile, stored.dump(2));
   EXPECT_TRUE(warp::read_image_model(old).dismissed_lines.empty());
   EXPECT_EQ(warp::suggested_lines(old, reader_, warp::read_image_model(old)).size(), suggested.size());
 }

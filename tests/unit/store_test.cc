@@ -51,7 +51,7 @@ TEST(Store, PublishReplaceRemove) {
   auto v2 = store.publish(store.make_staging_dir(), manifest("a", 200, 100));
   EXPECT_NE(v1->manifest.version, v2->manifest.version);
   EXPECT_EQ(store.find("a")->manifest.width, 200);
-  EXPECT_TRUE(fs::exists(v1->dir)) << "the old version stays for readers until garbage collection";
+  EXPECT_TRUE(fs::exists(v1->files->location())) << "the old version stays for readers until garbage collection";
   ASSERT_EQ(store.list().size(), 1u);
 
   EXPECT_TRUE(store.remove("a"));
@@ -121,11 +121,11 @@ TEST(Store, GarbageCollectionKeepsLiveVersionsAndRemovesDeadStaging) {
   const std::string mine = store.make_staging_dir();
 
   EXPECT_EQ(store.collect_garbage(std::chrono::hours(1)), 1) << "only the dead staging folder is old enough";
-  EXPECT_TRUE(fs::exists(old_version->dir));
+  EXPECT_TRUE(fs::exists(old_version->files->location()));
   EXPECT_EQ(store.collect_garbage(std::chrono::seconds(-1)), 2);
-  EXPECT_FALSE(fs::exists(old_version->dir));
-  EXPECT_FALSE(fs::exists(deleted->dir));
-  EXPECT_TRUE(fs::exists(live->dir));
+  EXPECT_FALSE(fs::exists(old_version->files->location()));
+  EXPECT_FALSE(fs::exists(deleted->files->location()));
+  EXPECT_TRUE(fs::exists(live->files->location()));
   EXPECT_TRUE(fs::exists(mine)) << "our own staging folder is in use";
   EXPECT_TRUE(store.find("a"));
 }

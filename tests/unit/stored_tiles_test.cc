@@ -77,7 +77,7 @@ TEST_F(StoredTilesTest, ADamagedLevelFileIsAReadError) {
   testing::TempDir copy;
   const auto e = boats();
   tiles::ImageEntry damaged = *e;
-  damaged.dir = copy.path();
+  damaged.files = tiles::folder_files(copy.path());
   for (int k = 0; k < e->manifest.levels; ++k) {
     std::ifstream in(e->level_path(k), std::ios::binary);
     std::string bytes((std::istreambuf_iterator<char>(in)), {});

@@ -9,7 +9,7 @@ namespace zoomwarp::warp {
 
 bool add_derived_file(const tiles::ImageEntry& image, const char* file, const std::string& bytes) {
   try {
-    replace_file(image.dir, file, bytes);
+    image.files->write(file, bytes);
     return true;
   } catch (const std::exception&) {
     return false;

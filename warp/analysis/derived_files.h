@@ -9,7 +9,7 @@
 // such file is derived data, a pure function of the version's pixels and warp.json (the curator's
 // work, which is written at ingest or by the edit that made the version and never added later),
 // so whichever writer's bytes land, a reader computes the same views. Each file is written under
-// a temporary name of its writer's own and renamed into place (model_file.h replace_file), so
+// a temporary name of its writer's own and renamed into place (tiles::VersionFiles::write), so
 // two replicas computing one analysis at once, and their readers, never meet a partial file.
 //
 // Thread safety: free functions on published folders; safe to call concurrently, also from

@@ -70,7 +70,7 @@ std::string detected_lines_text(const tiles::ImageEntry& image, tiles::PyramidRe
 }  // namespace
 
 void write_detected_lines(const tiles::ImageEntry& image, tiles::PyramidReader& reader) {
-  replace_file(image.dir, kDetectedLinesFile, detected_lines_text(image, reader));
+  image.files->write(kDetectedLinesFile, detected_lines_text(image, reader));
 }
 
 std::vector<Segment> read_detected_lines(const tiles::ImageEntry& image, tiles::PyramidReader& reader) {

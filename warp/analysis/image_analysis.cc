@@ -181,20 +181,20 @@ std::vector<MethodFileTiming> write_image_analysis(const tiles::ImageEntry& imag
   ImageModel model;
   if (set == AnalysisSet::kIcaz) {
     model = make_image_model(analysis, image.manifest.width, image.manifest.height, {}, {}, {}, with_faces);
-    write_image_model(image.dir, model);
+    write_image_model(*image.files, model);
     return {};
   }
   const tiles::Job maps[] = {
       {[&] {
          model = make_image_model(analysis, image.manifest.width, image.manifest.height, {}, {}, {}, with_faces);
-         write_image_model(image.dir, model);
+         write_image_model(*image.files, model);
        },
        kMapBytesPerPixel * pixels},
-      {[&] { write_gbvs_map(image.dir, gbvs_significance(analysis, image.manifest.width, with_faces)); },
+      {[&] { write_gbvs_map(*image.files, gbvs_significance(analysis, image.manifest.width, with_faces)); },
        kMapBytesPerPixel * pixels},
   };
   tiles::run_jobs(maps, threads, kAnalysisMemoryBudget);
-  return write_method_files(image.dir, image, reader, model, method_files(kSaliencies), threads, kAnalysisMemoryBudget);
+  return write_method_files(*image.files, image, reader, model, method_files(kSaliencies), threads, kAnalysisMemoryBudget);
 }
 
 std::vector<std::string> add_missing_analyses(const tiles::ImageEntry& image, tiles::PyramidReader& reader,
@@ -209,7 +209,7 @@ std::vector<std::string> add_missing_analyses(const tiles::ImageEntry& image, ti
     std::vector<MethodFile> missing;
     for (const MethodFile& f : method_files(kSaliencies))
       if (!exists(image, method_file_name(*f.method, f.saliency).c_str())) missing.push_back(f);
-    write_method_files(image.dir, image, reader, loaded.model, missing, threads, kAnalysisMemoryBudget);
+    write_method_files(*image.files, image, reader, loaded.model, missing, threads, kAnalysisMemoryBudget);
   }
   std::vector<std::string> added;
   for (const std::string& name : stored_analyses(image))
@@ -217,11 +217,11 @@ std::vector<std::string> add_missing_analyses(const tiles::ImageEntry& image, ti
   return added;
 }
 
-void write_image_model(const std::string& dir, const ImageModel& model) {
+void write_image_model(const tiles::VersionFiles& files, const ImageModel& model) {
   // warp.json first: binary files without it would read as a model whose curator edits are lost.
-  replace_file(dir, kModelJsonFile, model_json(model));
-  replace_file(dir, kSignificanceFile, saliency_map_bytes(model.significance, kSignificanceMagics));
-  replace_file(dir, kModelFile, model_bytes(model));
+  files.write(kModelJsonFile, model_json(model));
+  files.write(kSignificanceFile, saliency_map_bytes(model.significance, kSignificanceMagics));
+  files.write(kModelFile, model_bytes(model));
 }
 
 SignificanceMap read_significance(const tiles::ImageEntry& image) {
@@ -254,7 +254,7 @@ LoadedModel load_default_model(const tiles::ImageEntry& image, tiles::PyramidRea
     // back as every later load reads it.
     ImageModel model = rebuild({});
     try {
-      write_image_model(image.dir, model);
+      write_image_model(*image.files, model);
       model = read_image_model(image);
     } catch (const std::exception&) {
       // A folder we cannot write (read-only store, a version collected meanwhile): from memory.
@@ -325,15 +325,16 @@ std::shared_ptr<const tiles::ImageEntry> edit_image_model(tiles::Store& store, c
   if (edit.lines) set_lines(model, *edit.lines);
   if (edit.dismissed_lines) model.dismissed_lines = *edit.dismissed_lines;
   const std::string staging = store.make_staging_copy(current);
+  const auto staged = tiles::folder_files(staging);
   try {
-    write_image_model(staging, model);
+    write_image_model(*staged, model);
     // The methods read the significance map (as seam carving's bias, as mp's objects): those the
     // version holds are precomputed again from the edited one, on the same pyramid; those that
     // read lines (mp's constrained mesh) also when only the lines or the dismissed suggestions
     // changed. Those it does not hold are made on first use, as for any version (issue 28).
     if (!edit.significance.empty() || edit.lines || edit.dismissed_lines) {
       tiles::PyramidReader reader(32 << 20);
-      write_method_files(staging, current, reader, model,
+      write_method_files(*staged, current, reader, model,
                          stored_method_files(current, edit.significance.empty() ? MethodSelection::kReadingLines
                                                                                 : MethodSelection::kAll));
     }

@@ -71,7 +71,7 @@ std::vector<std::string> add_missing_analyses(const tiles::ImageEntry& image, ti
                                               int threads = 1);
 
 // Writes the model's files into `dir` (each to a temporary name, then renamed into place).
-void write_image_model(const std::string& dir, const ImageModel& model);
+void write_image_model(const tiles::VersionFiles& files, const ImageModel& model);
 
 // Reads them back; throws ModelFileError naming the first file that is missing or damaged.
 ImageModel read_image_model(const tiles::ImageEntry& image);

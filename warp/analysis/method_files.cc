@@ -74,7 +74,7 @@ std::vector<MethodFile> stored_method_files(const tiles::ImageEntry& image, Meth
   return out;
 }
 
-std::vector<MethodFileTiming> write_method_files(const std::string& dir, const tiles::ImageEntry& image,
+std::vector<MethodFileTiming> write_method_files(const tiles::VersionFiles& to, const tiles::ImageEntry& image,
                                                  tiles::PyramidReader& reader, const ImageModel& model,
                                                  std::span<const MethodFile> files, int threads,
                                                  std::size_t memory_budget) {
@@ -94,7 +94,7 @@ std::vector<MethodFileTiming> write_method_files(const std::string& dir, const t
       const auto start = std::chrono::steady_clock::now();
       const RetargetingMethod& method = *files[i].method;
       const std::string file = method_file_name(method, files[i].saliency);
-      replace_file(dir, file, sealed(method, precompute(method, model, files[i].saliency, maps.at(files[i].saliency), shared)));
+      to.write(file, sealed(method, precompute(method, model, files[i].saliency, maps.at(files[i].saliency), shared)));
       out[i] = {file, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()};
     }, files[i].method->precompute_bytes_per_pixel * analysis_pixels});
   tiles::run_jobs(jobs, threads, memory_budget);

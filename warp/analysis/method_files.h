@@ -55,7 +55,7 @@ std::vector<MethodFile> method_files(std::span<const Saliency> kinds, MethodSele
 // the others are made on first use).
 std::vector<MethodFile> stored_method_files(const tiles::ImageEntry& image, MethodSelection which);
 
-// Precomputes `files` and writes them into `dir`; up to `threads` precomputations at once (they
+// Precomputes `files` and writes them into `to`; up to `threads` precomputations at once (they
 // are independent) while their RetargetingMethod::precompute_bytes_per_pixel for the analysis
 // image sum to at most `memory_budget` (tiles::run_jobs). Returns how long each took (for
 // `zoomwarp ingest`'s report), in the order of `files`.
@@ -63,7 +63,7 @@ struct MethodFileTiming {
   std::string file;
   double seconds = 0;
 };
-std::vector<MethodFileTiming> write_method_files(const std::string& dir, const tiles::ImageEntry& image,
+std::vector<MethodFileTiming> write_method_files(const tiles::VersionFiles& to, const tiles::ImageEntry& image,
                                                  tiles::PyramidReader& reader, const ImageModel& model,
                                                  std::span<const MethodFile> files, int threads = 1,
                                                  std::size_t memory_budget = 0);

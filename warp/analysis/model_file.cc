@@ -33,44 +33,13 @@ std::uint32_t crc32_of(std::string_view bytes) {
 ModelFileError::ModelFileError(std::string file, const std::string& why)
     : std::runtime_error(file + ": " + why), file_(std::move(file)) {}
 
-// Writes `bytes` to dir/name through a temporary file renamed into place: a reader never sees a
-// partial file, and a hard link to an older version's file is replaced, not written through.
-void replace_file(const std::string& dir, const std::string& name, const std::string& bytes) {
-  // A name of this writer's own: replicas and threads computing the same analysis for a published
-  // version write the same file at once (derived_files.h), and must not write into one temporary.
-  static std::atomic<std::uint64_t> writes{0};
-  const fs::path path = fs::path(dir) / name,
-                 tmp = fs::path(dir) / (name + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(++writes));
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out.write(bytes.data(), std::streamsize(bytes.size()));
-    if (!out.flush()) {
-      out.close();
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      throw std::runtime_error("cannot write " + tmp.string());
-    }
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw std::runtime_error("cannot rename " + tmp.string() + " into place");
-  }
-}
-
 std::string read_whole(const tiles::ImageEntry& image, const char* file) {
-  std::ifstream in(image.dir + "/" + file, std::ios::binary);
-  if (!in) throw ModelFileError(file, "missing");
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
+  std::optional<std::string> bytes = image.files->read(file);
+  if (!bytes) throw ModelFileError(file, "missing");
+  return std::move(*bytes);
 }
 
-bool exists(const tiles::ImageEntry& image, const char* file) {
-  std::error_code ec;
-  return fs::exists(image.dir + "/" + file, ec);
-}
+bool exists(const tiles::ImageEntry& image, const char* file) { return image.files->exists(file); }
 
 // Appends the format 2 trailer.
 std::string with_trailer(std::string bytes) {

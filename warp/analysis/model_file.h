@@ -87,10 +87,7 @@ class ModelFileReader {
   std::istringstream in_;
 };
 
-// Writes `bytes` to dir/name through a temporary file renamed into place.
-void replace_file(const std::string& dir, const std::string& name, const std::string& bytes);
-
-// The whole file `file` of a version folder; throws ModelFileError(file, "missing").
+// The whole file `file` of a version; throws ModelFileError(file, "missing").
 std::string read_whole(const tiles::ImageEntry& image, const char* file);
 bool exists(const tiles::ImageEntry& image, const char* file);
 

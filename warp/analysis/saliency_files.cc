@@ -60,8 +60,8 @@ SignificanceMap read_saliency_map_file(const tiles::ImageEntry& image, const cha
   return map;
 }
 
-void write_gbvs_map(const std::string& dir, const SignificanceMap& map) {
-  replace_file(dir, kGbvsFile, saliency_map_bytes(map, kGbvsMagics));
+void write_gbvs_map(const tiles::VersionFiles& files, const SignificanceMap& map) {
+  files.write(kGbvsFile, saliency_map_bytes(map, kGbvsMagics));
 }
 
 SignificanceMap read_gbvs_map(const tiles::ImageEntry& image) {

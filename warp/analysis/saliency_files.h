@@ -40,7 +40,7 @@ SignificanceMap read_saliency_map_file(const tiles::ImageEntry& image, const cha
                                        const SaliencyFileMagics& magics);
 
 // gbvs.bin. read_gbvs_map throws ModelFileError.
-void write_gbvs_map(const std::string& dir, const SignificanceMap& map);
+void write_gbvs_map(const tiles::VersionFiles& files, const SignificanceMap& map);
 SignificanceMap read_gbvs_map(const tiles::ImageEntry& image);
 
 // The saliency map of kind `kind` of the version whose model is `model`, with faces and the

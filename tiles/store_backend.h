@@ -1,0 +1,69 @@
+// Where a Store (tiles/store.h) keeps its images: the few primitives its semantics are built on,
+// implemented by a folder on a filesystem (folder_store.h) and by a bucket of an S3-compatible
+// object store. Store adds what both share: the version's name, its manifest, the remembered
+// pointer readings and loaded versions, the order of a publish's steps.
+//
+// Layout, in both (a key prefix in a bucket, a folder on disk):
+//   images/ID                  the pointer: which version of ID is published (ID@VERSION)
+//   versions/ID@VERSION/…      one immutable version: manifest.json, level_K.tif, analyses
+// Staging folders, where a version is built before it is committed, are always local.
+//
+// Thread safety: every member may be called from any thread; across processes, commit_version()
+// and remove_pointer() of one id are serialised by the lock lock_id() takes.
+#pragma once
+
+#include <chrono>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "tiles/version_files.h"
+
+namespace zoomwarp::tiles {
+
+class StoreBackend {
+ public:
+  virtual ~StoreBackend() = default;
+
+  // The store's root folder, or its s3://BUCKET/PREFIX: for messages and logs.
+  virtual const std::string& location() const = 0;
+
+  // The version directory ("ID@VERSION") that images/ID points to now, or nullopt when it points
+  // nowhere valid. Read from the store on every call (Store remembers readings).
+  virtual std::optional<std::string> read_pointer(const std::string& id) const = 0;
+  // Whether images/ID exists, whatever it points to.
+  virtual bool has_pointer(const std::string& id) const = 0;
+  // Every id with a pointer, in no particular order.
+  virtual std::vector<std::string> pointer_ids() const = 0;
+
+  // The files of versions/VERSION_DIR (which may not exist: its reads then find nothing).
+  virtual std::shared_ptr<const VersionFiles> version_files(const std::string& version_dir) const = 0;
+
+  // A new, empty local folder to build a version in; discard_staging() removes one.
+  virtual std::string make_staging_dir() const = 0;
+  virtual void discard_staging(const std::string& staging_dir) const = 0;
+  // A staging folder holding every file of versions/VERSION_DIR but its manifest, for an edit
+  // that replaces a few of them (writing new files, never writing through what it was given).
+  virtual std::string make_staging_copy(const std::string& version_dir) const = 0;
+
+  // An exclusive lock on `id` across processes, held while the returned object lives.
+  virtual std::shared_ptr<void> lock_id(const std::string& id) = 0;
+
+  // Makes the finished `staging_dir` (manifest.json included) versions/VERSION_DIR, then points
+  // images/ID at it: a reader sees the old version or the new one, never a part of it. The
+  // staging folder is gone afterwards, whether it succeeded or threw.
+  virtual void commit_version(const std::string& staging_dir, const std::string& id, const std::string& version_dir) = 0;
+  // Removes images/ID; false if there was none.
+  virtual bool remove_pointer(const std::string& id) = 0;
+
+  // Removes versions no pointer names that are older than `grace` (calling `removed` with each
+  // one's directory), and staging folders of processes that are gone. Returns how many it removed.
+  virtual int collect_garbage(std::chrono::seconds grace, const std::function<void(const std::string&)>& removed) = 0;
+
+  // Whether the store can be read (readiness).
+  virtual bool readable() const = 0;
+};
+
+}  // namespace zoomwarp::tiles
