@@ -16,14 +16,16 @@
 #                     reads end-of-file, the owner is gone and a watchdog runs stop.sh
 #   S3_WATCH_PID      the same for a process id (by hand: S3_WATCH_PID=$$ ties it to your shell)
 #   S3_START_TIMEOUT  seconds to wait for the server to answer S3 requests (60)
+#   S3_KEEP=1         stop.sh (also on a failed start) leaves S3_DIR and its logs in place
 #
 # Prints "s3 ready at http://127.0.0.1:PORT after N ms" and exits 0 once a signed S3 request works;
 # otherwise prints why with the logs' last lines, stops what it started and exits 1. It never
 # installs anything: scripts/setup.sh does.
 #
-# Every process it starts (the watchdog, memcached, the four Swift servers) is in its process group
-# and carries ZOOMWARP_SWIFT_S3=$S3_DIR in its environment: that is how stop.sh finds them, so none
-# is left behind even if this script is killed half-way.
+# Every process it starts (the watchdog, memcached, the four Swift servers, and curl and sleep
+# while it waits) is in its process group and carries ZOOMWARP_SWIFT_S3=$S3_DIR in its environment
+# (/proc/PID/environ: each is exec'd after the export): that is how stop.sh finds them, so none is
+# left behind even if this script is killed half-way.
 set -euo pipefail
 
 # 0. a process group of our own (the fixture starts us as a group leader already; a shell that
@@ -50,17 +52,13 @@ export ZOOMWARP_SWIFT_S3=$D
 echo $$ > "$D/pgid"
 : > "$D/pids"
 
-# 2. the watchdog, first of all: it is in our group and stops it when the owner is gone
-alive() { local s; read -r s < "/proc/$1/stat" 2>/dev/null || return 1; s=${s##*) }; [ "${s%% *}" != Z ]; }
+# 2. the watchdog (watchdog.sh), first of all: it is in our group and stops it when the owner is gone
+alive() { local s; read -r s 2> /dev/null < "/proc/$1/stat" || return 1; s=${s##*) }; [ "${s%% *}" != Z ]; }
 if [ -n "${S3_WATCH_FD:-}" ] && [ ! -e "/proc/$$/fd/$S3_WATCH_FD" ]; then
   echo "swift_s3: S3_WATCH_FD=$S3_WATCH_FD is not open" >&2; exit 1
 fi
 if [ -n "${S3_WATCH_FD:-}${S3_WATCH_PID:-}" ]; then
-  (
-    if [ -n "${S3_WATCH_FD:-}" ]; then while read -r -u "$S3_WATCH_FD" _; do :; done; fi
-    if [ -n "${S3_WATCH_PID:-}" ]; then while alive "$S3_WATCH_PID"; do sleep 0.5; done; fi
-    exec "$here/stop.sh"
-  ) < /dev/null > /dev/null 2>&1 &
+  "$BASH" "$here/watchdog.sh" < /dev/null > /dev/null 2>&1 &
   echo "watchdog $!" >> "$D/pids"
   # no daemon should hold the pipe: only the watchdog reads it
   if [ -n "${S3_WATCH_FD:-}" ]; then eval "exec $S3_WATCH_FD<&-"; fi

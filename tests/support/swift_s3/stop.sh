@@ -1,5 +1,5 @@
 #!/bin/bash
-# stop.sh - stops the server start.sh started in $S3_DIR and removes that folder (KEEP=1 keeps it).
+# stop.sh - stops the server start.sh started in $S3_DIR and removes that folder (S3_KEEP=1 keeps it).
 #
 #   S3_DIR=/tmp/s3 tests/support/swift_s3/stop.sh
 #
@@ -19,7 +19,7 @@ pg=
 members() {  # live processes of the group with our mark, but this script and its own children
   local f s pid state ppid pgrp
   for f in /proc/[0-9]*/stat; do
-    read -r s < "$f" 2> /dev/null || continue
+    read -r s 2> /dev/null < "$f" || continue
     pid=${f#/proc/} pid=${pid%/stat}
     s=${s##*) }
     read -r state ppid pgrp _ <<< "$s"
@@ -46,5 +46,5 @@ if [ -n "$pg" ]; then
     fi
   fi
 fi
-if [ "${KEEP:-0}" = 1 ]; then rm -f "$D/pgid"; else rm -rf "$D"; fi
+if [ "${S3_KEEP:-0}" = 1 ]; then rm -f "$D/pgid"; else rm -rf "$D"; fi
 exit 0
