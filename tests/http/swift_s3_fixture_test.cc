@@ -4,6 +4,7 @@
 // with the curl CLI, as tests/support/swift_s3/README.md shows them, not with the code under test.
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -212,9 +213,12 @@ TEST(SwiftS3Fixture, ItsProcessesEndWhenTheTestProcessIsKilled) {
   std::vector<char*> argv;
   for (auto& a : argv_s) argv.push_back(a.data());
   argv.push_back(nullptr);
+  const pid_t self_pid = ::getpid();
   const pid_t child = ::fork();
   ASSERT_GE(child, 0);
   if (child == 0) {
+    ::prctl(PR_SET_PDEATHSIG, SIGKILL);  // killed with this test process, should that come first
+    if (::getppid() != self_pid) ::_exit(1);
     const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     if (fd >= 0) {
       ::dup2(fd, STDOUT_FILENO);

@@ -7,6 +7,7 @@
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -17,6 +18,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -97,13 +99,50 @@ int pick_port_base() {
   throw std::runtime_error("SwiftS3: found no five free consecutive loopback ports");
 }
 
-std::string make_state_dir() {
+std::string temp_root() {
   const char* tmp = std::getenv("TMPDIR");
-  std::string pattern = std::string(tmp && *tmp ? tmp : "/tmp") + "/zoomwarp-swift-s3-XXXXXX";
+  return tmp && *tmp ? tmp : "/tmp";
+}
+constexpr const char* kStatePrefix = "zoomwarp-swift-s3-";
+
+std::string make_state_dir() {
+  std::string pattern = temp_root() + "/" + kStatePrefix + "XXXXXX";
   if (!::mkdtemp(pattern.data())) {
     throw std::runtime_error("SwiftS3: mkdtemp " + pattern + ": " + std::strerror(errno));
   }
-  return pattern;
+  return fs::canonical(pattern).string();  // as start.sh marks its processes (pwd -P)
+}
+
+// Folders of earlier fixtures that nothing runs in any more: a live server always has processes
+// marked ZOOMWARP_SWIFT_S3=FOLDER (its watchdog at least, started first), so an unmarked folder of
+// ours older than a minute was left by something that killed the watchdog too (kill -9 of the whole
+// process group, the OOM killer). Stopping processes is the watchdog's job; this only tidies.
+void remove_stale_state_dirs() {
+  std::error_code ec;
+  std::vector<fs::path> candidates;
+  for (const auto& entry : fs::directory_iterator(temp_root(), ec)) {
+    const std::string name = entry.path().filename().string();
+    struct stat st {};
+    if (name.rfind(kStatePrefix, 0) != 0 || ::lstat(entry.path().c_str(), &st) != 0 || !S_ISDIR(st.st_mode) ||
+        st.st_uid != ::getuid() || ::time(nullptr) - st.st_mtime < 60) {
+      continue;
+    }
+    candidates.push_back(entry.path());
+  }
+  if (candidates.empty()) return;
+  std::string marks;  // every live process's environment
+  for (const auto& entry : fs::directory_iterator("/proc", ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    marks += '\0' + read_text(entry.path().string() + "/environ");
+  }
+  marks += '\0';
+  for (const auto& dir : candidates) {
+    const std::string mark = std::string(1, '\0') + "ZOOMWARP_SWIFT_S3=" + fs::canonical(dir, ec).string() + '\0';
+    if (!ec && marks.find(mark) == std::string::npos) {
+      fs::remove_all(dir, ec);
+    }
+  }
 }
 
 // The test's environment with VARS set (replacing any of the same name). Made before fork: the
@@ -290,6 +329,7 @@ SwiftS3::SwiftS3() : owner_pid_(::getpid()) {
   int watch[2];
   if (::pipe2(watch, O_CLOEXEC) != 0) throw std::runtime_error("SwiftS3: pipe2 failed");
   watch_fd_ = watch[1];
+  remove_stale_state_dirs();
   std::string error;
   // Another process may take one of the five ports between the check and the bind: try again
   // elsewhere then, not on other failures.

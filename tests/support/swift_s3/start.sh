@@ -47,7 +47,7 @@ need() { echo "swift_s3: $1 is missing: run scripts/setup.sh (Debian packages py
 command -v curl >/dev/null || need curl
 if [ -e "$D" ] && [ -n "$(ls -A "$D")" ]; then echo "swift_s3: $D is not empty (stop.sh it first?)" >&2; exit 1; fi
 mkdir -p "$D"
-D=$(cd "$D" && pwd)
+D=$(cd "$D" && pwd -P)
 export ZOOMWARP_SWIFT_S3=$D
 echo $$ > "$D/pgid"
 : > "$D/pids"
@@ -58,8 +58,9 @@ if [ -n "${S3_WATCH_FD:-}" ] && [ ! -e "/proc/$$/fd/$S3_WATCH_FD" ]; then
   echo "swift_s3: S3_WATCH_FD=$S3_WATCH_FD is not open" >&2; exit 1
 fi
 if [ -n "${S3_WATCH_FD:-}${S3_WATCH_PID:-}" ]; then
-  "$BASH" "$here/watchdog.sh" < /dev/null > /dev/null 2>&1 &
-  echo "watchdog $!" >> "$D/pids"
+  # Not our child: a parent that kills its process tree (ctest on a timeout kills the test and its
+  # descendants, found by parent pid) must not take the watchdog with it, or nobody removes $D.
+  ( "$BASH" "$here/watchdog.sh" < /dev/null > /dev/null 2>&1 & echo "watchdog $!" >> "$D/pids" )
   # no daemon should hold the pipe: only the watchdog reads it
   if [ -n "${S3_WATCH_FD:-}" ]; then eval "exec $S3_WATCH_FD<&-"; fi
 fi

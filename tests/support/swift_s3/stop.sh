@@ -12,7 +12,7 @@
 set -u
 D=${S3_DIR:?S3_DIR: the folder start.sh was given}
 [ -d "$D" ] || exit 0
-D=$(cd "$D" && pwd)
+D=$(cd "$D" && pwd -P)
 pg=
 [ -r "$D/pgid" ] && read -r pg < "$D/pgid"
 
