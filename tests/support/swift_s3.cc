@@ -354,14 +354,14 @@ SwiftS3::SwiftS3() : owner_pid_(::getpid()) {
       if (proxy_pid_ > 0) break;
       error = "no proxy pid in " + dir_ + "/pids\n" + r.output;
     } else {
-      error = tail(r.output, 60);
+      error = tail(r.output, 80);
     }
     run_stop(dir_);
     std::error_code ec;
     fs::remove_all(dir_, ec);
     dir_.clear();
-    const bool port_taken = error.find("Could not bind") != std::string::npos ||
-                            error.find("Address already in use") != std::string::npos;
+    const bool port_taken = r.output.find("Could not bind") != std::string::npos ||
+                            r.output.find("Address already in use") != std::string::npos;
     if (!port_taken) break;
   }
   ::close(watch[0]);

@@ -123,10 +123,10 @@ done
 #    errors and runs about 3x slower)
 /usr/bin/memcached -l 127.0.0.1 -p "$MC_PORT" -U 0 -m 32 -u "$(id -un)" < /dev/null > "$D/log/memcached.log" 2>&1 &
 echo "memcached $!" >> "$D/pids"
-for name in account container object proxy; do
-  EVENTLET_NO_GREENDNS=yes "$PY" "$here/swiftd.py" "$D/etc/$name-server.conf" < /dev/null > "$D/log/$name.log" 2>&1 &
-  echo "$name $!" >> "$D/pids"
-done
+# swiftd.py imports Swift once, forks the four servers (each logs to log/NAME.log), adds their
+# pids to pids and exits
+EVENTLET_NO_GREENDNS=yes "$PY" "$here/swiftd.py" "$D/pids" "$D"/etc/{account,container,object,proxy}-server.conf \
+  < /dev/null > "$D/log/swiftd.log" 2>&1 || fail "swiftd.py failed"
 
 # 5. ready = every server alive, each backend answers OPTIONS as itself, memcached accepts, and a
 #    signed S3 request (ListBuckets) is answered 200. A port taken by someone else ends that
