@@ -6,9 +6,9 @@
 # It stops every process of start.sh's process group ($S3_DIR/pgid) that carries
 # ZOOMWARP_SWIFT_S3=$S3_DIR in its environment, and nothing else: a group id cannot be reused
 # while the group has members, and the mark tells ours from a group that took the id later.
-# Paused processes (SIGSTOP) are continued first; SIGTERM, then SIGKILL after 3 s. The watchdog of
-# start.sh runs this when the test process is gone: it spares itself ($$), and start.sh's failure
-# path spares start.sh (S3_STOP_SPARE). Safe to run again.
+# They are SIGKILLed, paused (SIGSTOP) ones too. The watchdog of start.sh runs this when the test
+# process is gone: it spares itself ($$), and start.sh's failure path spares start.sh
+# (S3_STOP_SPARE). Safe to run again.
 set -u
 D=${S3_DIR:?S3_DIR: the folder start.sh was given}
 [ -d "$D" ] || exit 0
@@ -30,21 +30,15 @@ members() {  # live processes of the group with our mark, but this script and it
   done
 }
 
+# SIGKILL: the store is thrown away, and a server still importing Swift may not act on SIGTERM
+# for seconds. Again until none is left, should one have forked (swiftd.py forking the servers).
 if [ -n "$pg" ]; then
-  m=$(members)
-  if [ -n "$m" ]; then
-    kill -CONT $m 2> /dev/null
-    kill -TERM $m 2> /dev/null
-    for _ in $(seq 30); do
-      m=$(members)
-      [ -z "$m" ] && break
-      sleep 0.1
-    done
-    if [ -n "$m" ]; then
-      kill -KILL $m 2> /dev/null
-      for _ in $(seq 20); do [ -z "$(members)" ] && break; sleep 0.1; done
-    fi
-  fi
+  for _ in $(seq 50); do
+    m=$(members)
+    [ -z "$m" ] && break
+    kill -KILL $m 2> /dev/null
+    sleep 0.05
+  done
 fi
 if [ "${S3_KEEP:-0}" = 1 ]; then rm -f "$D/pgid"; else rm -rf "$D"; fi
 exit 0
