@@ -13,6 +13,7 @@
 
 #include <arpa/inet.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <chrono>
@@ -334,8 +335,14 @@ SwiftS3::SwiftS3() : owner_pid_(::getpid()) {
   // Another process may take one of the five ports between the check and the bind: try again
   // elsewhere then, not on other failures.
   for (int attempt = 0; attempt < 3; ++attempt) {
-    port_ = pick_port_base();
-    dir_ = make_state_dir();
+    try {
+      port_ = pick_port_base();
+      dir_ = make_state_dir();
+    } catch (...) {
+      ::close(watch[0]);
+      ::close(watch[1]);
+      throw;
+    }
     const ScriptResult r = run_script(std::string(kScripts) + "/start.sh",
                                       {{"S3_DIR", dir_},
                                        {"S3_PORT", std::to_string(port_)},

@@ -27,6 +27,8 @@ import swift.common.middleware.s3api.s3api, swift.common.middleware.tempauth  # 
 
 utils.ThreadSafeSysLogHandler = lambda *a, **kw: logging.NullHandler()
 wsgi.clean_up_daemon_hygiene = lambda: None
+# A poll hub, as each server's run_server sets, not an epoll one whose fd the children would share.
+eventlet.hubs.use_hub(utils.get_hub())
 
 pids_file, confs = sys.argv[1], sys.argv[2:]
 etc = os.path.dirname(confs[0])
