@@ -40,11 +40,15 @@ build_pkgs=(
 )
 # Working on it: git, and the test and benchmark libraries; LBFGSpp (header-only) is the reference
 # polyfem's own L-BFGS is tested against (tests/unit/polyfem_lbfgs_test.cc).
-dev_pkgs=(git ca-certificates libgtest-dev libgmock-dev libbenchmark-dev liblbfgspp-dev)
+# libcurl: the S3 test fixture (tests/support/swift_s3.cc) signs its requests with it.
+dev_pkgs=(git ca-certificates libgtest-dev libgmock-dev libbenchmark-dev liblbfgspp-dev libcurl4-openssl-dev)
 # Tests and benchmarks: a browser for the viewer tests, Node for driving it, nginx and wrk to
 # measure against and to front the replicas (tests/cluster/), curl and jq for the scripts,
-# PyYAML for the deployment files' test (tests/deploy/).
-test_pkgs=(chromium nodejs npm nginx-light wrk curl jq procps python3-yaml)
+# PyYAML for the deployment files' test (tests/deploy/). The S3 tests' object store
+# (tests/support/swift_s3/): OpenStack Swift with its s3api middleware (python3-swift, which pulls
+# in python3-xattr and eventlet; the server scripts need no swift-* package) and the memcached its
+# tempauth needs; the data folder must have user xattrs, which start.sh checks.
+test_pkgs=(chromium nodejs npm nginx-light wrk curl jq procps python3-yaml python3-swift memcached)
 pkgs=("${build_pkgs[@]}")
 if [ "$build_only" -eq 0 ]; then pkgs+=("${dev_pkgs[@]}" "${test_pkgs[@]}"); fi
 
