@@ -32,6 +32,9 @@ build_pkgs=(
   # pyramid levels written by tiles/level_file.cc: libtiff directly, tiles compressed by ISA-L
   # (zip:1) and libdeflate (other zip levels)
   libtiff-dev libdeflate-dev libisal-dev
+  # the S3 store's client (tiles/s3_client.cc): libcurl (OpenSSL flavour) signs and sends requests,
+  # expat parses S3's XML answers
+  libcurl4-openssl-dev libexpat1-dev
   # seam carving (warp/methods/seam/): liblqr's headers include GLib's, which its package does not pull in
   liblqr-1-0-dev libglib2.0-dev
   # the face cascade the binary loads at run time; the container image copies it from the builder
@@ -43,8 +46,9 @@ build_pkgs=(
 dev_pkgs=(git ca-certificates libgtest-dev libgmock-dev libbenchmark-dev liblbfgspp-dev)
 # Tests and benchmarks: a browser for the viewer tests, Node for driving it, nginx and wrk to
 # measure against and to front the replicas (tests/cluster/), curl and jq for the scripts,
-# PyYAML for the deployment files' test (tests/deploy/).
-test_pkgs=(chromium nodejs npm nginx-light wrk curl jq procps python3-yaml)
+# PyYAML for the deployment files' test (tests/deploy/), OpenStack Swift with its s3api and the
+# memcached its tempauth needs, the S3 store the tests run against (tests/support/swift_s3.h).
+test_pkgs=(chromium nodejs npm nginx-light wrk curl jq procps python3-yaml python3-swift memcached)
 pkgs=("${build_pkgs[@]}")
 if [ "$build_only" -eq 0 ]; then pkgs+=("${dev_pkgs[@]}" "${test_pkgs[@]}"); fi
 
