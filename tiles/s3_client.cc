@@ -30,6 +30,8 @@ using Clock = std::chrono::steady_clock;
 constexpr const char* kEmptySha256 = "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855";
 // What an error document is kept to: enough for any S3 <Error>, bounded against a proxy's page.
 constexpr std::size_t kMaxErrorBody = 64 * 1024;
+// Less time than this left after a failure: no further attempt.
+constexpr std::chrono::milliseconds kMinAttemptTime{5};
 
 std::string sha256_hex(std::string_view data) {
   unsigned char digest[EVP_MAX_MD_SIZE];
@@ -570,7 +572,9 @@ struct S3Client::Impl {
     S3Error::Details last = details(r);
     for (int attempt = 1;; ++attempt) {
       const auto now = Clock::now();
-      if (now >= deadline) {
+      // A retry with next to no time left would only time out (libcurl's timeout is whole
+      // milliseconds, so an attempt that ran to the deadline may end a fraction of one before it).
+      if (now >= deadline || (attempt > 1 && deadline - now < kMinAttemptTime)) {
         last.attempts = attempt - 1;
         last.unavailable = true;
         if (attempt == 1) {

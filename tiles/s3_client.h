@@ -183,7 +183,8 @@ class S3Client {
   // it copies anyway), else the file is read once more first to hash it. Why not UNSIGNED-PAYLOAD,
   // which would spare that read: over plain http (an in-cluster MinIO, the tests' Swift) nothing
   // else checks the bytes, and a file changed between the hash and the upload, or between two
-  // attempts, is refused by the store (400 XAmzContentSHA256Mismatch) instead of stored half old.
+  // attempts, is refused by the store (400 XAmzContentSHA256Mismatch; BadDigest from Swift)
+  // instead of stored half old.
   // The file must not grow or shrink during the call. Throws std::system_error when the file cannot
   // be opened or read. Returns the new ETag.
   std::string put_file(std::string_view bucket, std::string_view key, const std::string& path,
