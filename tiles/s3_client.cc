@@ -242,11 +242,17 @@ class HandlePool {
   std::vector<CURL*> idle_;  // the back was returned last: its connection is the warmest
 };
 
+// A handle borrowed for one attempt. It goes back reset: no option points into the frame of the
+// attempt that used it (error buffer, header list, callbacks' data) once that frame is gone, and
+// curl_easy_reset keeps the handle's live connections and its share.
 struct Lease {
   HandlePool& pool;
   CURL* handle;
   explicit Lease(HandlePool& p) : pool(p), handle(p.acquire()) {}
-  ~Lease() { pool.release(handle); }
+  ~Lease() {
+    curl_easy_reset(handle);
+    pool.release(handle);
+  }
   Lease(const Lease&) = delete;
   Lease& operator=(const Lease&) = delete;
 };
@@ -431,6 +437,17 @@ std::string describe_error(const S3Error::Details& d) {
   return what;
 }
 
+// A bucket and key that make a well-formed URL of one object (what parse_s3_location accepts,
+// and S3's 1024-byte limit on keys); std::invalid_argument otherwise: a caller's bug, not the
+// store's answer.
+void check_names(const char* operation, std::string_view bucket, std::string_view key, bool key_needed = true) {
+  if (!valid_bucket_name(bucket))
+    throw std::invalid_argument(std::string("S3Client::") + operation + ": '" + std::string(bucket) +
+                                "' is not a valid bucket name");
+  if ((key_needed && key.empty()) || key.size() > 1024)
+    throw std::invalid_argument(std::string("S3Client::") + operation + ": a key must be 1-1024 bytes");
+}
+
 }  // namespace
 
 S3Error::S3Error(Details d) : std::runtime_error(describe_error(d)), d_(std::move(d)) {}
@@ -497,15 +514,14 @@ struct S3Client::Impl {
 
   // One attempt on a borrowed handle. Returns libcurl's code; fills `resp` and `errbuf`.
   CURLcode attempt_once(const Request& r, Response& resp, char* errbuf, Clock::duration left) {
-    Lease lease(pool);
-    CURL* h = lease.handle;
-    curl_easy_reset(h);
-    HeaderList headers;
+    HeaderList headers;  // destroyed after the lease has reset the handle that points to it
     headers.add("x-amz-content-sha256: " + r.payload_sha256);
     if (!config.session_token().empty()) headers.add("x-amz-security-token: " + config.session_token());
     for (const auto& line : r.headers) headers.add(line);
 
     const long left_ms = std::max<long>(1, long(std::chrono::duration_cast<std::chrono::milliseconds>(left).count()));
+    Lease lease(pool);
+    CURL* h = lease.handle;
     errbuf[0] = '\0';
     curl_easy_setopt(h, CURLOPT_ERRORBUFFER, errbuf);
     curl_easy_setopt(h, CURLOPT_NOSIGNAL, 1L);
@@ -559,8 +575,7 @@ struct S3Client::Impl {
       resp.request_id = header_value(h, "x-amz-request-id");
       resp.content_length = parse_u64(header_value(h, "Content-Length"));
     }
-    // The handle goes back with its connection (libcurl closed it if it is not reusable); the
-    // options pointing at this frame are cleared by the next user's curl_easy_reset.
+    // The handle goes back with its connection (libcurl closed it if it is not reusable).
     return code;
   }
 
@@ -588,9 +603,11 @@ struct S3Client::Impl {
       char errbuf[CURL_ERROR_SIZE];
       const CURLcode code = attempt_once(r, resp, errbuf, deadline - now);
       resp.attempts = attempt;
-      if (r.body != nullptr && r.body->read_errno != 0)
+      if (r.body != nullptr && r.body->read_errno != 0) {
+        failures[std::size_t(r.op)].fetch_add(1, std::memory_order_relaxed);
         throw std::system_error(r.body->read_errno, std::generic_category(),
                                 "S3 put_file s3://" + std::string(r.bucket) + "/" + std::string(r.key) + ": reading the file");
+      }
       if (code == CURLE_OK && !retryable_status(resp.status)) return resp;
       if (resp.range_ignored || resp.body_too_long) return resp;  // the operation says what is wrong
 
@@ -639,6 +656,7 @@ S3Client::~S3Client() = default;
 const S3Config& S3Client::config() const { return impl_->config; }
 
 std::optional<std::string> S3Client::get(std::string_view bucket, std::string_view key, S3Deadline deadline) {
+  check_names("get", bucket, key);
   Impl::Request r(S3Operation::kGet, "GET", bucket, key, impl_->config.url(bucket, key));
   Response resp = impl_->perform(r, deadline);
   if (resp.status == 200) return std::move(resp.body);
@@ -648,6 +666,7 @@ std::optional<std::string> S3Client::get(std::string_view bucket, std::string_vi
 
 std::optional<std::string> S3Client::get_range(std::string_view bucket, std::string_view key,
                                                std::uint64_t offset, std::uint64_t length, S3Deadline deadline) {
+  check_names("get_range", bucket, key);
   if (length == 0) throw std::invalid_argument("S3Client::get_range: an empty range");
   if (offset > UINT64_MAX - length) throw std::invalid_argument("S3Client::get_range: the range overflows");
   const std::uint64_t last = offset + length - 1;
@@ -686,6 +705,7 @@ std::optional<std::string> S3Client::get_range(std::string_view bucket, std::str
 }
 
 std::optional<S3ObjectInfo> S3Client::head(std::string_view bucket, std::string_view key, S3Deadline deadline) {
+  check_names("head", bucket, key);
   Impl::Request r(S3Operation::kHead, "HEAD", bucket, key, impl_->config.url(bucket, key));
   Response resp = impl_->perform(r, deadline);
   if (resp.status == 200) {
@@ -705,6 +725,7 @@ std::optional<S3ObjectInfo> S3Client::head(std::string_view bucket, std::string_
 
 std::string S3Client::put(std::string_view bucket, std::string_view key, std::string_view body,
                           std::string_view content_type, S3Deadline deadline) {
+  check_names("put", bucket, key);
   Body source;
   source.memory = body;
   source.size = body.size();
@@ -719,6 +740,7 @@ std::string S3Client::put(std::string_view bucket, std::string_view key, std::st
 
 std::string S3Client::put_file(std::string_view bucket, std::string_view key, const std::string& path,
                                std::string_view content_type, S3Deadline deadline, std::string_view sha256_hex) {
+  check_names("put_file", bucket, key);
   if (!sha256_hex.empty() && !is_sha256_hex(sha256_hex))
     throw std::invalid_argument("S3Client::put_file: sha256_hex is not 64 lower-case hex digits");
   OpenFile file{::open(path.c_str(), O_RDONLY | O_CLOEXEC)};
@@ -739,6 +761,7 @@ std::string S3Client::put_file(std::string_view bucket, std::string_view key, co
 }
 
 void S3Client::remove(std::string_view bucket, std::string_view key, S3Deadline deadline) {
+  check_names("remove", bucket, key);
   Impl::Request r(S3Operation::kRemove, "DELETE", bucket, key, impl_->config.url(bucket, key));
   Response resp = impl_->perform(r, deadline);
   if (resp.status == 204 || resp.status == 200) return;
@@ -748,6 +771,7 @@ void S3Client::remove(std::string_view bucket, std::string_view key, S3Deadline 
 
 S3ListPage S3Client::list(std::string_view bucket, std::string_view prefix, std::string_view delimiter,
                           std::string_view continuation, S3Deadline deadline, int max_keys) {
+  check_names("list", bucket, prefix, false);
   if (max_keys < 1 || max_keys > 1000) throw std::invalid_argument("S3Client::list: max_keys must be 1-1000");
   // Sorted by name, each value encoded: the canonical query, as libcurl signs what it is given.
   std::string query;

@@ -40,6 +40,9 @@
 // streamed from a file is rewound for each attempt, and when libcurl itself resends a request on
 // a reused connection the server had closed (CURLOPT_SEEKFUNCTION).
 //
+// Arguments: a bucket name that valid_bucket_name accepts and a key of 1-1024 bytes (a prefix may
+// be empty), else std::invalid_argument before any request.
+//
 // Errors are S3Error: the HTTP status, S3's error Code and Message from the XML body, the
 // operation, bucket and key, and whether the store was unreachable or out of time (unavailable(),
 // timed_out()), which callers answer with 503 and 504; refused credentials say so in what().

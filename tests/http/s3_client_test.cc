@@ -679,6 +679,17 @@ TEST(S3ClientFaults, ADeadlineAlreadyPastMakesNoRequest) {
   EXPECT_EQ(requests(client.stats(), S3Operation::kGet), 0u);
 }
 
+TEST(S3ClientFaults, ArgumentsAreCheckedBeforeAnyRequest) {
+  StubS3 stub({{200, "x"}});
+  S3Client client(stub_config(stub));
+  EXPECT_THROW(client.get("Bad_Bucket", "key", in(10s)), std::invalid_argument);
+  EXPECT_THROW(client.get("bucket", "", in(10s)), std::invalid_argument);  // would GET the bucket's listing
+  EXPECT_THROW(client.put("bucket", std::string(1025, 'k'), "", "", in(10s)), std::invalid_argument);
+  EXPECT_THROW(client.list("b", "", "", "", in(10s)), std::invalid_argument);
+  EXPECT_THROW(client.put_file("bucket", "key", "/dev/null", "", in(10s), "not-a-digest"), std::invalid_argument);
+  EXPECT_EQ(stub.connections(), 0);
+}
+
 TEST(S3ClientFaults, ConnectionsAreReused) {
   StubS3 stub({{200, "x"}});
   S3Client client(stub_config(stub));
