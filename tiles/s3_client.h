@@ -24,8 +24,8 @@
 // are not, because libcurl does not support sharing its connection cache between threads that
 // run transfers concurrently (CURLSHOPT_SHARE(3)).
 //
-// Deadlines: every operation takes a steady-clock deadline and returns or throws by it, whatever
-// the server does: each attempt's libcurl timeout (connect and total) is the time left, a transfer
+// Deadlines: every operation takes a steady-clock deadline and returns or throws by it (within
+// libcurl's timer, a few milliseconds), whatever the server does: each attempt's libcurl timeout (connect and total) is the time left, a transfer
 // slower than `low_speed_bytes_per_second` for `low_speed_time` is abandoned (a server that
 // accepted the connection and then hung, e.g. SIGSTOPped), and no backoff sleeps past the
 // deadline. A deadline already past throws at once, before any request.
@@ -34,9 +34,10 @@
 // mid-answer, and the answers 500, 502, 503 (SlowDown), 504, 408 and 429 are retried, up to
 // `max_attempts` attempts in all, after a sleep drawn uniformly from [0, min(max_backoff,
 // base_backoff · 2^(attempt-1))] ("full jitter": clients throttled together do not return
-// together). Other 4xx are final at once: they would only be answered the same again. Every
-// operation is idempotent (a put replaces, a remove of a missing key succeeds, a bucket that
-// exists and is ours counts as created), so a retry after a lost answer is harmless. A body
+// together). Other answers (4xx, 501) are final at once: they would only be answered the same
+// again. Every operation is idempotent (a put replaces, a remove of a missing key succeeds,
+// creating a bucket that exists and is ours is not an error), so a retry after a lost answer is
+// harmless. A body
 // streamed from a file is rewound for each attempt, and when libcurl itself resends a request on
 // a reused connection the server had closed (CURLOPT_SEEKFUNCTION).
 //
