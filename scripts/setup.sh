@@ -32,6 +32,9 @@ build_pkgs=(
   # pyramid levels written by tiles/level_file.cc: libtiff directly, tiles compressed by ISA-L
   # (zip:1) and libdeflate (other zip levels)
   libtiff-dev libdeflate-dev libisal-dev
+  # the S3 store's client (tiles/s3_client.cc): libcurl (OpenSSL flavour) signs and sends requests,
+  # expat parses S3's XML answers
+  libcurl4-openssl-dev libexpat1-dev
   # seam carving (warp/methods/seam/): liblqr's headers include GLib's, which its package does not pull in
   liblqr-1-0-dev libglib2.0-dev
   # the face cascade the binary loads at run time; the container image copies it from the builder
