@@ -4,8 +4,10 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <stdexcept>
 
+#include "tiles/bucket_store.h"
 #include "tiles/folder_store.h"
 #include "tiles/image_id.h"
 #include "tiles/pyramid_builder.h"
@@ -38,8 +40,36 @@ std::string ImageEntry::level_path(int k) const {
   return *path;
 }
 
+namespace {
+
+// s3://BUCKET/PREFIX: credentials and endpoint from the AWS environment (s3_config.h), the local
+// mirror and staging in $ZOOMWARP_STORE_CACHE, else under $TMPDIR (one per bucket and prefix,
+// shared by the processes of a host: its files are written atomically and never change). Refused
+// credentials stop the start with S3's own message; a store that is down does not (readiness says
+// so, and service begins when it answers).
+std::unique_ptr<StoreBackend> open_backend(const std::string& location) {
+  if (!location.starts_with("s3://")) return folder_store(location);
+  const S3Location where = parse_s3_location(location);
+  auto client = std::make_shared<S3Client>(S3Config::from_environment());
+  try {
+    client->list(where.bucket, where.prefix + "images/", "/", "", std::chrono::steady_clock::now() + std::chrono::seconds(10), 1);
+  } catch (const S3Error& e) {
+    if (e.credentials_refused() || e.code() == "NoSuchBucket") throw std::runtime_error(location + ": " + e.what());
+  }
+  std::string cache;
+  if (const char* c = std::getenv("ZOOMWARP_STORE_CACHE"); c && *c) {
+    cache = c;
+  } else {
+    const char* tmp = std::getenv("TMPDIR");
+    cache = std::string(tmp && *tmp ? tmp : "/tmp") + "/zoomwarp-store-cache/" + where.bucket + "/" + where.prefix;
+  }
+  return bucket_store(where, std::move(client), cache);
+}
+
+}  // namespace
+
 Store::Store(const std::string& location, std::chrono::milliseconds recheck)
-    : backend_(folder_store(location)), recheck_(recheck) {}
+    : backend_(open_backend(location)), recheck_(recheck) {}
 
 Store::~Store() = default;
 

@@ -50,8 +50,10 @@ class Store {
  public:
   static constexpr std::chrono::milliseconds kDefaultRecheck{1000};
 
-  // The store at `location`, a folder (created with its subfolders if missing). Throws
-  // std::runtime_error if it cannot be opened. `recheck`: how long a pointer once read is trusted
+  // The store at `location`: a folder (created with its subfolders if missing), or
+  // s3://BUCKET/PREFIX (tiles/bucket_store.h; credentials and endpoint from the AWS environment,
+  // its local mirror in $ZOOMWARP_STORE_CACHE). Throws std::runtime_error if it cannot be opened:
+  // a folder that cannot be made, credentials the bucket refuses, a bucket that does not exist. `recheck`: how long a pointer once read is trusted
   // (see above); 0 reads it on every find().
   explicit Store(const std::string& location, std::chrono::milliseconds recheck = kDefaultRecheck);
   ~Store();

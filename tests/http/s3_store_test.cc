@@ -1,0 +1,112 @@
+// The image store on a bucket (tiles/bucket_store.h) through the public Store API, against
+// OpenStack Swift's s3api on loopback (tests/support/swift_s3.h; suite S3Store, one process):
+// two Store objects with their own local folders stand for two replicas that share nothing but
+// the bucket. What a folder store guarantees holds here too: a version published on one is read
+// whole on the other, a removal is seen, an analysis added by one is read by the other, and a
+// commit that fails half-way publishes nothing and leaves only orphans the collector removes.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+
+#include "tests/support/server_process.h"
+#include "tests/support/swift_s3.h"
+#include "tiles/ingest.h"
+#include "tiles/s3_client.h"
+#include "tiles/store.h"
+
+namespace zoomwarp {
+namespace {
+
+namespace fs = std::filesystem;
+using test::SwiftS3;
+
+class S3Store : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    SwiftS3& s3 = SwiftS3::shared();
+    for (const auto& [k, v] : s3.environment()) ::setenv(k.c_str(), v.c_str(), 1);
+    bucket_ = s3.new_bucket("store");
+    location_ = "s3://" + bucket_ + "/imgs";
+  }
+
+  // A Store as a replica would open it: its own local mirror, pointers read on every find().
+  std::unique_ptr<tiles::Store> replica(const std::string& cache) {
+    ::setenv("ZOOMWARP_STORE_CACHE", cache.c_str(), 1);
+    auto store = std::make_unique<tiles::Store>(location_, std::chrono::milliseconds(0));
+    ::unsetenv("ZOOMWARP_STORE_CACHE");
+    return store;
+  }
+
+  // Every key of the bucket under the store's prefix.
+  std::vector<std::string> keys(const std::string& under = "imgs/") {
+    tiles::S3Client client(tiles::S3Config::from_environment());
+    std::vector<std::string> out;
+    for (const auto& e : client.list(bucket_, under, "", "", std::chrono::steady_clock::now() + std::chrono::seconds(20)).objects)
+      out.push_back(e.key);
+    return out;
+  }
+
+  std::string bucket_, location_;
+  testing::TempDir a_dir_, b_dir_;
+};
+
+TEST_F(S3Store, AVersionPublishedOnOneReplicaIsReadWholeOnAnother) {
+  auto a = replica(a_dir_.path()), b = replica(b_dir_.path());
+  const tiles::Manifest m = tiles::ingest_image(*a, testing::samples_dir() + "/boats_lake_sunset.jpg", "boats", {});
+  const auto on_b = b->find("boats");
+  ASSERT_TRUE(on_b) << "published on a, not found on b";
+  EXPECT_EQ(on_b->manifest.version, m.version);
+  EXPECT_EQ(on_b->manifest.levels, m.levels);
+  EXPECT_EQ(b->list().size(), 1u);
+  const auto on_a = a->find("boats");
+  for (int k = 0; k < m.levels; ++k)
+    EXPECT_EQ(testing::read_file(on_b->level_path(k)), testing::read_file(on_a->level_path(k))) << "level " << k;
+  EXPECT_TRUE(on_b->level_path(0).starts_with(b_dir_.path())) << "b reads its own mirror, not a's folder";
+}
+
+TEST_F(S3Store, ARemovalAndAnAddedAnalysisAreSeenByTheOtherReplica) {
+  auto a = replica(a_dir_.path()), b = replica(b_dir_.path());
+  tiles::ingest_image(*a, testing::samples_dir() + "/boats_lake_sunset.jpg", "boats", {});
+  ASSERT_TRUE(b->find("boats"));
+  EXPECT_FALSE(b->find("boats")->files->exists("lines.json"));
+  a->find("boats")->files->write("lines.json", "{\"lines\": []}");
+  EXPECT_EQ(b->find("boats")->files->read("lines.json"), std::optional<std::string>("{\"lines\": []}"));
+  EXPECT_TRUE(a->remove("boats"));
+  EXPECT_FALSE(b->find("boats"));
+  EXPECT_FALSE(b->published("boats"));
+  EXPECT_FALSE(b->remove("boats"));
+}
+
+TEST_F(S3Store, ACommitThatFailsPublishesNothingAndItsOrphansAreCollected) {
+  auto a = replica(a_dir_.path()), b = replica(b_dir_.path());
+  tiles::ingest_image(*a, testing::samples_dir() + "/boats_lake_sunset.jpg", "boats", {});
+  const std::string published = a->find("boats")->manifest.version;
+  // A staged version with a file that cannot be read: the upload stops at it, after others.
+  const std::string staging = a->make_staging_copy(*a->find("boats"));
+  fs::create_symlink("/nonexistent/zoomwarp", fs::path(staging) / "zz_unreadable.bin");
+  EXPECT_ANY_THROW(a->publish(staging, a->find("boats")->manifest));
+  EXPECT_FALSE(fs::exists(staging)) << "the staging folder is discarded";
+  EXPECT_EQ(b->find("boats")->manifest.version, published) << "the old version is still the one read";
+  std::size_t version_dirs = 0;
+  for (const std::string& k : keys("imgs/versions/"))
+    if (k.ends_with("/level_0.tif")) ++version_dirs;
+  EXPECT_EQ(version_dirs, 2u) << "the cut commit's files are in the bucket, unnamed by any pointer";
+  EXPECT_EQ(b->collect_garbage(std::chrono::seconds(0)), 1);
+  for (const std::string& k : keys("imgs/versions/"))
+    EXPECT_TRUE(k.starts_with("imgs/versions/boats@" + published + "/")) << k << " left behind";
+  EXPECT_TRUE(b->find("boats"));
+}
+
+TEST_F(S3Store, CredentialsThatAreRefusedStopTheStart) {
+  ::setenv("AWS_SECRET_ACCESS_KEY", "wrong", 1);
+  try {
+    tiles::Store store(location_);
+    ADD_FAILURE() << "a store opened with a wrong secret";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(location_), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace zoomwarp

@@ -1,0 +1,34 @@
+// A Store's images in a bucket of an S3-compatible object store (issue 29), under a key prefix:
+//
+//   PREFIX/images/ID                      the pointer: an object holding "ID@VERSION"
+//   PREFIX/versions/ID@VERSION/…          one immutable version: level_K.tif, analyses, manifest.json
+//
+// What it relies on: S3's strong read-after-write consistency (AWS since December 2020; Swift,
+// MinIO and Ceph RGW for a single object): a pointer PUT is seen by every reader's next GET, and
+// an object is all there or not there. A commit uploads every file of the version, manifest.json
+// last, and only then writes the pointer, so a reader sees the old version or the new one; a cut
+// commit leaves objects no pointer names, which collect_garbage() removes after the grace period
+// (their age is in their name: a version's first 11 hex digits are its creation time in ms).
+//
+// Local state, in `cache_dir`: staging folders (a version is built on local disk, as for a folder
+// store), and a mirror of the versions' files read so far. Level files are fetched whole on first
+// use and then read by OpenImageIO and libtiff from the mirror. The mirror is not bounded yet.
+//
+// Not the same as a folder store: lock_id() serialises the commits of one id within this process
+// only (S3 has no lock to take), so two replicas editing one image at the same instant may both
+// succeed, the last pointer written winning; a folder store's flock refuses the second.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "tiles/s3_client.h"
+#include "tiles/store_backend.h"
+
+namespace zoomwarp::tiles {
+
+// `client` is shared: its connections, counters and retries serve every version's files.
+std::unique_ptr<StoreBackend> bucket_store(const S3Location& where, std::shared_ptr<S3Client> client,
+                                           const std::string& cache_dir);
+
+}  // namespace zoomwarp::tiles
