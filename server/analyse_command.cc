@@ -41,7 +41,7 @@ std::string joined(const std::vector<std::string>& names) {
 int analyse_command(const std::vector<std::string>& args) {
   try {
     std::vector<OptionSpec> specs = {
-        {"store", "./store", "folder of the image store"},
+        {"store", "./store", "the image store: a folder, or s3://BUCKET/PREFIX (credentials and endpoint from AWS_* variables)"},
         {"analyses", "all", "what to add: all (every method, both saliency kinds) or icaz (ICAZ's model, detected lines)"},
         {"threads", "2", "threads one image's analysis uses (its methods run side by side)"},
         {"quiet", "0", "print nothing but failures", true},

@@ -12,7 +12,7 @@ namespace zoomwarp::server {
 
 std::vector<OptionSpec> store_option_specs() {
   return {
-      {"store", "./store", "folder of the image store (shared by all replicas)"},
+      {"store", "./store", "the image store: a folder, or s3://BUCKET/PREFIX (credentials and endpoint from AWS_* variables; docs/s3.md), shared by all replicas"},
       {"max-pixels", "1000000000", "largest image accepted, in pixels (width x height), checked before decoding"},
       {"tile-compression", "auto",
        "compression of stored pyramid tiles: auto (JPEG for lossy sources - JPEG, lossy WebP - and zip:1 for the others), "
