@@ -13,6 +13,7 @@ constexpr const char* kUsage =
     "  serve     run the HTTP server (tiles, IIIF, Deep Zoom, REST API)\n"
     "  ingest    add an image file to the store as a tile pyramid\n"
     "  analyse   compute the warp analyses published images do not hold yet (else made on first view)\n"
+    "  store     'store copy FROM TO': copy images between stores (a folder, s3://BUCKET/PREFIX)\n"
     "  replay    replay view paths against a running server (load test of /mesh and /viewport)\n"
     "  health    exit 0 if a running server answers /healthz with 200 (container health checks)\n"
     "  sign      print a URL of a private image signed to work without a key until it expires\n"
@@ -38,6 +39,7 @@ int main(int argc, char** argv) {
   if (command == "serve") return zoomwarp::server::serve_command(args);
   if (command == "ingest") return zoomwarp::server::ingest_command(args);
   if (command == "analyse") return zoomwarp::server::analyse_command(args);
+  if (command == "store") return zoomwarp::server::store_command(args);
   if (command == "replay") return zoomwarp::server::replay_command(args);
   if (command == "health") return zoomwarp::server::health_command(args);
   if (command == "sign") return zoomwarp::server::sign_command(args);

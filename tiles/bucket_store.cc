@@ -102,6 +102,12 @@ class BucketFiles final : public VersionFiles {
     write_local(mirror_ / name, bytes);
   }
 
+  std::vector<std::string> names() const override {
+    std::vector<std::string> out;
+    for (const S3ListEntry& e : list_all(*client_, bucket_, key_prefix_)) out.push_back(e.key.substr(key_prefix_.size()));
+    return out;
+  }
+
   // Fetched whole into the mirror on first use; a missing object leaves the path missing, so the
   // reader opening it says so.
   std::optional<std::string> local_path(const std::string& name) const override {

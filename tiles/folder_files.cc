@@ -56,6 +56,17 @@ class FolderFiles final : public VersionFiles {
     }
   }
 
+  std::vector<std::string> names() const override {
+    std::vector<std::string> out;
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(dir_, ec)) {
+      const std::string name = e.path().filename().string();
+      if (name.find(".tmp.") == std::string::npos && !e.is_directory()) out.push_back(name);
+    }
+    if (ec) throw std::runtime_error("cannot list " + dir_ + ": " + ec.message());
+    return out;
+  }
+
   std::optional<std::string> local_path(const std::string& name) const override { return dir_ + "/" + name; }
 
   const std::string& location() const override { return dir_; }

@@ -47,7 +47,7 @@ namespace {
 // shared by the processes of a host: its files are written atomically and never change). Refused
 // credentials stop the start with S3's own message; a store that is down does not (readiness says
 // so, and service begins when it answers).
-std::unique_ptr<StoreBackend> open_backend(const std::string& location) {
+std::unique_ptr<StoreBackend> open_backend(const std::string& location, const std::string& cache_dir) {
   if (!location.starts_with("s3://")) return folder_store(location);
   const S3Location where = parse_s3_location(location);
   auto client = std::make_shared<S3Client>(S3Config::from_environment());
@@ -56,10 +56,11 @@ std::unique_ptr<StoreBackend> open_backend(const std::string& location) {
   } catch (const S3Error& e) {
     if (e.credentials_refused() || e.code() == "NoSuchBucket") throw std::runtime_error(location + ": " + e.what());
   }
-  std::string cache;
-  if (const char* c = std::getenv("ZOOMWARP_STORE_CACHE"); c && *c) {
-    cache = c;
-  } else {
+  std::string cache = cache_dir;
+  const char* env = std::getenv("ZOOMWARP_STORE_CACHE");
+  if (cache.empty() && env && *env) {
+    cache = env;
+  } else if (cache.empty()) {
     const char* tmp = std::getenv("TMPDIR");
     cache = std::string(tmp && *tmp ? tmp : "/tmp") + "/zoomwarp-store-cache/" + where.bucket + "/" + where.prefix;
   }
@@ -68,8 +69,8 @@ std::unique_ptr<StoreBackend> open_backend(const std::string& location) {
 
 }  // namespace
 
-Store::Store(const std::string& location, std::chrono::milliseconds recheck)
-    : backend_(open_backend(location)), recheck_(recheck) {}
+Store::Store(const std::string& location, std::chrono::milliseconds recheck, const std::string& cache_dir)
+    : backend_(open_backend(location, cache_dir)), recheck_(recheck) {}
 
 Store::~Store() = default;
 
@@ -168,6 +169,28 @@ std::shared_ptr<const ImageEntry> Store::publish(const std::string& staging_dir,
   forget_link(m.id);
   auto entry = find(m.id);
   if (!entry) throw std::runtime_error("published image " + m.id + " cannot be read back");
+  return entry;
+}
+
+std::shared_ptr<const ImageEntry> Store::import(const std::string& staging_dir, const Manifest& m) {
+  if (!is_valid_image_id(m.id) || m.version.empty()) throw std::runtime_error("invalid image id or version");
+  const auto lock = backend_->lock_id(m.id);
+  const std::string version_dir = m.id + "@" + m.version;
+  if (backend_->version_files(version_dir)->exists("manifest.json")) {
+    discard(staging_dir);
+    throw std::runtime_error(root() + " holds " + version_dir + " already");
+  }
+  try {
+    write_file_synced(staging_dir + "/manifest.json", manifest_to_json(m));
+  } catch (...) {
+    discard(staging_dir);
+    throw;
+  }
+  backend_->commit_version(staging_dir, m.id, version_dir);
+  forget_link(m.id);
+  auto entry = find(m.id);
+  if (!entry || entry->manifest.version != m.version)
+    throw std::runtime_error("imported image " + version_dir + " cannot be read back");
   return entry;
 }
 

@@ -55,7 +55,10 @@ class Store {
   // its local mirror in $ZOOMWARP_STORE_CACHE). Throws std::runtime_error if it cannot be opened:
   // a folder that cannot be made, credentials the bucket refuses, a bucket that does not exist. `recheck`: how long a pointer once read is trusted
   // (see above); 0 reads it on every find().
-  explicit Store(const std::string& location, std::chrono::milliseconds recheck = kDefaultRecheck);
+  // `cache_dir`: a bucket store's local folder (mirror and staging) instead of the default;
+  // ignored for a folder.
+  explicit Store(const std::string& location, std::chrono::milliseconds recheck = kDefaultRecheck,
+                 const std::string& cache_dir = "");
   ~Store();
 
   // The folder, or s3://BUCKET/PREFIX: for messages and logs.
@@ -91,6 +94,11 @@ class Store {
   // thrown.
   std::shared_ptr<const ImageEntry> publish(const std::string& staging_dir, Manifest m,
                                             const std::string* expected_version = nullptr);
+
+  // Publishes `staging_dir` as the version `m` names, keeping m.version and m.created_ms: a
+  // version copied from another store (`zoomwarp store copy`). Throws when the store holds that
+  // version already.
+  std::shared_ptr<const ImageEntry> import(const std::string& staging_dir, const Manifest& m);
 
   // Unpublishes `id`, even when its manifest is damaged; false if it was not published.
   bool remove(const std::string& id);

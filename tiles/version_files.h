@@ -13,6 +13,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace zoomwarp::tiles {
 
@@ -24,6 +25,9 @@ class VersionFiles {
   // std::runtime_error when the store cannot answer (unreadable, unreachable).
   virtual std::optional<std::string> read(const std::string& name) const = 0;
   virtual bool exists(const std::string& name) const = 0;
+  // Every file the version holds (manifest.json included), in no particular order; writers'
+  // temporaries are not files of the version.
+  virtual std::vector<std::string> names() const = 0;
 
   // Writes `name` atomically (a temporary of this writer's own, then renamed or committed), also
   // over an existing file or a hard link to an older version's file, which is replaced, never

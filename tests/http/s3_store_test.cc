@@ -6,6 +6,7 @@
 // commit that fails half-way publishes nothing and leaves only orphans the collector removes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 
@@ -96,6 +97,54 @@ TEST_F(S3Store, ACommitThatFailsPublishesNothingAndItsOrphansAreCollected) {
   for (const std::string& k : keys("imgs/versions/"))
     EXPECT_TRUE(k.starts_with("imgs/versions/boats@" + published + "/")) << k << " left behind";
   EXPECT_TRUE(b->find("boats"));
+}
+
+// `zoomwarp store copy` from a folder to the bucket and back: the same images, the same versions,
+// the same bytes; a second run copies nothing.
+TEST_F(S3Store, StoreCopyRoundTripsAFolderStoreThroughABucket) {
+  testing::TempDir folders;
+  const std::string a = folders.path() + "/a", c = folders.path() + "/c";
+  {
+    tiles::Store store(a);
+    tiles::ingest_image(store, testing::samples_dir() + "/boats_lake_sunset.jpg", "boats", {});
+    tiles::ingest_image(store, testing::samples_dir() + "/interior_wine_djembe_tall.jpg", "interior", {});
+    store.find("boats")->files->write("lines.json", "{\"lines\": []}");  // an analysis goes too
+  }
+  ::setenv("ZOOMWARP_STORE_CACHE", a_dir_.path().c_str(), 1);
+  const auto there = testing::run_command({testing::zoomwarp_binary(), "store", "copy", a, location_});
+  ::setenv("ZOOMWARP_STORE_CACHE", b_dir_.path().c_str(), 1);
+  const auto back = testing::run_command({testing::zoomwarp_binary(), "store", "copy", location_, c});
+  const auto again = testing::run_command({testing::zoomwarp_binary(), "store", "copy", a, location_});
+  ::unsetenv("ZOOMWARP_STORE_CACHE");
+  ASSERT_EQ(there.exit_code, 0) << there.output;
+  ASSERT_EQ(back.exit_code, 0) << back.output;
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_EQ(again.output.find("checked"), std::string::npos) << "nothing copied again:\n" << again.output;
+
+  tiles::Store original(a), copy(c);
+  const auto from = original.list(), to = copy.list();
+  ASSERT_EQ(to.size(), 2u);
+  for (std::size_t i = 0; i < from.size(); ++i) {
+    EXPECT_EQ(to[i]->manifest.id, from[i]->manifest.id);
+    EXPECT_EQ(to[i]->manifest.version, from[i]->manifest.version) << "versions kept";
+    auto names = from[i]->files->names();
+    auto copied = to[i]->files->names();
+    std::sort(names.begin(), names.end()), std::sort(copied.begin(), copied.end());
+    EXPECT_EQ(copied, names);
+    for (const std::string& n : names)
+      EXPECT_EQ(testing::read_file(*to[i]->files->local_path(n)), testing::read_file(*from[i]->files->local_path(n)))
+          << from[i]->manifest.id << "/" << n;
+  }
+}
+
+TEST_F(S3Store, StoreCopyRefusesBadArguments) {
+  EXPECT_EQ(testing::run_command({testing::zoomwarp_binary(), "store", "copy", location_}).exit_code, 2);
+  EXPECT_EQ(testing::run_command({testing::zoomwarp_binary(), "store", "copy", location_, location_}).exit_code, 2);
+  EXPECT_EQ(testing::run_command({testing::zoomwarp_binary(), "store", "move", "a", "b"}).exit_code, 2);
+  testing::TempDir empty;
+  const auto missing = testing::run_command({testing::zoomwarp_binary(), "store", "copy", empty.path() + "/s", location_, "nope"});
+  EXPECT_EQ(missing.exit_code, 1) << missing.output;
+  EXPECT_NE(missing.output.find("nope: no such image"), std::string::npos) << missing.output;
 }
 
 TEST_F(S3Store, CredentialsThatAreRefusedStopTheStart) {
