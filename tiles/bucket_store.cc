@@ -170,23 +170,16 @@ class BucketStore final : public StoreBackend {
     fs::remove_all(staging_dir, ec);
   }
 
-  std::string make_staging_copy(const std::string& version_dir) const override {
-    const std::string staging = make_staging_dir();
-    try {
-      const auto files = version_files(version_dir);
-      const std::string prefix = version_prefix(version_dir);
-      for (const S3ListEntry& e : list_all(*client_, where_.bucket, prefix)) {
-        const std::string name = e.key.substr(prefix.size());
-        if (name == "manifest.json" || name.find('/') != std::string::npos) continue;
-        const std::optional<std::string> bytes = files->read(name);
-        if (!bytes) throw std::runtime_error(location_ + ": " + version_dir + "/" + name + " vanished while being copied");
-        write_local(fs::path(staging) / name, *bytes);
-      }
-    } catch (...) {
-      discard_staging(staging);
-      throw;
+  void copy_into_staging(const std::string& version_dir, const std::string& staging) const override {
+    const auto files = version_files(version_dir);
+    const std::string prefix = version_prefix(version_dir);
+    for (const S3ListEntry& e : list_all(*client_, where_.bucket, prefix)) {
+      const std::string name = e.key.substr(prefix.size());
+      if (name == "manifest.json" || name.find('/') != std::string::npos) continue;
+      const std::optional<std::string> bytes = files->read(name);
+      if (!bytes) throw std::runtime_error(location_ + ": " + version_dir + "/" + name + " vanished while being copied");
+      write_local(fs::path(staging) / name, *bytes);
     }
-    return staging;
   }
 
   std::shared_ptr<void> lock_id(const std::string& id) override {

@@ -96,22 +96,15 @@ class FolderStore final : public StoreBackend {
     fs::remove_all(staging_dir, ec);
   }
 
-  std::string make_staging_copy(const std::string& version_dir) const override {
-    const std::string staging = make_staging_dir();
-    try {
-      // Hard links: the edit writes new files under temporary names renamed over them, so the
-      // published version's files are never written through.
-      for (const auto& e : fs::directory_iterator(root_ + "/versions/" + version_dir)) {
-        if (e.path().filename() == "manifest.json") continue;
-        std::error_code ec;
-        fs::create_hard_link(e.path(), fs::path(staging) / e.path().filename(), ec);
-        if (ec) fs::copy_file(e.path(), fs::path(staging) / e.path().filename());  // another file system
-      }
-    } catch (...) {
-      discard_staging(staging);
-      throw;
+  void copy_into_staging(const std::string& version_dir, const std::string& staging) const override {
+    // Hard links: the edit writes new files under temporary names renamed over them, so the
+    // published version's files are never written through.
+    for (const auto& e : fs::directory_iterator(root_ + "/versions/" + version_dir)) {
+      if (e.path().filename() == "manifest.json") continue;
+      std::error_code ec;
+      fs::create_hard_link(e.path(), fs::path(staging) / e.path().filename(), ec);
+      if (ec) fs::copy_file(e.path(), fs::path(staging) / e.path().filename());  // another file system
     }
-    return staging;
   }
 
   std::shared_ptr<void> lock_id(const std::string& id) override { return std::make_shared<IdLock>(root_, id); }

@@ -140,7 +140,14 @@ std::string Store::make_staging_dir() const { return backend_->make_staging_dir(
 void Store::discard(const std::string& staging_dir) const { backend_->discard_staging(staging_dir); }
 
 std::string Store::make_staging_copy(const ImageEntry& from) const {
-  return backend_->make_staging_copy(from.manifest.id + "@" + from.manifest.version);
+  const std::string staging = backend_->make_staging_dir();
+  try {
+    backend_->copy_into_staging(from.manifest.id + "@" + from.manifest.version, staging);
+  } catch (...) {
+    backend_->discard_staging(staging);
+    throw;
+  }
+  return staging;
 }
 
 std::shared_ptr<const ImageEntry> Store::publish(const std::string& staging_dir, Manifest m,

@@ -44,9 +44,10 @@ class StoreBackend {
   // A new, empty local folder to build a version in; discard_staging() removes one.
   virtual std::string make_staging_dir() const = 0;
   virtual void discard_staging(const std::string& staging_dir) const = 0;
-  // A staging folder holding every file of versions/VERSION_DIR but its manifest, for an edit
-  // that replaces a few of them (writing new files, never writing through what it was given).
-  virtual std::string make_staging_copy(const std::string& version_dir) const = 0;
+  // Puts every file of versions/VERSION_DIR but its manifest into the staging folder `staging`,
+  // for an edit that replaces a few of them (writing new files, never writing through what it
+  // was given). Throws on failure; the caller discards the folder.
+  virtual void copy_into_staging(const std::string& version_dir, const std::string& staging) const = 0;
 
   // An exclusive lock on `id` across processes, held while the returned object lives.
   virtual std::shared_ptr<void> lock_id(const std::string& id) = 0;
