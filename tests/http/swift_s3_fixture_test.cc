@@ -259,7 +259,9 @@ TEST(SwiftS3Fixture, ItsProcessesEndWhenTheTestProcessIsKilled) {
   }
   std::cout << "its processes and folder were gone " << seconds_since(killed) << " s after the SIGKILL" << std::endl;
   EXPECT_TRUE(marked_processes(state_dir).empty()) << "left behind after the test process was killed";
-  EXPECT_FALSE(fs::exists(state_dir)) << state_dir << " left behind";
+  EXPECT_FALSE(fs::exists(state_dir)) << state_dir << " left behind; the watchdog's log:\n"
+                                      << read_file(state_dir + ".watchdog.log");
+  EXPECT_FALSE(fs::exists(state_dir + ".watchdog.log")) << "the log of a watchdog that did its work is removed";
   EXPECT_TRUE(parent.healthy()) << "another process's server is not touched";
 }
 

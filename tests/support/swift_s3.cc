@@ -117,17 +117,23 @@ std::string make_state_dir() {
 // Folders of earlier fixtures that nothing runs in any more: a live server always has processes
 // marked ZOOMWARP_SWIFT_S3=FOLDER (its watchdog at least, started first), so an unmarked folder of
 // ours older than a minute was left by something that killed the watchdog too (kill -9 of the whole
-// process group, the OOM killer). Stopping processes is the watchdog's job; this only tidies.
+// process group, the OOM killer). Stopping processes is the watchdog's job; this only tidies, its old
+// logs too.
 void remove_stale_state_dirs() {
   std::error_code ec;
   std::vector<fs::path> candidates;
   for (const auto& entry : fs::directory_iterator(temp_root(), ec)) {
     const std::string name = entry.path().filename().string();
     struct stat st {};
-    if (name.rfind(kStatePrefix, 0) != 0 || ::lstat(entry.path().c_str(), &st) != 0 || !S_ISDIR(st.st_mode) ||
-        st.st_uid != ::getuid() || ::time(nullptr) - st.st_mtime < 60) {
+    if (name.rfind(kStatePrefix, 0) != 0 || ::lstat(entry.path().c_str(), &st) != 0 || st.st_uid != ::getuid() ||
+        ::time(nullptr) - st.st_mtime < 60) {
       continue;
     }
+    if (S_ISREG(st.st_mode) && name.ends_with(".watchdog.log")) {  // a watchdog's report on a folder it left
+      fs::remove(entry.path(), ec);
+      continue;
+    }
+    if (!S_ISDIR(st.st_mode)) continue;
     candidates.push_back(entry.path());
   }
   if (candidates.empty()) return;
@@ -347,7 +353,7 @@ SwiftS3::SwiftS3() : owner_pid_(::getpid()) {
                                       {{"S3_DIR", dir_},
                                        {"S3_PORT", std::to_string(port_)},
                                        {"S3_WATCH_FD", std::to_string(kWatchFd)},
-                                       {"S3_WATCH_PID", ""},
+                                       {"S3_WATCH_PID", std::to_string(owner_pid_)},
                                        {"S3_KEEP", ""},
                                        {"S3_START_TIMEOUT", std::to_string(kStartTimeoutSeconds)}},
                                       watch[0], std::chrono::seconds(kStartTimeoutSeconds + 30));

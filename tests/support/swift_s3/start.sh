@@ -48,7 +48,7 @@ command -v curl >/dev/null || need curl
 if [ -e "$D" ] && [ -n "$(ls -A "$D")" ]; then echo "swift_s3: $D is not empty (stop.sh it first?)" >&2; exit 1; fi
 mkdir -p "$D"
 D=$(cd "$D" && pwd -P)
-export ZOOMWARP_SWIFT_S3=$D
+export ZOOMWARP_SWIFT_S3=$D S3_DIR=$D
 echo $$ > "$D/pgid"
 : > "$D/pids"
 

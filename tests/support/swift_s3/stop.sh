@@ -7,8 +7,8 @@
 # ZOOMWARP_SWIFT_S3=$S3_DIR in its environment, and nothing else: a group id cannot be reused
 # while the group has members, and the mark tells ours from a group that took the id later.
 # They are SIGKILLed, paused (SIGSTOP) ones too. The watchdog of start.sh runs this when the test
-# process is gone: it spares itself ($$), and start.sh's failure path spares start.sh
-# (S3_STOP_SPARE). Safe to run again.
+# process is gone: it spares itself ($$) and the processes in S3_STOP_SPARE (the watchdog running
+# it, or start.sh on its failure path). Safe to run again.
 set -u
 D=${S3_DIR:?S3_DIR: the folder start.sh was given}
 [ -d "$D" ] || exit 0
@@ -36,9 +36,16 @@ if [ -n "$pg" ]; then
   for _ in $(seq 50); do
     m=$(members)
     [ -z "$m" ] && break
+    echo "$(date -u +%T.%3N) SIGKILL" $m
     kill -KILL $m 2> /dev/null
     sleep 0.05
   done
 fi
-if [ "${S3_KEEP:-0}" = 1 ]; then rm -f "$D/pgid"; else rm -rf "$D"; fi
+if [ "${S3_KEEP:-0}" = 1 ]; then
+  rm -f "$D/pgid"
+else
+  # again should a process that was still exiting have left a file behind the first pass
+  for _ in 1 2 3 4 5; do rm -rf "$D" && break; sleep 0.2; done
+  [ -e "$D" ] && { echo "$D: not removed; what is left:"; ls -laR "$D" | head -40; }
+fi
 exit 0

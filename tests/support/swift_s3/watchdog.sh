@@ -1,12 +1,25 @@
 #!/bin/bash
 # watchdog.sh - started first by start.sh, in its process group: waits until the server's owner is
-# gone, then runs stop.sh (which spares this process, as it is the one running it). The owner is
-# gone when S3_WATCH_FD reads end-of-file (the write end of that pipe is held by the test process
-# alone, so the kernel closes it when that process ends, even by SIGKILL), or when the process
-# S3_WATCH_PID ends. Exec'd, not a subshell of start.sh, so that its /proc/PID/environ carries
-# ZOOMWARP_SWIFT_S3 like every other process stop.sh stops.
+# gone, then runs stop.sh. The owner is gone when S3_WATCH_FD reads end-of-file (the write end of
+# that pipe is held by the test process alone, so the kernel closes it when that process ends, even
+# by SIGKILL), or when the process S3_WATCH_PID ends; with both set, whichever comes first (a child
+# that kept the pipe's write end by mistake then cannot keep the server alive). Run by start.sh with
+# ZOOMWARP_SWIFT_S3 in its environment, so that stop.sh would find it like every other process:
+# stop.sh spares it (S3_STOP_SPARE). What stop.sh prints goes to $S3_DIR.watchdog.log, next to
+# the folder, which is removed with the folder: a log left there says why the folder was not.
 set -u
 alive() { local s; read -r s 2> /dev/null < "/proc/$1/stat" || return 1; s=${s##*) }; [ "${s%% *}" != Z ]; }
-if [ -n "${S3_WATCH_FD:-}" ]; then while read -r -u "$S3_WATCH_FD" _; do :; done; fi
-if [ -n "${S3_WATCH_PID:-}" ]; then while alive "$S3_WATCH_PID"; do sleep 0.5; done; fi
-exec "$(dirname "$0")/stop.sh"
+owner_alive() { [ -z "${S3_WATCH_PID:-}" ] || alive "$S3_WATCH_PID"; }
+if [ -n "${S3_WATCH_FD:-}" ]; then
+  while owner_alive; do
+    read -r -t 1 -u "$S3_WATCH_FD" _
+    rc=$?
+    [ $rc -eq 0 ] || [ $rc -gt 128 ] || break  # 1: end of file; > 128: timed out, look again
+  done
+elif [ -n "${S3_WATCH_PID:-}" ]; then
+  while owner_alive; do sleep 0.5; done
+fi
+log="$S3_DIR.watchdog.log"
+echo "$(date -u +%FT%T.%3NZ) owner gone, stopping $S3_DIR" >> "$log"
+S3_STOP_SPARE="$$ ${S3_STOP_SPARE:-}" "$(dirname "$0")/stop.sh" >> "$log" 2>&1
+if [ -e "$S3_DIR" ]; then echo "$(date -u +%FT%T.%3NZ) $S3_DIR is still there" >> "$log"; else rm -f "$log"; fi
