@@ -42,11 +42,23 @@ Response stopped_response(warp::Stopped::Reason reason) {
   return r;
 }
 
+Response store_unavailable_response(const tiles::StoreUnavailable& error) {
+  Response r = error.timed_out()
+                   ? error_response(504, "store_timeout", "the image store did not answer in time; retry shortly")
+                   : error_response(503, "store_unavailable", "the image store cannot be reached; retry shortly");
+  r.set_header("Retry-After", "1");
+  r.failure = "store";
+  r.log_detail = error.what();
+  return r;
+}
+
 std::optional<Response> server_failure_response(std::exception_ptr error) {
   try {
     std::rethrow_exception(error);
   } catch (const warp::Stopped& stopped) {
     return stopped_response(stopped.reason());
+  } catch (const tiles::StoreUnavailable& e) {
+    return store_unavailable_response(e);
   } catch (const ApiError& e) {
     if (e.status() == 500) return error_response(e);
   } catch (const std::exception& e) {

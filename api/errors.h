@@ -12,6 +12,7 @@
 #include <string>
 
 #include "api/http_types.h"
+#include "tiles/store_errors.h"
 #include "warp/core/stop_token.h"
 
 namespace zoomwarp::api {
@@ -52,8 +53,12 @@ Response internal_error_response(const std::string& detail);
 // Response::failure says which ("deadline", "cancelled"), for metrics and the log.
 Response stopped_response(warp::Stopped::Reason reason);
 
+// 503 (504 when it timed out) + Retry-After when the store did not answer (a bucket that is down,
+// hung or throttling): "store_unavailable" / "store_timeout"; Response::failure "store".
+Response store_unavailable_response(const tiles::StoreUnavailable& error);
+
 // The answer to a computation that threw, when the failure is the server's: stopped_response()
-// for warp::Stopped, error_response() for an ApiError of status 500, internal_error_response()
+// for warp::Stopped, store_unavailable_response() for tiles::StoreUnavailable, error_response() for an ApiError of status 500, internal_error_response()
 // for any other std::exception. nullopt for an ApiError of another status: the client's own error
 // (or a refusal such as 501), which the caller rethrows for the router to answer as usual.
 std::optional<Response> server_failure_response(std::exception_ptr error);

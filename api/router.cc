@@ -12,6 +12,8 @@
 #include "api/http_caching.h"
 #include "api/url.h"
 #include "tiles/image_id.h"
+#include "tiles/store_deadline.h"
+#include "tiles/store_errors.h"
 #include "warp/analysis/derived_files.h"
 #include "tiles/raster_ops.h"
 
@@ -117,7 +119,13 @@ bool Router::is_upload(std::string_view method, std::string_view path) {
   return method == "POST" && (path == "/v1/images" || path == "/v1/images/");
 }
 
-std::optional<Response> Router::try_answer_now(const Request& req) { return dispatch(req, false); }
+std::optional<Response> Router::try_answer_now(const Request& req) {
+  // On the I/O thread the store is never waited for: with a deadline already past, what is not
+  // in memory (a pointer to read again, a manifest of a bucket's) fails at once with
+  // StoreUnavailable, and the request goes to a worker (dispatch).
+  const tiles::StoreDeadlineScope no_store_requests(std::chrono::steady_clock::time_point::min());
+  return dispatch(req, false);
+}
 
 Response Router::handle(const Request& req) { return *dispatch(req, true); }
 
@@ -378,6 +386,9 @@ std::optional<Response> Router::dispatch(const Request& req, bool may_compute) {
     Response r = error_response(e);
     r.route = "error";
     return r;
+  } catch (const tiles::StoreUnavailable&) {
+    if (!may_compute) return std::nullopt;  // the I/O thread's: a worker asks the store
+    throw;
   }
 }
 

@@ -14,6 +14,7 @@
 #include "server/listener.h"
 #include "server/log.h"
 #include "server/session.h"
+#include "tiles/store_deadline.h"
 
 namespace zoomwarp::server {
 
@@ -32,6 +33,51 @@ struct HttpServer::Impl {
         gc_timer(ioc) {
     // ioc (signals, timers, the listener) also takes sessions; every context has one thread.
     for (int i = 1; i < state.options.io_threads; ++i) more_contexts.push_back(std::make_unique<net::io_context>(1));
+    metrics.add_sampler([this] { return store_samples(); });
+  }
+
+  // The store's metrics: its readiness and image count as last checked (StoreMonitor), and for a
+  // bucket the requests made (what S3 bills) and what its cache holds.
+  std::vector<Metrics::Sample> store_samples() const {
+    using S = Metrics::Sample;
+    const StoreMonitor::Reading r = state.store_monitor.last();
+    const tiles::StoreStats s = state.store.stats();
+    // A folder's count is one directory listing, made here; a bucket's is never waited for here.
+    std::vector<S> out = {
+        {"zoomwarp_images", "Images published in the store (a bucket's as of its last count, every ten seconds).",
+         "gauge", "", double(s.remote ? r.images : state.store.count())},
+        {"zoomwarp_store_readable", "1 when the store answered its last readiness check.", "gauge", "",
+         r.problem.empty() ? 1.0 : 0.0},
+    };
+    if (!s.remote) return out;
+    for (std::size_t op = 0; op < tiles::kS3OperationCount; ++op) {
+      const std::string label = std::string("op=\"") + tiles::s3_operation_name(tiles::S3Operation(op)) + "\"";
+      out.push_back({"zoomwarp_store_requests_total", op ? "" : "Requests made to the bucket (retries included), by operation.",
+                     "counter", label, double(s.requests.requests[op])});
+    }
+    for (std::size_t op = 0; op < tiles::kS3OperationCount; ++op) {
+      const std::string label = std::string("op=\"") + tiles::s3_operation_name(tiles::S3Operation(op)) + "\"";
+      out.push_back({"zoomwarp_store_failures_total", op ? "" : "Bucket operations that failed after their retries, by operation.",
+                     "counter", label, double(s.requests.failures[op])});
+    }
+    out.push_back({"zoomwarp_store_retries_total", "Bucket requests that were retries.", "counter", "", double(s.requests.retries)});
+    out.push_back({"zoomwarp_store_bytes_total", "Bytes sent to and received from the bucket.", "counter",
+                   R"(direction="received")", double(s.requests.bytes_received)});
+    out.push_back({"zoomwarp_store_bytes_total", "", "counter", R"(direction="sent")", double(s.requests.bytes_sent)});
+    out.push_back({"zoomwarp_store_cache_hits_total", "Reads of the bucket's bytes answered locally, by tier.", "counter",
+                   R"(tier="memory")", double(s.cache.memory_hits)});
+    out.push_back({"zoomwarp_store_cache_hits_total", "", "counter", R"(tier="disk")", double(s.cache.disk_hits)});
+    out.push_back({"zoomwarp_store_cache_misses_total", "Reads of the bucket's bytes that went to the bucket.", "counter", "",
+                   double(s.cache.misses)});
+    out.push_back({"zoomwarp_store_cache_bytes", "Bytes of the bucket held locally, by tier.", "gauge", R"(tier="memory")",
+                   double(s.cache.memory_bytes)});
+    out.push_back({"zoomwarp_store_cache_bytes", "", "gauge", R"(tier="disk")", double(s.cache.disk_bytes)});
+    out.push_back({"zoomwarp_store_cache_limit_bytes", "Bound of the local copy of the bucket's bytes, by tier.", "gauge",
+                   R"(tier="memory")", double(s.cache.memory_limit)});
+    out.push_back({"zoomwarp_store_cache_limit_bytes", "", "gauge", R"(tier="disk")", double(s.cache.disk_limit)});
+    out.push_back({"zoomwarp_store_cache_evictions_total", "Files the disk tier removed to stay within its bound.", "counter",
+                   "", double(s.cache.disk_evictions)});
+    return out;
   }
 
   std::vector<net::io_context*> session_contexts() {
@@ -65,8 +111,14 @@ struct HttpServer::Impl {
     gc_timer.async_wait([this](boost::system::error_code ec) {
       if (ec || state.draining) return;
       state.cpu.try_submit([this] {
-        int removed = state.store.collect_garbage(state.options.gc_grace);
-        if (removed > 0) log_event("info", "store garbage collected", {{"removed", removed}});
+        // A worker's time, as a request's: a hung store does not keep it (the next round goes on).
+        const tiles::StoreDeadlineScope scope(std::chrono::steady_clock::now() + state.options.request_timeout);
+        try {
+          int removed = state.store.collect_garbage(state.options.gc_grace);
+          if (removed > 0) log_event("info", "store garbage collected", {{"removed", removed}});
+        } catch (const std::exception& e) {
+          log_event("warning", "store garbage collection stopped", {{"error", e.what()}});
+        }
       });
       schedule_gc();
     });

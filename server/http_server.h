@@ -42,6 +42,8 @@ struct HttpServerOptions {
   std::chrono::seconds drain_timeout{30};     // then at most this long for in-flight requests
   std::chrono::seconds request_timeout{5};    // computed requests, from read to answer (queue included)
   std::chrono::seconds gc_interval{60};       // store garbage collection
+  std::chrono::milliseconds store_check_interval{1000};  // how often readiness asks the store
+  std::chrono::milliseconds store_check_timeout{2000};   // and how long it waits for an answer
   std::chrono::seconds gc_grace{600};         // age of unreferenced versions before removal
   bool log_requests = true;
   std::string face_detection = "on";          // "off: why" — a /readyz detail, not a readiness failure

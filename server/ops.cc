@@ -29,11 +29,13 @@ std::optional<api::Response> answer_ops(const api::Request& req, const OpsContex
   if (req.path == "/healthz") return text(200, "application/json", "{\"status\":\"ok\"}\n", "healthz");
   if (req.path == "/readyz") {
     // Face detection is a detail: without it significance maps are coarser, views still work.
-    const bool store_ok = ctx.store.readable(), draining = ctx.draining.load();
+    const StoreMonitor::Reading store = ctx.store.last();
+    const bool store_ok = store.problem.empty(), draining = ctx.draining.load();
     nlohmann::json body = {{"status", draining ? "draining" : store_ok ? "ready" : "store not readable"}};
     // The details are for the operator, as /metrics are: with keys configured, for an admin key.
     if (!api::check_access(ctx.access, api::Access::kAdmin, req))
-      body["checks"] = {{"store", store_ok ? "ok" : "not readable"}, {"face_detection", std::string(ctx.face_detection)}};
+      body["checks"] = {{"store", store_ok ? "ok" : "not readable: " + store.problem},
+                        {"face_detection", std::string(ctx.face_detection)}};
     return text(!draining && store_ok ? 200 : 503, "application/json", body.dump() + "\n", "readyz");
   }
   if (auto refusal = api::check_access(ctx.access, api::Access::kAdmin, req)) return refusal;

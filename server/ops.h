@@ -1,5 +1,5 @@
-// Operations endpoints: /healthz (the process answers), /readyz (the store can be read and we
-// are not draining; its "checks" also report degraded features that do not make the replica
+// Operations endpoints: /healthz (the process answers), /readyz (the store could be read at its
+// last check, StoreMonitor, and we are not draining; its "checks" also report degraded features that do not make the replica
 // unready, such as face detection), /metrics (Prometheus). Answered on the I/O thread; they
 // never queue.
 //
@@ -15,12 +15,12 @@
 #include "api/authorize.h"
 #include "api/http_types.h"
 #include "server/metrics.h"
-#include "tiles/store.h"
+#include "server/store_monitor.h"
 
 namespace zoomwarp::server {
 
 struct OpsContext {
-  const tiles::Store& store;
+  const StoreMonitor& store;
   const Metrics& metrics;
   const std::atomic<bool>& draining;
   std::string_view face_detection;  // "on" or "off: why"

@@ -76,6 +76,7 @@ std::vector<OptionSpec> serve_specs() {
       {"upload-bytes-per-day", "0", "upload bytes per day per key (or client address without one), K/M/G; 0: no limit"},
   };
   for (auto& s : store_option_specs()) specs.push_back(s);
+  for (auto& s : store_cache_option_specs()) specs.push_back(s);
   return specs;
 }
 
@@ -181,7 +182,8 @@ int serve_command(const std::vector<std::string>& args) {
     const auto ingest_queue = std::size_t(o.integer("ingest-queue", 0, 1 << 10));
     http.upload_slots = std::size_t(ingest_workers) + ingest_queue;
 
-    tiles::Store store(o.str("store"), std::chrono::milliseconds(o.integer("store-recheck-ms", 0, 3'600'000)));
+    tiles::Store store(o.str("store"), std::chrono::milliseconds(o.integer("store-recheck-ms", 0, 3'600'000)),
+                       store_cache_options(o));
     const int removed = store.collect_garbage(http.gc_grace);
     tiles::PyramidReader reader(tile_cache);
     api::Router router(store, reader, rc);
@@ -217,7 +219,6 @@ int serve_command(const std::vector<std::string>& args) {
           {"zoomwarp_workers_busy", "", "gauge", R"(pool="ingest")", double(ingest.running())},
           {"zoomwarp_worker_jobs_total", "Jobs handed to a worker pool.", "counter", R"(pool="cpu")", double(cpu.accepted())},
           {"zoomwarp_worker_jobs_total", "", "counter", R"(pool="ingest")", double(ingest.accepted())},
-          {"zoomwarp_images", "Images published in the store.", "gauge", "", double(store.list().size())},
           {"zoomwarp_analyses_total", "Warp engines loaded: their analysis computed here (first use) or read from the store.",
            "counter", R"(source="computed")", double(router.analysis_counts().computed)},
           {"zoomwarp_analyses_total", "", "counter", R"(source="read")", double(router.analysis_counts().read)},

@@ -12,6 +12,8 @@
 #include "server/log.h"
 #include "server/ops.h"
 #include "tiles/header_sniff.h"
+#include "tiles/store_deadline.h"
+#include "tiles/store_errors.h"
 
 namespace zoomwarp::server {
 
@@ -384,7 +386,7 @@ void Session::answer() {
     return send(std::move(r));
   }
   try {
-    if (auto r = answer_ops(req_, OpsContext{state_.store, state_.metrics, state_.draining, state_.options.face_detection, state_.router.config().access})) return send(std::move(*r));
+    if (auto r = answer_ops(req_, OpsContext{state_.store_monitor, state_.metrics, state_.draining, state_.options.face_detection, state_.router.config().access})) return send(std::move(*r));
     if (auto r = state_.router.try_answer_now(req_)) return send(std::move(*r));
   } catch (const std::exception& e) {
     return send(api::internal_error_response(e.what()));
@@ -397,15 +399,21 @@ void Session::answer() {
 void Session::submit(WorkerPool& pool) {
   stream_.expires_never();  // a slow computation is not the client's fault
   const bool bounded = &pool == &state_.cpu;
-  stop_ = bounded ? std::make_shared<warp::StopToken>(std::chrono::steady_clock::now() + state_.options.request_timeout)
-                  : std::make_shared<warp::StopToken>();
+  const auto deadline = bounded ? std::chrono::steady_clock::now() + state_.options.request_timeout
+                                : std::chrono::steady_clock::time_point::max();
+  stop_ = bounded ? std::make_shared<warp::StopToken>(deadline) : std::make_shared<warp::StopToken>();
   req_.stop = stop_.get();
-  const bool queued = pool.try_submit([self = shared_from_this()] {
+  const bool queued = pool.try_submit([self = shared_from_this(), deadline] {
     api::Response r;
     try {
+      // The store's requests end by the request's deadline too (a hung bucket: 504, not a worker
+      // held for the store's own budget).
+      const tiles::StoreDeadlineScope store_deadline(deadline);
       r = self->state_.router.handle(self->req_);
     } catch (const warp::Stopped& stopped) {
       r = api::stopped_response(stopped.reason());
+    } catch (const tiles::StoreUnavailable& e) {
+      r = api::store_unavailable_response(e);
     } catch (const std::exception& e) {
       r = api::internal_error_response(e.what());
     }

@@ -29,6 +29,7 @@
 #include "server/metrics.h"
 #include "server/upload_admission.h"
 #include "server/worker_pool.h"
+#include "server/store_monitor.h"
 #include "tiles/store.h"
 #include "warp/core/stop_token.h"
 
@@ -41,7 +42,13 @@ class Session;
 // `sessions_mu`.
 struct ServerState {
   ServerState(HttpServerOptions o, tiles::Store& s, api::Router& r, WorkerPool& c, WorkerPool& i, Metrics& m)
-      : options(std::move(o)), store(s), router(r), cpu(c), ingest(i), metrics(m) {}
+      : options(std::move(o)),
+        store(s),
+        router(r),
+        cpu(c),
+        ingest(i),
+        metrics(m),
+        store_monitor(s, options.store_check_interval, options.store_check_timeout) {}
 
   HttpServerOptions options;
   tiles::Store& store;
@@ -49,6 +56,7 @@ struct ServerState {
   WorkerPool& cpu;
   WorkerPool& ingest;
   Metrics& metrics;
+  StoreMonitor store_monitor;  // readiness and the image count, without waiting for the store
   std::atomic<bool> draining{false};
   std::atomic<std::uint64_t> connections_accepted{0};  // logged when the server stops
   std::atomic<std::size_t> open_connections{0};        // sessions alive, against max_connections

@@ -31,6 +31,24 @@ std::vector<OptionSpec> store_option_specs() {
   };
 }
 
+std::vector<OptionSpec> store_cache_option_specs() {
+  return {
+      {"store-cache", "",
+       "with an s3:// store: a local folder for uploads being staged and a disk cache of the bucket's bytes (tile "
+       "indexes, tiles, analyses), kept across restarts; empty: staging in $TMPDIR, memory cache only"},
+      {"store-cache-bytes", "10G", "with --store-cache: the disk cache's bound, oldest evicted first"},
+      {"store-memory-bytes", "256M", "with an s3:// store: the bucket's bytes kept in memory"},
+  };
+}
+
+tiles::StoreCacheOptions store_cache_options(const Options& o) {
+  tiles::StoreCacheOptions c;
+  c.dir = o.str("store-cache");
+  c.disk_bytes = o.bytes("store-cache-bytes", 1ULL << 20, 1ULL << 50);
+  c.memory_bytes = std::size_t(o.bytes("store-memory-bytes", 1ULL << 20, 1ULL << 40));
+  return c;
+}
+
 AnalysisSettings analysis_settings(const Options& o) {
   const std::string configured = o.str("face-cascade");
   const warp::FaceCascade cascade = warp::find_face_cascade(configured);

@@ -6,6 +6,7 @@
 
 #include "server/options.h"
 #include "tiles/ingest.h"
+#include "tiles/store.h"
 #include "warp/analysis/method_files.h"
 #include "warp/saliency/significance.h"
 
@@ -13,6 +14,10 @@ namespace zoomwarp::server {
 
 // --store, --max-pixels, --tile-compression, --ingest-threads, --face-cascade.
 std::vector<OptionSpec> store_option_specs();
+
+// --store-cache, --store-cache-bytes, --store-memory-bytes: what a bucket store keeps locally.
+std::vector<OptionSpec> store_cache_option_specs();
+tiles::StoreCacheOptions store_cache_options(const Options& o);
 
 // The warp engine's analysis settings: --face-cascade found (warp::find_face_cascade), and face
 // detection's state for /readyz: "on", or "off: " and why. Logs a warning when it is off.

@@ -16,6 +16,7 @@
 #include "server/commands.h"
 #include "server/options.h"
 #include "tiles/image_id.h"
+#include "tiles/random_access_file.h"
 #include "tiles/source_digest.h"
 #include "tiles/store.h"
 
@@ -58,7 +59,8 @@ struct Copied {
   std::uintmax_t bytes = 0;
 };
 
-// Copies `image` into `to` and checks it through `check` (the same store, its own mirror).
+// Copies `image` into `to` and checks it through `check`: the same store opened again with nothing
+// cached, so what is checked is read back from the store itself.
 Copied copy_image(const tiles::ImageEntry& image, tiles::Store& to, tiles::Store& check) {
   const std::string staging = to.make_staging_dir();
   std::map<std::string, std::string> digests;
@@ -66,10 +68,10 @@ Copied copy_image(const tiles::ImageEntry& image, tiles::Store& to, tiles::Store
   try {
     for (const std::string& name : image.files->names()) {
       if (name == "manifest.json") continue;
-      const std::optional<std::string> from = image.files->local_path(name);
+      const std::shared_ptr<const tiles::RandomAccessFile> from = image.files->open(name);
       if (!from) throw std::runtime_error(name + ": not readable");
       const std::string staged = staging + "/" + name;
-      fs::copy_file(*from, staged);
+      tiles::copy_to_local_file(*from, staged);
       digests[name] = tiles::file_sha256_hex(staged);
       copied.bytes += fs::file_size(staged);
       ++copied.files;
@@ -83,9 +85,9 @@ Copied copy_image(const tiles::ImageEntry& image, tiles::Store& to, tiles::Store
   if (!back || back->manifest.version != image.manifest.version)
     throw std::runtime_error("not found in the destination after the copy");
   for (const auto& [name, digest] : digests) {
-    const std::optional<std::string> path = back->files->local_path(name);
-    if (!path || !fs::exists(*path)) throw std::runtime_error(name + " is missing in the destination");
-    if (tiles::file_sha256_hex(*path) != digest) throw std::runtime_error(name + ": SHA-256 differs in the destination");
+    const std::shared_ptr<const tiles::RandomAccessFile> file = back->files->open(name);
+    if (!file) throw std::runtime_error(name + " is missing in the destination");
+    if (tiles::file_sha256_hex(*file) != digest) throw std::runtime_error(name + ": SHA-256 differs in the destination");
   }
   return copied;
 }
@@ -104,7 +106,7 @@ int copy_command(const std::vector<std::string>& args) {
   const bool quiet = o.flag("quiet");
   tiles::Store from(p[0], std::chrono::milliseconds(0)), to(p[1], std::chrono::milliseconds(0));
   const ScratchDir scratch;
-  tiles::Store check(p[1], std::chrono::milliseconds(0), scratch.path());
+  tiles::Store check(p[1], std::chrono::milliseconds(0), tiles::StoreCacheOptions{.dir = scratch.path(), .disk_bytes = 0, .memory_bytes = 1u << 20});
 
   int failed = 0;
   std::vector<std::shared_ptr<const tiles::ImageEntry>> images;

@@ -12,6 +12,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "tiles/store_deadline.h"
+#include "tiles/store_errors.h"
 #include "tiles/unique_names.h"
 
 namespace zoomwarp::tiles {
@@ -20,35 +22,26 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// Every store operation's time: the Store's callers have no deadline of their own to pass down.
+// A store operation's time when the thread has no deadline of its own (StoreDeadlineScope): a
+// command's, or work in the background.
 constexpr std::chrono::seconds kOperationBudget{30};
 
-S3Deadline deadline() { return std::chrono::steady_clock::now() + kOperationBudget; }
+S3Deadline deadline() { return StoreDeadlineScope::deadline(kOperationBudget); }
 
-std::optional<std::string> read_local(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return std::nullopt;
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-// A mirror file written whole under a temporary name of this writer's own, then renamed: readers
-// of the mirror, in this process or another sharing it, never see a part of it.
-void write_local(const fs::path& path, std::string_view bytes) {
-  static std::atomic<std::uint64_t> writes{0};
-  fs::create_directories(path.parent_path());
-  const fs::path tmp = path.string() + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(++writes);
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out.write(bytes.data(), std::streamsize(bytes.size()));
-    if (!out.flush()) {
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      throw std::runtime_error("cannot write " + tmp.string());
-    }
+// Runs a request to the store: a store that is down, hung or throttling past the retries is
+// StoreUnavailable to the callers above tiles/ (503/504), other failures stay S3Errors.
+// A thread whose deadline has passed (the server's I/O thread sets one in the past: it must never
+// wait for the store) fails at once, without a request.
+template <class F>
+auto guarded(F&& request) -> decltype(request()) {
+  if (deadline() <= std::chrono::steady_clock::now())
+    throw StoreUnavailable("no time left for a request to the store", true);
+  try {
+    return request();
+  } catch (const S3Error& e) {
+    if (e.unavailable()) throw StoreUnavailable(e.what(), e.timed_out());
+    throw;
   }
-  fs::rename(tmp, path);
 }
 
 // Every key under `prefix`, every page.
@@ -56,7 +49,7 @@ std::vector<S3ListEntry> list_all(S3Client& client, const std::string& bucket, c
   std::vector<S3ListEntry> out;
   std::string continuation;
   do {
-    S3ListPage page = client.list(bucket, prefix, "", continuation, deadline());
+    S3ListPage page = guarded([&] { return client.list(bucket, prefix, "", continuation, deadline()); });
     for (S3ListEntry& e : page.objects) out.push_back(std::move(e));
     continuation = page.truncated ? page.next_continuation : "";
   } while (!continuation.empty());
@@ -68,7 +61,7 @@ std::vector<std::string> list_children(S3Client& client, const std::string& buck
   std::vector<std::string> out;
   std::string continuation;
   do {
-    S3ListPage page = client.list(bucket, prefix, "/", continuation, deadline());
+    S3ListPage page = guarded([&] { return client.list(bucket, prefix, "/", continuation, deadline()); });
     for (const S3ListEntry& e : page.objects) out.push_back(e.key.substr(prefix.size()));
     for (const std::string& p : page.common_prefixes) out.push_back(p.substr(prefix.size(), p.size() - prefix.size() - 1));
     continuation = page.truncated ? page.next_continuation : "";
@@ -76,70 +69,173 @@ std::vector<std::string> list_children(S3Client& client, const std::string& buck
   return out;
 }
 
+// What a bucket store's files share: the client, the cache, the bucket.
+struct Bucket {
+  std::shared_ptr<S3Client> client;
+  std::shared_ptr<RangeCache> cache;
+  std::string name;
+};
+
+// Blocks of a level file: what one cache entry holds. A tile (tens of kB) is one or two blocks, a
+// TIFF header and tile index a few; a read wanting several missing blocks in a row fetches them
+// with one ranged GET.
+constexpr std::uint64_t kBlockBytes = 32u << 10;
+// Reads this large (store copy, an edit's staging) go straight to the store: they would only
+// flush the cache.
+constexpr std::size_t kDirectReadBytes = 1u << 20;
+
+class BucketObject final : public RandomAccessFile {
+ public:
+  BucketObject(std::shared_ptr<const Bucket> bucket, std::string key, std::uint64_t size)
+      : bucket_(std::move(bucket)), key_(std::move(key)), size_(size), name_("s3://" + bucket_->name + "/" + key_) {}
+
+  std::uint64_t size() const override { return size_; }
+  const std::string& name() const override { return name_; }
+
+  std::size_t read(std::uint64_t offset, std::size_t n, char* dst) const override {
+    if (offset >= size_ || n == 0) return 0;
+    n = std::size_t(std::min<std::uint64_t>(n, size_ - offset));
+    if (n >= kDirectReadBytes) {
+      const std::string bytes = fetch(offset, n);
+      std::copy(bytes.begin(), bytes.end(), dst);
+      return n;
+    }
+    const std::uint64_t first = offset / kBlockBytes, last = (offset + n - 1) / kBlockBytes;
+    std::vector<std::shared_ptr<const std::string>> blocks(last - first + 1);
+    for (std::uint64_t b = first; b <= last; ++b) blocks[b - first] = bucket_->cache->find(block_key(b));
+    for (std::uint64_t b = first; b <= last;) {
+      if (blocks[b - first]) {
+        ++b;
+        continue;
+      }
+      std::uint64_t end = b;  // the run of missing blocks [b, end]
+      while (end + 1 <= last && !blocks[end + 1 - first]) ++end;
+      const std::uint64_t from = b * kBlockBytes, to = std::min(size_, (end + 1) * kBlockBytes);
+      const std::string run = fetch(from, std::size_t(to - from));
+      for (std::uint64_t k = b; k <= end; ++k) {
+        const std::uint64_t at = (k - b) * kBlockBytes;
+        auto block = std::make_shared<const std::string>(run.substr(at, kBlockBytes));
+        bucket_->cache->insert(block_key(k), block);
+        blocks[k - first] = std::move(block);
+      }
+      b = end + 1;
+    }
+    std::size_t done = 0;
+    for (std::uint64_t b = first; b <= last; ++b) {
+      const std::string& block = *blocks[b - first];
+      const std::uint64_t start = b == first ? offset - b * kBlockBytes : 0;
+      const std::size_t take = std::min<std::size_t>(n - done, block.size() - start);
+      std::copy_n(block.data() + start, take, dst + done);
+      done += take;
+    }
+    return done;
+  }
+
+ private:
+  std::string block_key(std::uint64_t b) const { return name_ + "#" + std::to_string(b); }
+
+  std::string fetch(std::uint64_t offset, std::size_t n) const {
+    std::optional<std::string> bytes =
+        guarded([&] { return bucket_->client->get_range(bucket_->name, key_, offset, n, deadline()); });
+    if (!bytes) throw std::runtime_error(name_ + " vanished while being read");
+    return std::move(*bytes);
+  }
+
+  const std::shared_ptr<const Bucket> bucket_;
+  const std::string key_;
+  const std::uint64_t size_;
+  const std::string name_;
+};
+
 class BucketFiles final : public VersionFiles {
  public:
-  BucketFiles(std::shared_ptr<S3Client> client, std::string bucket, std::string key_prefix, fs::path mirror)
-      : client_(std::move(client)),
-        bucket_(std::move(bucket)),
+  BucketFiles(std::shared_ptr<const Bucket> bucket, std::string key_prefix)
+      : bucket_(std::move(bucket)),
         key_prefix_(std::move(key_prefix)),
-        mirror_(std::move(mirror)),
-        location_("s3://" + bucket_ + "/" + key_prefix_.substr(0, key_prefix_.size() - 1)) {}
+        location_("s3://" + bucket_->name + "/" + key_prefix_.substr(0, key_prefix_.size() - 1)) {}
 
   std::optional<std::string> read(const std::string& name) const override {
-    if (auto local = read_local(mirror_ / name)) return local;
-    std::optional<std::string> bytes = client_->get(bucket_, key_prefix_ + name, deadline());
-    if (bytes) write_local(mirror_ / name, *bytes);
+    const std::string key = location_ + "/" + name;
+    if (auto cached = bucket_->cache->find(key)) return *cached;
+    std::optional<std::string> bytes = guarded([&] { return client().get(bucket_->name, key_prefix_ + name, deadline()); });
+    if (bytes) {
+      bucket_->cache->insert(key, std::make_shared<const std::string>(*bytes));
+      remember_size(name, bytes->size());
+    }
     return bytes;
   }
 
-  bool exists(const std::string& name) const override {
-    std::error_code ec;
-    return fs::exists(mirror_ / name, ec) || client_->head(bucket_, key_prefix_ + name, deadline()).has_value();
-  }
+  bool exists(const std::string& name) const override { return size_of(name).has_value(); }
 
   void write(const std::string& name, const std::string& bytes) const override {
-    client_->put(bucket_, key_prefix_ + name, bytes, "application/octet-stream", deadline());
-    write_local(mirror_ / name, bytes);
+    guarded([&] { return client().put(bucket_->name, key_prefix_ + name, bytes, "application/octet-stream", deadline()); });
+    bucket_->cache->insert(location_ + "/" + name, std::make_shared<const std::string>(bytes));
+    remember_size(name, bytes.size());
   }
 
   std::vector<std::string> names() const override {
     std::vector<std::string> out;
-    for (const S3ListEntry& e : list_all(*client_, bucket_, key_prefix_)) out.push_back(e.key.substr(key_prefix_.size()));
+    for (const S3ListEntry& e : list_all(client(), bucket_->name, key_prefix_)) out.push_back(e.key.substr(key_prefix_.size()));
     return out;
   }
 
-  // Fetched whole into the mirror on first use; a missing object leaves the path missing, so the
-  // reader opening it says so.
-  std::optional<std::string> local_path(const std::string& name) const override {
-    const fs::path path = mirror_ / name;
-    std::error_code ec;
-    if (!fs::exists(path, ec)) read(name);
-    return path.string();
+  std::shared_ptr<const RandomAccessFile> open(const std::string& name) const override {
+    const std::optional<std::uint64_t> size = size_of(name);
+    if (!size) return nullptr;
+    return std::make_shared<BucketObject>(bucket_, key_prefix_ + name, *size);
   }
+
+  std::optional<std::string> local_path(const std::string&) const override { return std::nullopt; }
 
   const std::string& location() const override { return location_; }
 
  private:
-  const std::shared_ptr<S3Client> client_;
-  const std::string bucket_, key_prefix_;
-  const fs::path mirror_;
+  S3Client& client() const { return *bucket_->client; }
+
+  // A file's size: a HEAD the first time, then remembered (a version's files never change, and
+  // one once there stays while the version is readable). A missing file is asked again each time:
+  // another replica may add it (an analysis).
+  std::optional<std::uint64_t> size_of(const std::string& name) const {
+    {
+      std::lock_guard lock(mu_);
+      if (auto it = sizes_.find(name); it != sizes_.end()) return it->second;
+    }
+    const std::optional<S3ObjectInfo> info = guarded([&] { return client().head(bucket_->name, key_prefix_ + name, deadline()); });
+    if (!info) return std::nullopt;
+    remember_size(name, info->size);
+    return info->size;
+  }
+
+  void remember_size(const std::string& name, std::uint64_t size) const {
+    std::lock_guard lock(mu_);
+    sizes_[name] = size;
+  }
+
+  const std::shared_ptr<const Bucket> bucket_;
+  const std::string key_prefix_;
   const std::string location_;
+  mutable std::mutex mu_;
+  mutable std::map<std::string, std::uint64_t> sizes_;
 };
 
 class BucketStore final : public StoreBackend {
  public:
-  BucketStore(const S3Location& where, std::shared_ptr<S3Client> client, const std::string& cache_dir)
-      : client_(std::move(client)), where_(where), location_(where.url()), cache_(cache_dir) {
+  BucketStore(const S3Location& where, std::shared_ptr<S3Client> client, const std::string& local_dir,
+              const RangeCacheOptions& cache)
+      : bucket_(std::make_shared<const Bucket>(Bucket{client, std::make_shared<RangeCache>(cache), where.bucket})),
+        client_(std::move(client)),
+        where_(where),
+        location_(where.url()),
+        staging_(fs::path(local_dir) / "staging") {
     std::error_code ec;
-    fs::create_directories(cache_ / "staging", ec);
-    fs::create_directories(cache_ / "versions", ec);
-    if (ec) throw std::runtime_error("cannot create the store's local folder " + cache_.string() + ": " + ec.message());
+    fs::create_directories(staging_, ec);
+    if (ec) throw std::runtime_error("cannot create the store's local folder " + staging_.string() + ": " + ec.message());
   }
 
   const std::string& location() const override { return location_; }
 
   std::optional<std::string> read_pointer(const std::string& id) const override {
-    const std::optional<std::string> body = client_->get(where_.bucket, pointer_key(id), deadline());
+    const std::optional<std::string> body = guarded([&] { return client_->get(where_.bucket, pointer_key(id), deadline()); });
     if (!body) return std::nullopt;
     std::string v = *body;
     while (!v.empty() && (v.back() == '\n' || v.back() == ' ')) v.pop_back();
@@ -148,7 +244,7 @@ class BucketStore final : public StoreBackend {
   }
 
   bool has_pointer(const std::string& id) const override {
-    return client_->head(where_.bucket, pointer_key(id), deadline()).has_value();
+    return guarded([&] { return client_->head(where_.bucket, pointer_key(id), deadline()); }).has_value();
   }
 
   std::vector<std::string> pointer_ids() const override {
@@ -156,11 +252,11 @@ class BucketStore final : public StoreBackend {
   }
 
   std::shared_ptr<const VersionFiles> version_files(const std::string& version_dir) const override {
-    return std::make_shared<BucketFiles>(client_, where_.bucket, version_prefix(version_dir), cache_ / "versions" / version_dir);
+    return std::make_shared<BucketFiles>(bucket_, version_prefix(version_dir));
   }
 
   std::string make_staging_dir() const override {
-    const fs::path p = cache_ / "staging" / owned_unique_name();
+    const fs::path p = staging_ / owned_unique_name();
     fs::create_directories(p);
     return p.string();
   }
@@ -176,9 +272,9 @@ class BucketStore final : public StoreBackend {
     for (const S3ListEntry& e : list_all(*client_, where_.bucket, prefix)) {
       const std::string name = e.key.substr(prefix.size());
       if (name == "manifest.json" || name.find('/') != std::string::npos) continue;
-      const std::optional<std::string> bytes = files->read(name);
-      if (!bytes) throw std::runtime_error(location_ + ": " + version_dir + "/" + name + " vanished while being copied");
-      write_local(fs::path(staging) / name, *bytes);
+      const std::shared_ptr<const RandomAccessFile> file = files->open(name);
+      if (!file) throw std::runtime_error(location_ + ": " + version_dir + "/" + name + " vanished while being copied");
+      copy_to_local_file(*file, (fs::path(staging) / name).string());
     }
   }
 
@@ -205,21 +301,21 @@ class BucketStore final : public StoreBackend {
       std::sort(files.begin(), files.end());
       files.push_back(fs::path(staging_dir) / "manifest.json");
       for (const fs::path& f : files)
-        client_->put_file(where_.bucket, prefix + f.filename().string(), f.string(), "application/octet-stream", deadline());
-      client_->put(where_.bucket, pointer_key(id), version_dir + "\n", "text/plain", deadline());
+        guarded([&] {
+          return client_->put_file(where_.bucket, prefix + f.filename().string(), f.string(), "application/octet-stream",
+                                   deadline());
+        });
+      guarded([&] { return client_->put(where_.bucket, pointer_key(id), version_dir + "\n", "text/plain", deadline()); });
     } catch (...) {
       discard_staging(staging_dir);
       throw;
     }
-    // The staged files are the version's: they become its mirror rather than being fetched again.
-    std::error_code ec;
-    fs::rename(staging_dir, cache_ / "versions" / version_dir, ec);
-    if (ec) discard_staging(staging_dir);
+    discard_staging(staging_dir);
   }
 
   bool remove_pointer(const std::string& id) override {
     if (!has_pointer(id)) return false;
-    client_->remove(where_.bucket, pointer_key(id), deadline());
+    guarded([&] { client_->remove(where_.bucket, pointer_key(id), deadline()); });
     return true;
   }
 
@@ -235,16 +331,14 @@ class BucketStore final : public StoreBackend {
       const std::optional<std::int64_t> created = created_ms(version_dir);
       if (created && now_ms - *created < std::chrono::duration_cast<std::chrono::milliseconds>(grace).count()) continue;
       for (const S3ListEntry& e : list_all(*client_, where_.bucket, version_prefix(version_dir)))
-        client_->remove(where_.bucket, e.key, deadline());
-      std::error_code ec;
-      fs::remove_all(cache_ / "versions" / version_dir, ec);
+        guarded([&] { client_->remove(where_.bucket, e.key, deadline()); });
       removed_version(version_dir);
       ++removed;
     }
     // Staging folders of this host's processes that are gone.
     const std::string me = host_name() + ".";
     std::error_code ec;
-    for (const auto& e : fs::directory_iterator(cache_ / "staging", ec)) {
+    for (const auto& e : fs::directory_iterator(staging_, ec)) {
       const std::string name = e.path().filename().string();
       if (!name.starts_with(me)) continue;
       const std::string pid = name.substr(me.size(), name.find('.', me.size()) - me.size());
@@ -256,14 +350,16 @@ class BucketStore final : public StoreBackend {
     return removed;
   }
 
-  bool readable() const override {
+  std::string problem(std::chrono::milliseconds within) const override {
     try {
-      client_->list(where_.bucket, where_.prefix + "images/", "/", "", deadline(), 1);
-      return true;
-    } catch (const std::exception&) {
-      return false;
+      client_->list(where_.bucket, where_.prefix + "images/", "/", "", std::chrono::steady_clock::now() + within, 1);
+      return "";
+    } catch (const std::exception& e) {
+      return e.what();
     }
   }
+
+  StoreStats stats() const override { return StoreStats{true, client_->stats(), bucket_->cache->stats()}; }
 
  private:
   std::string pointer_key(const std::string& id) const { return where_.prefix + "images/" + id; }
@@ -286,10 +382,11 @@ class BucketStore final : public StoreBackend {
     return ms;
   }
 
+  const std::shared_ptr<const Bucket> bucket_;
   const std::shared_ptr<S3Client> client_;
   const S3Location where_;
   const std::string location_;
-  const fs::path cache_;
+  const fs::path staging_;
   std::mutex locks_mu_;
   std::map<std::string, std::shared_ptr<std::mutex>> locks_;
 };
@@ -297,8 +394,8 @@ class BucketStore final : public StoreBackend {
 }  // namespace
 
 std::unique_ptr<StoreBackend> bucket_store(const S3Location& where, std::shared_ptr<S3Client> client,
-                                           const std::string& cache_dir) {
-  return std::make_unique<BucketStore>(where, std::move(client), cache_dir);
+                                           const std::string& local_dir, const RangeCacheOptions& cache) {
+  return std::make_unique<BucketStore>(where, std::move(client), local_dir, cache);
 }
 
 }  // namespace zoomwarp::tiles

@@ -10,9 +10,14 @@
 // commit leaves objects no pointer names, which collect_garbage() removes after the grace period
 // (their age is in their name: a version's first 11 hex digits are its creation time in ms).
 //
-// Local state, in `cache_dir`: staging folders (a version is built on local disk, as for a folder
-// store), and a mirror of the versions' files read so far. Level files are fetched whole on first
-// use and then read by OpenImageIO and libtiff from the mirror. The mirror is not bounded yet.
+// Reads: a version's files are read by byte range (RandomAccessFile), in blocks kept in a
+// RangeCache (memory, and a bounded local folder if asked for): a level's TIFF header and tile
+// index are read once, then a tile costs one ranged GET. A file's size is one HEAD the first time.
+// Small files (manifest, analyses) are read whole and cached the same way. A store that is down
+// or slow is StoreUnavailable (store_errors.h) within the thread's deadline (store_deadline.h).
+//
+// Local state: staging folders in `local_dir`/staging (a version is built on local disk, as for a
+// folder store, then uploaded).
 //
 // Not the same as a folder store: lock_id() serialises the commits of one id within this process
 // only (S3 has no lock to take), so two replicas editing one image at the same instant may both
@@ -22,6 +27,7 @@
 #include <memory>
 #include <string>
 
+#include "tiles/range_cache.h"
 #include "tiles/s3_client.h"
 #include "tiles/store_backend.h"
 
@@ -29,6 +35,6 @@ namespace zoomwarp::tiles {
 
 // `client` is shared: its connections, counters and retries serve every version's files.
 std::unique_ptr<StoreBackend> bucket_store(const S3Location& where, std::shared_ptr<S3Client> client,
-                                           const std::string& cache_dir);
+                                           const std::string& local_dir, const RangeCacheOptions& cache);
 
 }  // namespace zoomwarp::tiles

@@ -67,6 +67,10 @@ class FolderFiles final : public VersionFiles {
     return out;
   }
 
+  std::shared_ptr<const RandomAccessFile> open(const std::string& name) const override {
+    return open_local_file(dir_ + "/" + name);
+  }
+
   std::optional<std::string> local_path(const std::string& name) const override { return dir_ + "/" + name; }
 
   const std::string& location() const override { return dir_; }

@@ -158,9 +158,10 @@ class FolderStore final : public StoreBackend {
     return removed;
   }
 
-  bool readable() const override {
-    return ::access((root_ + "/images").c_str(), R_OK | X_OK) == 0 &&
-           ::access((root_ + "/versions").c_str(), R_OK | X_OK) == 0;
+  std::string problem(std::chrono::milliseconds) const override {
+    for (const char* sub : {"/images", "/versions"})
+      if (::access((root_ + sub).c_str(), R_OK | X_OK) != 0) return root_ + sub + " is not readable";
+    return "";
   }
 
  private:

@@ -1,5 +1,6 @@
 #include "tiles/pyramid_reader.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imagecache.h>
 
 #include <opencv2/imgproc.hpp>
@@ -7,15 +8,92 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <mutex>
+#include <optional>
 #include <stdexcept>
+#include <unordered_map>
+#include <utility>
+
+#include "tiles/pyramid_builder.h"
 
 namespace zoomwarp::tiles {
+
+namespace {
+
+// What a read of a remote level threw on this thread (ImageCache reads tiles on the calling
+// thread): OpenImageIO only sees a short read, the caller rethrows this instead.
+thread_local std::exception_ptr remote_read_failure;
+
+// A level file read by byte range (a bucket's), handed to OpenImageIO's TIFF reader as its I/O.
+// The ImageCache serialises the reads of one file; pread() may come from any thread.
+class RangeProxy final : public OIIO::Filesystem::IOProxy {
+ public:
+  explicit RangeProxy(std::shared_ptr<const RandomAccessFile> file)
+      : IOProxy(file->name(), Read), file_(std::move(file)) {}
+  const char* proxytype() const override { return "zoomwarp_range"; }
+  size_t read(void* buf, size_t size) override {
+    const size_t got = pread(buf, size, m_pos);
+    m_pos += int64_t(got);
+    return got;
+  }
+  size_t pread(void* buf, size_t size, int64_t offset) override {
+    try {
+      return file_->read(std::uint64_t(offset), size, static_cast<char*>(buf));
+    } catch (...) {
+      if (!remote_read_failure) remote_read_failure = std::current_exception();
+      return 0;
+    }
+  }
+  size_t size() const override { return size_t(file_->size()); }
+
+ private:
+  const std::shared_ptr<const RandomAccessFile> file_;
+};
+
+}  // namespace
 
 struct PyramidReader::Impl {
   OIIO::ImageCache* cache = nullptr;
   std::int64_t limit = 0;
   // Counted here: get_pixels() does not go through the ImageCache's own find_tile statistics.
   std::atomic<std::int64_t> lookups{0};
+  // The I/O of remote level files the cache knows, by the name it knows them by. Never dropped:
+  // the cache keeps each file's entry (and its configuration, pointing here) for its lifetime,
+  // and may open an invalidated file again; one is a few hundred bytes, as its own entry is.
+  std::mutex proxies_mu;
+  std::unordered_map<std::string, std::shared_ptr<RangeProxy>> proxies;
+
+  // The name the cache reads level k of `image` by: its local path, or a remote file's location,
+  // added to the cache with its I/O the first time.
+  OIIO::ustring file_name(const ImageEntry& image, int k) {
+    const std::string name = level_filename(k);
+    if (std::optional<std::string> local = image.files->local_path(name)) return OIIO::ustring(*local);
+    const std::string remote = image.files->location() + "/" + name;
+    {
+      std::lock_guard lock(proxies_mu);
+      if (proxies.count(remote)) return OIIO::ustring(remote);
+    }
+    std::shared_ptr<const RandomAccessFile> file = image.files->open(name);
+    if (!file) throw std::runtime_error("cannot read " + remote + ": missing");
+    auto proxy = std::make_shared<RangeProxy>(std::move(file));
+    std::lock_guard lock(proxies_mu);
+    if (proxies.emplace(remote, proxy).second) {
+      OIIO::ImageSpec config;
+      void* io = proxy.get();
+      config.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &io);
+      cache->add_file(OIIO::ustring(remote), nullptr, &config);
+    }
+    return OIIO::ustring(remote);
+  }
+
+  // After a failed read: a remote file the store did not answer for is closed and opened again
+  // next time (the cache would otherwise remember it as broken), and the store's failure thrown.
+  void rethrow_remote_failure(OIIO::ustring file) {
+    if (!remote_read_failure) return;
+    std::exception_ptr failure = std::exchange(remote_read_failure, nullptr);
+    cache->invalidate(file, true);
+    std::rethrow_exception(failure);
+  }
 };
 
 PyramidReader::PyramidReader(std::size_t cache_bytes, int max_open_files)
@@ -40,7 +118,7 @@ Raster PyramidReader::read_level(const ImageEntry& image, int level, Rect r) {
   const long long t = m.tile_size;
   impl_->lookups += ((r.x + r.w - 1) / t - r.x / t + 1) * ((r.y + r.h - 1) / t - r.y / t + 1);
   Raster out(int(r.w), int(r.h), m.channels);
-  const OIIO::ustring file(image.level_path(level));
+  const OIIO::ustring file = impl_->file_name(image, level);
   OIIO::ImageCache& cache = *impl_->cache;
   OIIO::ImageCache::Perthread* thread = cache.get_perthread_info();
   OIIO::ImageCache::ImageHandle* handle = cache.get_image_handle(file, thread);
@@ -54,8 +132,11 @@ Raster PyramidReader::read_level(const ImageEntry& image, int level, Rect r) {
       const long long y0 = std::max(ty, r.y), y1 = std::min(ty + t, r.y + r.h);
       std::uint8_t* first = out.pixels.data() + (y0 - r.y) * row + (x0 - r.x) * m.channels;
       if (!handle || !cache.get_pixels(handle, thread, 0, 0, int(x0), int(x1), int(y0), int(y1), 0, 1, 0, m.channels,
-                                       OIIO::TypeDesc::UINT8, first, m.channels, row, OIIO::AutoStride))
-        throw std::runtime_error("cannot read " + file.string() + ": " + cache.geterror());
+                                       OIIO::TypeDesc::UINT8, first, m.channels, row, OIIO::AutoStride)) {
+        const std::string error = cache.geterror();
+        impl_->rethrow_remote_failure(file);
+        throw std::runtime_error("cannot read " + file.string() + ": " + error);
+      }
     }
   return out;
 }
@@ -90,8 +171,12 @@ Raster PyramidReader::read_scaled(const ImageEntry& image, Rect region, int out_
 }
 
 void PyramidReader::forget(const ImageEntry& image) {
-  for (int k = 0; k < image.manifest.levels; ++k)
-    impl_->cache->invalidate(OIIO::ustring(image.level_path(k)), true);
+  for (int k = 0; k < image.manifest.levels; ++k) {
+    const std::string name = level_filename(k);
+    const std::optional<std::string> local = image.files->local_path(name);
+    const std::string file = local ? *local : image.files->location() + "/" + name;
+    impl_->cache->invalidate(OIIO::ustring(file), true);
+  }
 }
 
 PyramidReader::Stats PyramidReader::stats() const {

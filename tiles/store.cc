@@ -42,12 +42,10 @@ std::string ImageEntry::level_path(int k) const {
 
 namespace {
 
-// s3://BUCKET/PREFIX: credentials and endpoint from the AWS environment (s3_config.h), the local
-// mirror and staging in $ZOOMWARP_STORE_CACHE, else under $TMPDIR (one per bucket and prefix,
-// shared by the processes of a host: its files are written atomically and never change). Refused
+// s3://BUCKET/PREFIX: credentials and endpoint from the AWS environment (s3_config.h). Refused
 // credentials stop the start with S3's own message; a store that is down does not (readiness says
 // so, and service begins when it answers).
-std::unique_ptr<StoreBackend> open_backend(const std::string& location, const std::string& cache_dir) {
+std::unique_ptr<StoreBackend> open_backend(const std::string& location, const StoreCacheOptions& cache) {
   if (!location.starts_with("s3://")) return folder_store(location);
   const S3Location where = parse_s3_location(location);
   auto client = std::make_shared<S3Client>(S3Config::from_environment());
@@ -56,21 +54,23 @@ std::unique_ptr<StoreBackend> open_backend(const std::string& location, const st
   } catch (const S3Error& e) {
     if (e.credentials_refused() || e.code() == "NoSuchBucket") throw std::runtime_error(location + ": " + e.what());
   }
-  std::string cache = cache_dir;
-  const char* env = std::getenv("ZOOMWARP_STORE_CACHE");
-  if (cache.empty() && env && *env) {
-    cache = env;
-  } else if (cache.empty()) {
+  RangeCacheOptions ranges;
+  ranges.memory_bytes = cache.memory_bytes;
+  std::string local = cache.dir;
+  if (local.empty()) {
     const char* tmp = std::getenv("TMPDIR");
-    cache = std::string(tmp && *tmp ? tmp : "/tmp") + "/zoomwarp-store-cache/" + where.bucket + "/" + where.prefix;
+    local = std::string(tmp && *tmp ? tmp : "/tmp") + "/zoomwarp-store-cache/" + where.bucket + "/" + where.prefix;
+  } else if (cache.disk_bytes > 0) {
+    ranges.disk_dir = cache.dir;
+    ranges.disk_bytes = cache.disk_bytes;
   }
-  return bucket_store(where, std::move(client), cache);
+  return bucket_store(where, std::move(client), local, ranges);
 }
 
 }  // namespace
 
-Store::Store(const std::string& location, std::chrono::milliseconds recheck, const std::string& cache_dir)
-    : backend_(open_backend(location, cache_dir)), recheck_(recheck) {}
+Store::Store(const std::string& location, std::chrono::milliseconds recheck, const StoreCacheOptions& cache)
+    : backend_(open_backend(location, cache)), recheck_(recheck) {}
 
 Store::~Store() = default;
 
@@ -126,6 +126,8 @@ std::shared_ptr<const ImageEntry> Store::read_link(const std::string& id) const 
 }
 
 bool Store::published(const std::string& id) const { return is_valid_image_id(id) && backend_->has_pointer(id); }
+
+std::size_t Store::count() const { return backend_->pointer_ids().size(); }
 
 std::vector<std::shared_ptr<const ImageEntry>> Store::list() const {
   std::vector<std::shared_ptr<const ImageEntry>> out;
@@ -216,6 +218,8 @@ int Store::collect_garbage(std::chrono::seconds grace) {
   });
 }
 
-bool Store::readable() const { return backend_->readable(); }
+std::string Store::problem(std::chrono::milliseconds within) const { return backend_->problem(within); }
+
+StoreStats Store::stats() const { return backend_->stats(); }
 
 }  // namespace zoomwarp::tiles

@@ -42,6 +42,17 @@ struct ImageEntry {
   std::string level_path(int k) const;
 };
 
+// What a bucket store keeps on this host (ignored for a folder store).
+struct StoreCacheOptions {
+  // Staging folders and the disk cache of the bucket's bytes (bounded by disk_bytes; 0: none).
+  // Empty: staging under $TMPDIR/zoomwarp-store-cache/BUCKET/PREFIX, and no disk cache.
+  std::string dir;
+  std::uint64_t disk_bytes = 10ULL << 30;
+  // The bucket's bytes kept in memory: level files' blocks (headers, tile indexes, stored tiles)
+  // and small files (manifests, analyses).
+  std::size_t memory_bytes = 256u << 20;
+};
+
 struct VersionConflict : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
@@ -51,14 +62,12 @@ class Store {
   static constexpr std::chrono::milliseconds kDefaultRecheck{1000};
 
   // The store at `location`: a folder (created with its subfolders if missing), or
-  // s3://BUCKET/PREFIX (tiles/bucket_store.h; credentials and endpoint from the AWS environment,
-  // its local mirror in $ZOOMWARP_STORE_CACHE). Throws std::runtime_error if it cannot be opened:
-  // a folder that cannot be made, credentials the bucket refuses, a bucket that does not exist. `recheck`: how long a pointer once read is trusted
-  // (see above); 0 reads it on every find().
-  // `cache_dir`: a bucket store's local folder (mirror and staging) instead of the default;
-  // ignored for a folder.
+  // s3://BUCKET/PREFIX (tiles/bucket_store.h; credentials and endpoint from the AWS environment).
+  // Throws std::runtime_error if it cannot be opened: a folder that cannot be made, credentials
+  // the bucket refuses, a bucket that does not exist. `recheck`: how long a pointer once read is
+  // trusted (see above); 0 reads it on every find(). `cache`: what a bucket store keeps locally.
   explicit Store(const std::string& location, std::chrono::milliseconds recheck = kDefaultRecheck,
-                 const std::string& cache_dir = "");
+                 const StoreCacheOptions& cache = {});
   ~Store();
 
   // The folder, or s3://BUCKET/PREFIX: for messages and logs.
@@ -72,6 +81,9 @@ class Store {
   // Whether images/ID exists, whatever it points to: find() is null for a published image whose
   // version or manifest is missing or damaged, and such an image can still be removed.
   bool published(const std::string& id) const;
+
+  // How many ids are published (damaged ones included): one listing, no manifest read.
+  std::size_t count() const;
 
   // Every published image that can be read, sorted by id.
   std::vector<std::shared_ptr<const ImageEntry>> list() const;
@@ -107,8 +119,11 @@ class Store {
   // process is gone (or that are older than a day). Returns how many it removed.
   int collect_garbage(std::chrono::seconds grace);
 
-  // Whether the store can be read (readiness).
-  bool readable() const;
+  // Why the store cannot be read now, or "" (readiness): given up on after `within`.
+  std::string problem(std::chrono::milliseconds within) const;
+
+  // Requests made to a remote store and what its cache holds (metrics); zero for a folder.
+  StoreStats stats() const;
 
  private:
   // Reads the pointer of `id` now (no caching): the published version, or null.

@@ -19,9 +19,18 @@
 #include <string>
 #include <vector>
 
+#include "tiles/range_cache.h"
+#include "tiles/s3_client.h"
 #include "tiles/version_files.h"
 
 namespace zoomwarp::tiles {
+
+// What a remote store did and holds, for metrics and cost reports (issue 29); all zero for a folder.
+struct StoreStats {
+  bool remote = false;
+  S3Stats requests;
+  RangeCacheStats cache;
+};
 
 class StoreBackend {
  public:
@@ -63,8 +72,11 @@ class StoreBackend {
   // one's directory), and staging folders of processes that are gone. Returns how many it removed.
   virtual int collect_garbage(std::chrono::seconds grace, const std::function<void(const std::string&)>& removed) = 0;
 
-  // Whether the store can be read (readiness).
-  virtual bool readable() const = 0;
+  // Why the store cannot be read now, or "" when it can (readiness): one small request, answered
+  // or given up on within `within`.
+  virtual std::string problem(std::chrono::milliseconds within) const = 0;
+
+  virtual StoreStats stats() const { return {}; }
 };
 
 }  // namespace zoomwarp::tiles

@@ -14,6 +14,8 @@
 #include <vector>
 
 #include "tiles/jpeg_tiles.h"
+#include "tiles/pyramid_builder.h"
+#include "tiles/tiff_on_file.h"
 
 namespace zoomwarp::tiles {
 
@@ -36,27 +38,36 @@ struct Level {
   std::string path;
   std::string message;  // libtiff's last error or warning (the handlers write here)
   TIFF* tif = nullptr;
+  std::unique_ptr<TiffOnFile> remote;  // a file read by range (a bucket's); owns tif then
   std::vector<std::uint8_t> tables;
   std::uint32_t width = 0, height = 0, tile_size = 0;
   std::mutex mu;
 
   explicit Level(std::string p) : path(std::move(p)) {}
   ~Level() {
-    if (tif) TIFFClose(tif);
+    if (tif && !remote) TIFFClose(tif);
   }
   [[noreturn]] void fail(const std::string& what) const {
     throw std::runtime_error(path + ": " + what + (message.empty() ? "" : " (" + message + ")"));
   }
 };
 
-// Opens `path` and checks it is the JPEG-tiled level the manifest describes.
-std::shared_ptr<Level> open_level(const std::string& path, const Manifest& m, int k) {
-  auto level = std::make_shared<Level>(path);
-  TIFFOpenOptions* opts = TIFFOpenOptionsAlloc();
-  TIFFOpenOptionsSetErrorHandlerExtR(opts, keep_message, &level->message);
-  TIFFOpenOptionsSetWarningHandlerExtR(opts, keep_message, &level->message);
-  level->tif = TIFFOpenExt(path.c_str(), "r", opts);
-  TIFFOpenOptionsFree(opts);
+// Opens level k of `image` (a local file by its path, else by byte range) and checks it is the
+// JPEG-tiled level the manifest describes.
+std::shared_ptr<Level> open_level(const ImageEntry& image, int k) {
+  const Manifest& m = image.manifest;
+  const std::string name = level_filename(k);
+  const std::optional<std::string> local = image.files->local_path(name);
+  auto level = std::make_shared<Level>(local ? *local : image.files->location() + "/" + name);
+  std::unique_ptr<TIFFOpenOptions, void (*)(TIFFOpenOptions*)> opts(TIFFOpenOptionsAlloc(), TIFFOpenOptionsFree);
+  TIFFOpenOptionsSetErrorHandlerExtR(opts.get(), keep_message, &level->message);
+  TIFFOpenOptionsSetWarningHandlerExtR(opts.get(), keep_message, &level->message);
+  if (local) {
+    level->tif = TIFFOpenExt(local->c_str(), "r", opts.get());
+  } else if (auto file = image.files->open(name)) {
+    level->remote = std::make_unique<TiffOnFile>(std::move(file), opts.get());
+    level->tif = level->remote->tif();
+  }
   if (!level->tif) level->fail("cannot open");
   TIFF* t = level->tif;
   std::uint16_t compression = 0;
@@ -86,6 +97,7 @@ std::vector<std::uint8_t> read_raw_tile(Level& level, int tx, int ty) {
   if (err || size == 0 || size > kMaxTileBytes) level.fail("tile " + std::to_string(tile) + " has a damaged byte count");
   std::vector<std::uint8_t> raw(size);
   const tmsize_t got = TIFFReadRawTile(level.tif, tile, raw.data(), tmsize_t(size));
+  if (got != tmsize_t(size) && level.remote) level.remote->rethrow_read_failure();
   if (got != tmsize_t(size)) level.fail("tile " + std::to_string(tile) + " cannot be read");
   return raw;
 }
@@ -120,7 +132,8 @@ struct StoredTiles::Impl {
 
   // The open level file at `path`, opened (outside the lock: it reads the file's directory) if it
   // is not. A level evicted while another thread reads it closes when that read ends.
-  std::shared_ptr<Level> level(const std::string& path, const Manifest& m, int k) {
+  std::shared_ptr<Level> level(const ImageEntry& image, int k) {
+    const std::string path = image.files->location() + "/" + level_filename(k);
     {
       std::lock_guard lock(mu);
       if (auto it = by_path.find(path); it != by_path.end()) {
@@ -128,7 +141,7 @@ struct StoredTiles::Impl {
         return *it->second;
       }
     }
-    auto opened = open_level(path, m, k);
+    auto opened = open_level(image, k);
     std::lock_guard lock(mu);
     if (auto it = by_path.find(path); it != by_path.end()) return *it->second;  // another thread was first
     recent.push_front(opened);
@@ -153,7 +166,7 @@ std::string StoredTiles::jpeg_tile(const ImageEntry& image, int level, int tx, i
   if (level < 0 || level >= m.levels || tx < 0 || ty < 0 ||
       std::int64_t(tx) * m.tile_size >= m.level_width(level) || std::int64_t(ty) * m.tile_size >= m.level_height(level))
     throw std::invalid_argument("no such stored tile");
-  std::shared_ptr<Level> file = impl_->level(image.level_path(level), m, level);
+  std::shared_ptr<Level> file = impl_->level(image, level);
   std::vector<std::uint8_t> raw;
   {
     std::lock_guard lock(file->mu);

@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "tiles/random_access_file.h"
+
 namespace zoomwarp::tiles {
 
 class VersionFiles {
@@ -34,8 +36,12 @@ class VersionFiles {
   // written through. Throws std::runtime_error, leaving nothing behind, when it cannot.
   virtual void write(const std::string& name, const std::string& bytes) const = 0;
 
-  // A local path to `name` for readers that open files themselves (OpenImageIO, libtiff), or
-  // nullopt when the files are not local.
+  // `name` opened for reads by byte range (the level readers: a tile is one range), or null when
+  // the version has no such file. Throws std::runtime_error when the store cannot answer.
+  virtual std::shared_ptr<const RandomAccessFile> open(const std::string& name) const = 0;
+
+  // A local path to `name` for readers that open files themselves (libtiff, OpenImageIO; faster
+  // than through open() for a file that is local), or nullopt when the files are not local.
   virtual std::optional<std::string> local_path(const std::string& name) const = 0;
 
   // Names the version's location in messages and as a cache key: one string per version and

@@ -9,10 +9,15 @@
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 
 #include "tests/support/server_process.h"
 #include "tests/support/swift_s3.h"
+#include "tests/support/stored_tile_reference.h"
 #include "tiles/ingest.h"
+#include "tiles/pyramid_builder.h"
+#include "tiles/pyramid_reader.h"
+#include "tiles/stored_tiles.h"
 #include "tiles/s3_client.h"
 #include "tiles/store.h"
 
@@ -31,12 +36,20 @@ class S3Store : public ::testing::Test {
     location_ = "s3://" + bucket_ + "/imgs";
   }
 
-  // A Store as a replica would open it: its own local mirror, pointers read on every find().
-  std::unique_ptr<tiles::Store> replica(const std::string& cache) {
-    ::setenv("ZOOMWARP_STORE_CACHE", cache.c_str(), 1);
-    auto store = std::make_unique<tiles::Store>(location_, std::chrono::milliseconds(0));
-    ::unsetenv("ZOOMWARP_STORE_CACHE");
-    return store;
+  // A Store as a replica would open it: its own local folder (staging, a disk cache of
+  // `disk_bytes`), pointers read on every find().
+  std::unique_ptr<tiles::Store> replica(const std::string& dir, std::uint64_t disk_bytes = 64ULL << 20) {
+    return std::make_unique<tiles::Store>(location_, std::chrono::milliseconds(0),
+                                          tiles::StoreCacheOptions{.dir = dir, .disk_bytes = disk_bytes, .memory_bytes = 32u << 20});
+  }
+
+  // The whole of a version's file, read by range.
+  static std::string whole(const tiles::ImageEntry& e, const std::string& name) {
+    const auto file = e.files->open(name);
+    if (!file) return "(missing)";
+    std::string bytes(file->size(), '\0');
+    EXPECT_EQ(file->read(0, bytes.size(), bytes.data()), bytes.size());
+    return bytes;
   }
 
   // Every key of the bucket under the store's prefix.
@@ -62,8 +75,70 @@ TEST_F(S3Store, AVersionPublishedOnOneReplicaIsReadWholeOnAnother) {
   EXPECT_EQ(b->list().size(), 1u);
   const auto on_a = a->find("boats");
   for (int k = 0; k < m.levels; ++k)
-    EXPECT_EQ(testing::read_file(on_b->level_path(k)), testing::read_file(on_a->level_path(k))) << "level " << k;
-  EXPECT_TRUE(on_b->level_path(0).starts_with(b_dir_.path())) << "b reads its own mirror, not a's folder";
+    EXPECT_EQ(whole(*on_b, tiles::level_filename(k)), whole(*on_a, tiles::level_filename(k))) << "level " << k;
+  EXPECT_FALSE(on_b->files->local_path(tiles::level_filename(0))) << "no local copy of a level file is made";
+}
+
+// Issue 29, "reads that suit an object store": a level's header and tile index are read once,
+// then a tile costs one ranged GET, and no level file is downloaded whole.
+TEST_F(S3Store, ATileCostsOneRangedGetOnceItsLevelIsOpen) {
+  auto a = replica(a_dir_.path());
+  tiles::ingest_image(*a, testing::samples_dir() + "/boats_lake_sunset.jpg", "boats", {});
+  auto b = replica(b_dir_.path());
+  const auto e = b->find("boats");
+  ASSERT_TRUE(e && tiles::has_jpeg_tiles(e->manifest));
+  const std::uint64_t level_bytes = e->files->open(tiles::level_filename(0))->size();
+  tiles::StoredTiles stored;
+  const auto before = b->stats().requests;
+  const std::string first = stored.jpeg_tile(*e, 0, 0, 0);
+  const auto opened = b->stats().requests;
+  const std::string far = stored.jpeg_tile(*e, 0, 9, 5);  // another tile, blocks away from the first
+  const auto after = b->stats().requests;
+  using Op = tiles::S3Operation;
+  auto n = [](const tiles::S3Stats& s, Op op) { return s.requests[std::size_t(op)]; };
+  EXPECT_EQ(n(after, Op::kGet), n(before, Op::kGet)) << "no level file fetched whole";
+  EXPECT_LE(n(opened, Op::kGetRange) - n(before, Op::kGetRange), 3u) << "header, tile index and the first tile";
+  EXPECT_EQ(n(after, Op::kGetRange) - n(opened, Op::kGetRange), 1u) << "one ranged GET for a further tile";
+  EXPECT_EQ(n(after, Op::kHead) - n(opened, Op::kHead), 0u);
+  EXPECT_LT(after.bytes_received - before.bytes_received, level_bytes / 4) << "a small part of the " << level_bytes
+                                                                           << "-byte level was read";
+  const std::string again = stored.jpeg_tile(*e, 0, 9, 5);
+  EXPECT_EQ(n(b->stats().requests, Op::kGetRange), n(after, Op::kGetRange)) << "a tile read again comes from the cache";
+  EXPECT_EQ(again, far);
+  testing::TempDir copy;
+  std::ofstream(copy.path() + "/level.tif", std::ios::binary) << whole(*e, tiles::level_filename(0));
+  EXPECT_EQ(far, testing::stored_tile_jpeg(copy.path() + "/level.tif", 9, 5)) << "the bytes libtiff reads from the file";
+}
+
+// The disk tier: kept across a restart (a replica starts warm), and within its bound.
+TEST_F(S3Store, TheDiskCacheOutlivesTheProcessAndStaysWithinItsBound) {
+  auto a = replica(a_dir_.path());
+  tiles::ingest_image(*a, testing::samples_dir() + "/boats_lake_sunset.jpg", "boats", {});
+  const std::uint64_t bound = 4u << 20;
+  std::vector<std::uint8_t> pixels;
+  {
+    auto b = replica(b_dir_.path(), bound);
+    tiles::PyramidReader reader(8u << 20);
+    const auto e = b->find("boats");
+    pixels = reader.read_level(*e, 1, tiles::Rect{0, 0, 1280, 800}).pixels;
+    EXPECT_GT(b->stats().cache.disk_bytes, 0u);
+    EXPECT_LE(b->stats().cache.disk_bytes, bound);
+  }
+  std::uint64_t on_disk = 0;
+  for (const auto& f : fs::recursive_directory_iterator(b_dir_.path() + "/ranges"))
+    if (f.is_regular_file()) on_disk += f.file_size();
+  EXPECT_GT(on_disk, 0u);
+  EXPECT_LE(on_disk, bound);
+  auto restarted = replica(b_dir_.path(), bound);
+  tiles::PyramidReader reader(8u << 20);
+  const auto e = restarted->find("boats");
+  const auto before = restarted->stats();
+  EXPECT_EQ(reader.read_level(*e, 1, tiles::Rect{0, 0, 1280, 800}).pixels, pixels);
+  const auto after = restarted->stats();
+  EXPECT_GT(after.cache.disk_hits, before.cache.disk_hits) << "read from the folder the last process filled";
+  EXPECT_LT(after.requests.requests[std::size_t(tiles::S3Operation::kGetRange)] -
+                before.requests.requests[std::size_t(tiles::S3Operation::kGetRange)],
+            10u);
 }
 
 TEST_F(S3Store, ARemovalAndAnAddedAnalysisAreSeenByTheOtherReplica) {
@@ -110,12 +185,9 @@ TEST_F(S3Store, StoreCopyRoundTripsAFolderStoreThroughABucket) {
     tiles::ingest_image(store, testing::samples_dir() + "/interior_wine_djembe_tall.jpg", "interior", {});
     store.find("boats")->files->write("lines.json", "{\"lines\": []}");  // an analysis goes too
   }
-  ::setenv("ZOOMWARP_STORE_CACHE", a_dir_.path().c_str(), 1);
   const auto there = testing::run_command({testing::zoomwarp_binary(), "store", "copy", a, location_});
-  ::setenv("ZOOMWARP_STORE_CACHE", b_dir_.path().c_str(), 1);
   const auto back = testing::run_command({testing::zoomwarp_binary(), "store", "copy", location_, c});
   const auto again = testing::run_command({testing::zoomwarp_binary(), "store", "copy", a, location_});
-  ::unsetenv("ZOOMWARP_STORE_CACHE");
   ASSERT_EQ(there.exit_code, 0) << there.output;
   ASSERT_EQ(back.exit_code, 0) << back.output;
   ASSERT_EQ(again.exit_code, 0) << again.output;
