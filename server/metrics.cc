@@ -71,7 +71,7 @@ std::string Metrics::render() const {
     }
     out << "# HELP zoomwarp_http_requests_failed_total Requests failed on the server's side, by route and reason"
            " (deadline: --request-timeout passed, 503; cancelled: the client left, or the drain timed out, 503;"
-           " internal_error: 500; negative_cache: a view's recent deadline or 500 answered again, --failure-cache-ms).\n"
+           " internal_error: 500; store: the image store did not answer, 503/504; negative_cache: a view's recent deadline or 500 answered again, --failure-cache-ms).\n"
            "# TYPE zoomwarp_http_requests_failed_total counter\n";
     for (const auto& [key, n] : failed_)
       out << "zoomwarp_http_requests_failed_total{route=\"" << key.first << "\",reason=\"" << key.second << "\"} " << n

@@ -85,7 +85,9 @@ pid_t spawn(const std::vector<std::string>& argv, const std::string& output_path
 ServerProcess::ServerProcess(const std::string& store, const std::vector<std::string>& extra_args, Writes writes,
                              const ServerExecutable& executable) {
   static int counter = 0;
-  log_path_ = store + ".server-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + ".log";
+  // Next to a folder store; a bucket's (s3://…) goes to the temporary folder.
+  const std::string log_base = store.starts_with("s3://") ? (fs::temp_directory_path() / "zoomwarp").string() : store;
+  log_path_ = log_base + ".server-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + ".log";
   // A first view computes the image's analysis for its method (issue 28), seconds on a loaded CI
   // machine: tests about views get a deadline that no test machine reaches; tests about deadlines
   // set their own (a later option wins).

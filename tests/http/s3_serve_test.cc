@@ -1,0 +1,184 @@
+// `zoomwarp serve --store s3://…` against OpenStack Swift's s3api on loopback (tests/support/
+// swift_s3.h; suite S3Serve, one process, one Swift): what issue 29's acceptance asks of servers
+// that share nothing but a bucket. Two servers with their own working folders: an upload on one is
+// served by the other and a delete is seen by both. A paused store (SIGSTOP of Swift's proxy)
+// gives bounded 503/504 answers with JSON bodies while the process stays live and /readyz says
+// why; service returns by itself when the store does. An upload cut while the store hangs (the
+// server killed mid-commit) publishes nothing.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <signal.h>
+
+#include <chrono>
+#include <functional>
+#include <thread>
+
+#include "tests/support/http_client.h"
+#include "tests/support/server_process.h"
+#include "tests/support/swift_s3.h"
+#include "tiles/s3_client.h"
+#include "tiles/store.h"
+
+namespace zoomwarp {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using test::SwiftS3;
+using testing::HttpClient;
+using testing::ServerProcess;
+
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+// Polls `done` every 50 ms for up to `seconds`; whether it came true.
+bool eventually(double seconds, const std::function<bool()>& done) {
+  const auto t0 = Clock::now();
+  while (seconds_since(t0) < seconds) {
+    if (done()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return done();
+}
+
+class S3Serve : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    SwiftS3& s3 = SwiftS3::shared();
+    for (const auto& [k, v] : s3.environment()) ::setenv(k.c_str(), v.c_str(), 1);
+    location_ = "s3://" + s3.new_bucket("serve") + "/museum";
+  }
+  void TearDown() override {
+    if (paused_) SwiftS3::shared().resume();
+  }
+
+  // A replica: its own working folder (staging, disk cache), pointers trusted for 200 ms, views
+  // bounded by 2 s.
+  std::unique_ptr<ServerProcess> replica(const testing::TempDir& dir) {
+    return std::make_unique<ServerProcess>(
+        location_, std::vector<std::string>{"--store-cache", dir.path(), "--store-recheck-ms", "200", "--request-timeout", "2",
+                                            "--workers", "2"});
+  }
+
+  void pause() {
+    SwiftS3::shared().pause();
+    paused_ = true;
+  }
+  void resume() {
+    SwiftS3::shared().resume();
+    paused_ = false;
+  }
+
+  std::string location_;
+  bool paused_ = false;
+};
+
+const std::string& boats() {
+  static const std::string bytes = testing::read_file(testing::samples_dir() + "/boats_lake_sunset.jpg");
+  return bytes;
+}
+
+TEST_F(S3Serve, AnUploadOnOneServerIsServedByTheOtherAndADeleteIsSeenByBoth) {
+  testing::TempDir a_dir, b_dir;
+  auto a = replica(a_dir), b = replica(b_dir);
+  HttpClient on_a(a->port()), on_b(b->port());
+  EXPECT_EQ(on_b.get("/v1/images/boats").status, 404);
+  ASSERT_EQ(on_a.request("POST", "/v1/images?id=boats", boats()).status, 201);
+  EXPECT_TRUE(eventually(3, [&] { return on_b.get("/v1/images/boats").status == 200; }))
+      << "an upload on a is served by b";
+  for (const char* tile : {"/dzi/boats_files/12/3_2.jpg", "/dzi/boats_files/9/0_0.jpg", "/iiif/3/boats/full/max/0/default.jpg"}) {
+    const auto from_a = on_a.get(tile), from_b = on_b.get(tile);
+    EXPECT_EQ(from_b.status, 200) << tile << ": " << from_b.body;
+    EXPECT_TRUE(from_a.body == from_b.body) << tile << ": the same bytes from both";
+  }
+  const auto view = on_b.get("/v1/images/boats/viewport?zoom=0&w=360&h=640");
+  EXPECT_EQ(view.status, 200) << view.body;
+
+  EXPECT_EQ(on_a.request("DELETE", "/v1/images/boats").status, 204);
+  EXPECT_EQ(on_a.get("/v1/images/boats").status, 404) << "the deleting server at once";
+  EXPECT_TRUE(eventually(3, [&] { return on_b.get("/v1/images/boats").status == 404; }))
+      << "the other within its --store-recheck-ms";
+  EXPECT_EQ(on_b.get("/dzi/boats_files/12/3_2.jpg").status, 404);
+}
+
+TEST_F(S3Serve, APausedStoreGivesBoundedAnswersAndServiceReturnsWithIt) {
+  testing::TempDir dir;
+  auto server = replica(dir);
+  HttpClient http(server->port());
+  ASSERT_EQ(http.request("POST", "/v1/images?id=boats", boats()).status, 201);
+  ASSERT_EQ(http.get("/dzi/boats_files/12/0_0.jpg").status, 200);
+  ASSERT_EQ(http.get("/readyz").status, 200);
+
+  pause();
+  // Tiles not read before, from two clients at once on two workers: each answered within the
+  // request's deadline (2 s) and a margin, with a JSON error, never left waiting for the store.
+  std::vector<testing::HttpResponse> answers(4);
+  std::vector<double> took(4);
+  {
+    std::vector<std::thread> clients;
+    for (int i = 0; i < 4; ++i)
+      clients.emplace_back([&, i] {
+        HttpClient c(server->port());
+        const auto t0 = Clock::now();
+        answers[i] = c.get("/dzi/boats_files/12/" + std::to_string(9 - i) + "_5.jpg");
+        took[i] = seconds_since(t0);
+      });
+    const auto t0 = Clock::now();
+    HttpClient probe(server->port());
+    EXPECT_EQ(probe.get("/healthz").status, 200) << "liveness holds while the workers wait for the store";
+    EXPECT_LT(seconds_since(t0), 1.0);
+    for (auto& t : clients) t.join();
+  }
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_TRUE(answers[i].status == 503 || answers[i].status == 504) << answers[i].status << " " << answers[i].body;
+    EXPECT_LT(took[i], 2 * 2 + 1.5) << "bounded by the request deadline (two rounds of two workers)";
+    const auto body = nlohmann::json::parse(answers[i].body, nullptr, false);
+    ASSERT_TRUE(body.is_object()) << answers[i].body;
+    const std::string code = body["error"]["code"].get<std::string>();
+    EXPECT_TRUE(code == "store_timeout" || code == "store_unavailable" || code == "deadline_exceeded") << code;
+    EXPECT_EQ(answers[i].header("retry-after"), "1");
+  }
+  testing::HttpResponse ready;
+  EXPECT_TRUE(eventually(5, [&] { return (ready = http.get("/readyz")).status == 503; })) << "readiness fails";
+  EXPECT_NE(ready.body.find("store not readable"), std::string::npos) << ready.body;
+  EXPECT_EQ(http.get("/healthz").status, 200);
+
+  resume();
+  EXPECT_TRUE(eventually(10, [&] { return http.get("/readyz").status == 200; })) << "ready again with the store";
+  // A view's failure is answered again for --failure-cache-ms (5 s), as a deadline's is.
+  testing::HttpResponse back;
+  EXPECT_TRUE(eventually(10, [&] { return (back = http.get("/dzi/boats_files/12/9_5.jpg")).status == 200; }))
+      << "the tile that failed is served: " << back.status << " " << back.body;
+  const std::string metrics = http.get("/metrics").body;
+  EXPECT_NE(metrics.find("zoomwarp_store_readable 1"), std::string::npos) << metrics;
+  EXPECT_NE(metrics.find(",reason=\"store\"}"), std::string::npos) << "the store's failures are counted";
+}
+
+TEST_F(S3Serve, AnUploadCutWhileTheStoreHangsPublishesNothing) {
+  testing::TempDir dir;
+  auto server = replica(dir);
+  pause();
+  std::thread upload([&] {
+    try {
+      HttpClient c(server->port());
+      c.request("POST", "/v1/images?id=cut", boats());
+    } catch (const std::exception&) {  // the connection is cut with the server
+    }
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // staged, its commit waiting for the store
+  ::kill(server->pid(), SIGKILL);
+  EXPECT_EQ(server->wait_for_end(10), SIGKILL);
+  upload.join();
+  resume();
+
+  tiles::Store store(location_, std::chrono::milliseconds(0));
+  EXPECT_FALSE(store.published("cut")) << "no pointer: nothing published";
+  EXPECT_FALSE(store.find("cut"));
+  store.collect_garbage(std::chrono::seconds(0));
+  tiles::S3Client client(tiles::S3Config::from_environment());
+  const std::string bucket = location_.substr(5, location_.find('/', 5) - 5);
+  const auto left = client.list(bucket, "museum/versions/", "", "", Clock::now() + std::chrono::seconds(10));
+  EXPECT_TRUE(left.objects.empty()) << left.objects.size() << " objects of the cut upload left after collection, first "
+                                    << left.objects.front().key;
+}
+
+}  // namespace
+}  // namespace zoomwarp
