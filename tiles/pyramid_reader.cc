@@ -86,13 +86,11 @@ struct PyramidReader::Impl {
     return OIIO::ustring(remote);
   }
 
-  // After a failed read: a remote file the store did not answer for is closed and opened again
-  // next time (the cache would otherwise remember it as broken), and the store's failure thrown.
-  void rethrow_remote_failure(OIIO::ustring file) {
+  // After a failed read: the store's failure, if that was why (a 503 stays a 503). The cache does
+  // not remember a tile it could not read, so the next read asks the store again.
+  static void rethrow_remote_failure() {
     if (!remote_read_failure) return;
-    std::exception_ptr failure = std::exchange(remote_read_failure, nullptr);
-    cache->invalidate(file, true);
-    std::rethrow_exception(failure);
+    std::rethrow_exception(std::exchange(remote_read_failure, nullptr));
   }
 };
 
@@ -134,7 +132,7 @@ Raster PyramidReader::read_level(const ImageEntry& image, int level, Rect r) {
       if (!handle || !cache.get_pixels(handle, thread, 0, 0, int(x0), int(x1), int(y0), int(y1), 0, 1, 0, m.channels,
                                        OIIO::TypeDesc::UINT8, first, m.channels, row, OIIO::AutoStride)) {
         const std::string error = cache.geterror();
-        impl_->rethrow_remote_failure(file);
+        Impl::rethrow_remote_failure();
         throw std::runtime_error("cannot read " + file.string() + ": " + error);
       }
     }

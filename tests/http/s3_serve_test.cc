@@ -50,12 +50,12 @@ class S3Serve : public ::testing::Test {
     if (paused_) SwiftS3::shared().resume();
   }
 
-  // A replica: its own working folder (staging, disk cache), pointers trusted for 200 ms, views
-  // bounded by 2 s.
-  std::unique_ptr<ServerProcess> replica(const testing::TempDir& dir) {
+  // A replica: its own working folder (staging, disk cache), pointers trusted for `recheck_ms`,
+  // views bounded by 2 s.
+  std::unique_ptr<ServerProcess> replica(const testing::TempDir& dir, const std::string& recheck_ms = "200") {
     return std::make_unique<ServerProcess>(
-        location_, std::vector<std::string>{"--store-cache", dir.path(), "--store-recheck-ms", "200", "--request-timeout", "2",
-                                            "--workers", "2"});
+        location_, std::vector<std::string>{"--store-cache", dir.path(), "--store-recheck-ms", recheck_ms,
+                                            "--request-timeout", "2", "--workers", "2"});
   }
 
   void pause() {
@@ -99,43 +99,60 @@ TEST_F(S3Serve, AnUploadOnOneServerIsServedByTheOtherAndADeleteIsSeenByBoth) {
   EXPECT_EQ(on_b.get("/dzi/boats_files/12/3_2.jpg").status, 404);
 }
 
-TEST_F(S3Serve, APausedStoreGivesBoundedAnswersAndServiceReturnsWithIt) {
-  testing::TempDir dir;
-  auto server = replica(dir);
-  HttpClient http(server->port());
-  ASSERT_EQ(http.request("POST", "/v1/images?id=boats", boats()).status, 201);
-  ASSERT_EQ(http.get("/dzi/boats_files/12/0_0.jpg").status, 200);
-  ASSERT_EQ(http.get("/readyz").status, 200);
-
-  pause();
-  // Tiles not read before, from two clients at once on two workers: each answered within the
-  // request's deadline (2 s) and a margin, with a JSON error, never left waiting for the store.
-  std::vector<testing::HttpResponse> answers(4);
-  std::vector<double> took(4);
+// `paths` asked for at once, each by a client of its own, while a probe checks liveness; each
+// answer must be a bounded 503/504 with a JSON error.
+void expect_bounded_failures(int port, const std::vector<std::string>& paths) {
+  std::vector<testing::HttpResponse> answers(paths.size());
+  std::vector<double> took(paths.size());
   {
     std::vector<std::thread> clients;
-    for (int i = 0; i < 4; ++i)
+    for (std::size_t i = 0; i < paths.size(); ++i)
       clients.emplace_back([&, i] {
-        HttpClient c(server->port());
+        HttpClient c(port);
         const auto t0 = Clock::now();
-        answers[i] = c.get("/dzi/boats_files/12/" + std::to_string(9 - i) + "_5.jpg");
+        answers[i] = c.get(paths[i]);
         took[i] = seconds_since(t0);
       });
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
     const auto t0 = Clock::now();
-    HttpClient probe(server->port());
+    HttpClient probe(port);
     EXPECT_EQ(probe.get("/healthz").status, 200) << "liveness holds while the workers wait for the store";
     EXPECT_LT(seconds_since(t0), 1.0);
     for (auto& t : clients) t.join();
   }
-  for (int i = 0; i < 4; ++i) {
-    EXPECT_TRUE(answers[i].status == 503 || answers[i].status == 504) << answers[i].status << " " << answers[i].body;
-    EXPECT_LT(took[i], 2 * 2 + 1.5) << "bounded by the request deadline (two rounds of two workers)";
+  for (std::size_t i = 0; i < paths.size(); ++i) {
+    EXPECT_TRUE(answers[i].status == 503 || answers[i].status == 504) << paths[i] << ": " << answers[i].status << " " << answers[i].body;
+    // Two workers, a 2 s deadline each, the queue's wait included in it.
+    EXPECT_LT(took[i], 2 + 1.5) << paths[i] << ": bounded by the request's deadline";
     const auto body = nlohmann::json::parse(answers[i].body, nullptr, false);
     ASSERT_TRUE(body.is_object()) << answers[i].body;
     const std::string code = body["error"]["code"].get<std::string>();
     EXPECT_TRUE(code == "store_timeout" || code == "store_unavailable" || code == "deadline_exceeded") << code;
     EXPECT_EQ(answers[i].header("retry-after"), "1");
   }
+}
+
+TEST_F(S3Serve, APausedStoreGivesBoundedAnswersAndServiceReturnsWithIt) {
+  testing::TempDir dir;
+  auto server = replica(dir, "1000");
+  HttpClient http(server->port());
+  ASSERT_EQ(http.request("POST", "/v1/images?id=boats", boats()).status, 201);
+  ASSERT_EQ(http.get("/dzi/boats_files/12/0_0.jpg").status, 200);       // level 0 open in OpenImageIO
+  ASSERT_EQ(http.get("/iiif/3/boats/0,0,256,256/256,/0/default.jpg").status, 200);  // and in libtiff
+  ASSERT_EQ(http.get("/readyz").status, 200);
+
+  pause();
+  // Within --store-recheck-ms of the last lookup: the image's version is trusted, and the tiles
+  // not read before fail in the level readers: OpenImageIO's pixels (a Deep Zoom tile with
+  // overlap) and libtiff's stored tiles (a IIIF tile that is one stored tile, sent as it is). As
+  // many as there are workers, so that none fails by waiting in the queue instead.
+  const std::vector<std::string> in_readers = {"/dzi/boats_files/12/9_5.jpg",
+                                               "/iiif/3/boats/2304,1280,256,256/256,/0/default.jpg"};
+  expect_bounded_failures(server->port(), in_readers);
+  // Past it: each request's image is looked up in the store again, which the I/O thread must not
+  // wait for (it would hold /healthz with it), and a worker only until the deadline.
+  const std::vector<std::string> in_lookup = {"/dzi/boats_files/12/8_5.jpg", "/iiif/3/boats/1024,768,512,512/256,/0/default.jpg"};
+  expect_bounded_failures(server->port(), in_lookup);
   testing::HttpResponse ready;
   EXPECT_TRUE(eventually(5, [&] { return (ready = http.get("/readyz")).status == 503; })) << "readiness fails";
   EXPECT_NE(ready.body.find("store not readable"), std::string::npos) << ready.body;
@@ -143,10 +160,13 @@ TEST_F(S3Serve, APausedStoreGivesBoundedAnswersAndServiceReturnsWithIt) {
 
   resume();
   EXPECT_TRUE(eventually(10, [&] { return http.get("/readyz").status == 200; })) << "ready again with the store";
-  // A view's failure is answered again for --failure-cache-ms (5 s), as a deadline's is.
-  testing::HttpResponse back;
-  EXPECT_TRUE(eventually(10, [&] { return (back = http.get("/dzi/boats_files/12/9_5.jpg")).status == 200; }))
-      << "the tile that failed is served: " << back.status << " " << back.body;
+  // A view's failure is answered again for --failure-cache-ms (5 s), as a deadline's is; then the
+  // readers that failed read again (a level file is not remembered as broken).
+  for (const auto& path : {in_readers[0], in_readers[1], in_lookup[0], in_lookup[1], std::string("/v1/images/boats")}) {
+    testing::HttpResponse back;
+    EXPECT_TRUE(eventually(10, [&] { return (back = http.get(path)).status == 200; }))
+        << path << " is served again: " << back.status << " " << back.body;
+  }
   const std::string metrics = http.get("/metrics").body;
   EXPECT_NE(metrics.find("zoomwarp_store_readable 1"), std::string::npos) << metrics;
   EXPECT_NE(metrics.find(",reason=\"store\"}"), std::string::npos) << "the store's failures are counted";
@@ -168,6 +188,8 @@ TEST_F(S3Serve, AnUploadCutWhileTheStoreHangsPublishesNothing) {
   EXPECT_EQ(server->wait_for_end(10), SIGKILL);
   upload.join();
   resume();
+  // A request the paused proxy had received whole is carried out once it runs again.
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
 
   tiles::Store store(location_, std::chrono::milliseconds(0));
   EXPECT_FALSE(store.published("cut")) << "no pointer: nothing published";
