@@ -17,12 +17,20 @@ Dockerfile's runtime stage is its base with the tree deploy/runtime-closure.sh g
 builder (no package installed) and declares what a runtime image should; and deploy/README.md's
 table of variables is exactly what --help says.
 
+The deployments on a bucket (issue 29): the overlay deploy/k8s-s3, built as kustomize builds it
+(a subset of kustomize here, compared with `kubectl kustomize` when kubectl is installed), has no
+claim or shared volume, its store is an s3:// bucket, its credentials come from a Secret only, its
+cache fits its volume and memory, its flags are options of the binary, and the rest is the base's;
+deploy/compose.s3.yaml is compose.yaml's services but for the store, with no shared volume and the
+bucket from an env file kept out of git; every AWS_ variable named is one tiles/s3_config.cc reads.
+
     python3 tests/deploy/manifests_test.py --binary build/bin/zoomwarp [--root .]
     python3 tests/deploy/manifests_test.py --binary build/bin/zoomwarp --readme-table  # regenerate
 
 CTest runs it as deploy.manifests (label deploy). Needs PyYAML (Debian's python3-yaml).
 """
 import argparse
+import copy
 import grp
 import json
 import os
@@ -286,6 +294,183 @@ def dockerignore_excludes(rel):
     return excluded
 
 
+# ---- the bucket deployments (issue 29): deploy/k8s-s3, deploy/compose.s3.yaml --------------------
+
+S3_OVERLAY = ("deploy", "k8s-s3")
+# The credentials among the AWS variables: only ever from a Secret or the env file, never written
+# into a manifest.
+AWS_CREDENTIALS = {"AWS_ACCESS_KEY_ID", "AWS_SECRET_ACCESS_KEY", "AWS_SESSION_TOKEN"}
+
+
+def aws_variables():
+    """The AWS_* variables the binary reads: the names tiles/s3_config.cc looks up."""
+    names = set(re.findall(r'get\("(AWS_[A-Z0-9_]+)"\)', read("tiles", "s3_config.cc")))
+    assert AWS_CREDENTIALS - {"AWS_SESSION_TOKEN"} <= names and "AWS_REGION" in names, \
+        f"tiles/s3_config.cc no longer reads the variables this test expects: {sorted(names)}"
+    return names
+
+
+def value_options(command):
+    """The options of `zoomwarp COMMAND` that take a value (`--name VALUE` in --help)."""
+    return set(re.findall(r"^  --([a-z0-9-]+) VALUE", help_text(command), re.MULTILINE))
+
+
+def command_flags(command, args, strict=False):
+    """{option: value or None} of a command line's --options (args without the command word). An
+    option `zoomwarp COMMAND --help` does not list fails with `strict`, else is taken to have a
+    value (so that the other checks of a file can run with a binary that lacks a new flag)."""
+    known, valued = options(command), value_options(command)
+    out, i = {}, 0
+    while i < len(args):
+        word = args[i]
+        i += 1
+        if not word.startswith("--"):
+            continue
+        name, eq, value = word[2:].partition("=")
+        assert name in known or not strict, (f"--{name} is not an option of `zoomwarp {command}` (its --help); "
+                                             "a flag added on another branch must be in the binary tested")
+        if not eq and (name in valued or name not in known):
+            assert i < len(args), f"--{name} needs a value"
+            value, i = args[i], i + 1
+        out[name] = value if (eq or name in valued or name not in known) else None
+    return out
+
+
+def valid_bucket_name(b):
+    """tiles/s3_config.cc valid_bucket_name, the same rules."""
+    return (re.fullmatch(r"[a-z0-9][a-z0-9.-]{1,61}[a-z0-9]", b) is not None
+            and not any(s in b for s in ("..", ".-", "-."))
+            and not re.fullmatch(r"\d{1,3}(\.\d{1,3}){3}", b)
+            and not b.startswith(("xn--", "sthree-")) and not b.endswith(("-s3alias", "--ol-s3")))
+
+
+def s3_bucket(location):
+    """The bucket of s3://BUCKET[/PREFIX], or None when `location` is not one the binary takes."""
+    m = re.fullmatch(r"s3://([^/]*)(/.*)?", location or "")
+    return m.group(1) if m and valid_bucket_name(m.group(1)) else None
+
+
+def valid_endpoint(e):
+    """tiles/s3_config.cc normalised_endpoint: http(s)://host[:port], an optional trailing '/'."""
+    return re.fullmatch(r"https?://[^/?#@\s]+/?", e) is not None
+
+
+# Strategic merge patches as kustomize applies them to the few kinds of field this repository's
+# overlays patch; anything else is refused rather than guessed. Lists of objects with a merge key
+# are merged item by item (`$patch: delete` removes one), the patch's items first and in its order,
+# then the others in theirs (what kustomize v5 does); other lists are replaced; a null deletes.
+SMP_MERGE_KEYS = {"containers": "name", "initContainers": "name", "volumes": "name",
+                  "volumeMounts": "mountPath", "env": "name"}
+SMP_REPLACED_LISTS = {"envFrom"}  # lists of objects the Kubernetes API gives no merge key
+
+
+def smp_merge(base, patch, where="patch"):
+    assert isinstance(base, dict) and isinstance(patch, dict), f"{where}: not an object"
+    out = copy.deepcopy(base)
+    for key, value in patch.items():
+        assert not key.startswith("$"), f"{where}: {key} is not supported here"
+        if value is None:
+            out.pop(key, None)
+        elif key in SMP_MERGE_KEYS and isinstance(value, list):
+            out[key] = smp_merge_list(out.get(key, []), value, SMP_MERGE_KEYS[key], f"{where}.{key}")
+        elif isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = smp_merge(out[key], value, f"{where}.{key}")
+        else:
+            assert not (isinstance(value, dict) and any(k.startswith("$") for k in value)), f"{where}.{key}"
+            assert not (isinstance(value, list) and any(isinstance(v, dict) for v in value)) \
+                or key in SMP_REPLACED_LISTS, f"{where}.{key}: a list this test does not know how kustomize merges"
+            out[key] = copy.deepcopy(value)
+    return out
+
+
+def smp_merge_list(base, patch, key, where):
+    rest = copy.deepcopy(base)
+    merged = []
+    for item in patch:
+        item = dict(item)
+        directive = item.pop("$patch", None)
+        assert directive in (None, "delete"), f"{where}: $patch: {directive} is not supported here"
+        found = [i for i, b in enumerate(rest) if b.get(key) == item[key]]
+        old = rest.pop(found[0]) if found else None
+        if directive == "delete":
+            continue
+        merged.append(smp_merge(old, item, f"{where}[{item[key]}]") if old is not None else item)
+    return merged + rest
+
+
+def kustomize_python(folder):
+    """[manifest] of the kustomization in `folder` (a path from the repository root), built with the
+    subset of kustomize this repository uses: resources (files and folders), patches (strategic
+    merge patches, `$patch: delete` of a whole resource included) and images."""
+    k = load_yaml(folder, "kustomization.yaml")
+    unknown = set(k) - {"apiVersion", "kind", "resources", "patches", "images"}
+    assert not unknown, f"{folder}/kustomization.yaml: {sorted(unknown)} not supported by this test's build"
+    docs = []
+    for r in k.get("resources", []):
+        rel = os.path.normpath(os.path.join(folder, r))
+        docs += kustomize_python(rel) if os.path.isdir(path(rel)) else [load_yaml(rel)]
+    for p in k.get("patches", []):
+        assert set(p) == {"path"}, f"{folder}: only patches given by path are supported here: {p}"
+        patch = load_yaml(folder, p["path"])
+        target = (patch["kind"], patch["metadata"]["name"])
+        hits = [i for i, d in enumerate(docs) if (d["kind"], d["metadata"]["name"]) == target]
+        assert len(hits) == 1, f"{folder}/{p['path']}: patches {target}, found {len(hits)}"
+        if patch.get("$patch") == "delete":
+            del docs[hits[0]]
+        else:
+            body = {key: v for key, v in patch.items() if key not in ("apiVersion", "kind")}
+            body["metadata"] = {key: v for key, v in patch["metadata"].items() if key != "name"}
+            if not body["metadata"]:
+                del body["metadata"]
+            docs[hits[0]] = smp_merge(docs[hits[0]], body, f"{folder}/{p['path']}")
+    for image in k.get("images", []):
+        for d in docs:
+            spec = d.get("spec", {}).get("template", {}).get("spec", {})
+            for c in spec.get("containers", []) + spec.get("initContainers", []):
+                if re.split(r"[:@]", c["image"])[0] == image["name"]:
+                    c["image"] = f"{image.get('newName', image['name'])}:{image['newTag']}"
+    return docs
+
+
+def kustomize_kubectl(folder):
+    """[manifest] of `kubectl kustomize FOLDER`, or None without kubectl."""
+    kubectl = shutil.which("kubectl")
+    if not kubectl:
+        return None
+    r = subprocess.run([kubectl, "kustomize", path(folder)], capture_output=True, text=True, timeout=30)
+    assert r.returncode == 0, r.stderr
+    return [d for d in yaml.safe_load_all(r.stdout) if d]
+
+
+def by_kind(docs):
+    out = {}
+    for d in docs:
+        assert d["kind"] not in out, f"two {d['kind']}s"
+        out[d["kind"]] = d
+    return out
+
+
+def env_file(*parts):
+    """{name: value} of a Compose env file: KEY=VALUE lines, '#' comments; quotes taken off."""
+    out = {}
+    for line in read(*parts).splitlines():
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        key, eq, value = line.partition("=")
+        assert eq and re.fullmatch(r"[A-Z_][A-Z0-9_]*", key), f"{os.path.join(*parts)}: not KEY=VALUE: {line!r}"
+        value = value.strip()
+        if len(value) >= 2 and value[0] == value[-1] and value[0] in "'\"":
+            value = value[1:-1]
+        out[key] = value
+    return out
+
+
+def placeholder(value):
+    """A credential's value in a shipped example: something no store accepts, visibly."""
+    return "REPLACE" in str(value).upper()
+
+
 # ---- the checks -----------------------------------------------------------------------------------
 
 class Files(unittest.TestCase):
@@ -497,18 +682,32 @@ class Kubernetes(unittest.TestCase):
                          self.r["PersistentVolumeClaim"]["metadata"]["name"])
 
 
+def deployment_files():
+    """The deployment's configuration and its documentation under deploy/; not scripts, whose
+    variables (ZOOMWARP_BINARY, say) are their own."""
+    files = [os.path.join("deploy", n) for n in ("Dockerfile", "compose.yaml", "compose.s3.yaml", "s3.env.example",
+                                                 "nginx.conf", "README.md")]
+    for folder in (("deploy", "k8s"), S3_OVERLAY):
+        files += [os.path.relpath(os.path.join(d, n), ARGS.root)
+                  for d, _, names in os.walk(path(*folder)) for n in names if n.endswith(".yaml")]
+    return files
+
+
 class Variables(unittest.TestCase):
     def test_every_variable_in_deploy_is_a_real_option(self):
-        # The deployment's configuration and its documentation; not scripts, whose variables
-        # (ZOOMWARP_BINARY, say) are their own.
         known = set(variables("serve", "ingest", "health"))
-        files = [os.path.join("deploy", n) for n in ("Dockerfile", "compose.yaml", "nginx.conf", "README.md")]
-        files += [os.path.relpath(os.path.join(d, n), ARGS.root)
-                  for d, _, names in os.walk(path("deploy", "k8s")) for n in names if n.endswith(".yaml")]
-        for rel in files:
+        for rel in deployment_files():
             with self.subTest(file=rel):
                 used = set(re.findall(r"ZOOMWARP_[A-Z0-9_]*[A-Z0-9]", read(rel)))
                 self.assertEqual(used - known, set(), f"{rel} names variables no command has")
+
+    def test_every_aws_variable_in_deploy_is_one_the_binary_reads(self):
+        # The bucket store's configuration (docs/s3.md): a misspelt AWS_ variable is silently unread.
+        known = aws_variables()
+        for rel in deployment_files():
+            with self.subTest(file=rel):
+                used = set(re.findall(r"\bAWS_[A-Z0-9_]*[A-Z0-9]", read(rel)))
+                self.assertEqual(used - known, set(), f"{rel} names AWS variables tiles/s3_config.cc does not read")
 
     def test_configured_variables_belong_to_serve_or_ingest(self):
         known = set(variables("serve", "ingest"))
@@ -916,6 +1115,270 @@ class Probes(unittest.TestCase):
                     server.kill()
                     server.wait()
                 server.stderr.close()
+
+
+class S3Overlay(unittest.TestCase):
+    """deploy/k8s-s3: the base on a bucket. Built with the kustomize subset above (always) and with
+    `kubectl kustomize` when kubectl is installed, which must give the same manifests; then checked
+    as a cluster would run it: no claim or shared volume at all, the store is the bucket, the
+    credentials come from a Secret and nowhere else, the local cache fits its volume and memory,
+    every flag is one `zoomwarp serve` has, and everything the overlay does not mean to change is
+    the base's."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.docs = kustomize_python(os.path.join(*S3_OVERLAY))
+        cls.r = by_kind(cls.docs)
+        cls.base = by_kind(kustomize_python(os.path.join("deploy", "k8s")))
+
+    def setUp(self):
+        self.deployment = self.r["Deployment"]
+        self.pod = self.deployment["spec"]["template"]["spec"]
+        self.container = self.pod["containers"][0]
+        self.config = self.r["ConfigMap"]["data"]
+        self.flags = command_flags("serve", self.container["args"][1:])
+
+    def setting(self, var):
+        """A variable's value in the overlay's ConfigMap, else the image's ENV, else the default."""
+        if var in self.config:
+            return str(self.config[var])
+        return dockerfile_env(stages()[-1]).get(var, default_of(var))
+
+    def volume_at(self, spec, container, mount_path):
+        mounts = {m["mountPath"]: m["name"] for m in container["volumeMounts"]}
+        self.assertIn(mount_path, mounts, f"no volume mounted at {mount_path}")
+        return {v["name"]: v for v in spec["volumes"]}[mounts[mount_path]]
+
+    def test_kubectl_kustomize_builds_the_same(self):
+        built = kustomize_kubectl(os.path.join(*S3_OVERLAY))
+        if built is None:
+            self.skipTest("kubectl not installed: the overlay is checked as this test builds it")
+        key = lambda d: (d["kind"], d["metadata"]["name"])
+        self.assertEqual(sorted(map(key, built)), sorted(map(key, self.docs)))
+        ours = {key(d): d for d in self.docs}
+        for d in built:
+            self.assertEqual(d, ours[key(d)], f"kubectl kustomize and this test build {key(d)} differently")
+
+    def test_the_base_but_its_claim(self):
+        self.assertEqual(set(self.r), set(self.base) - {"PersistentVolumeClaim"})
+        # No volume any two pods could share: only emptyDirs and Secrets.
+        for v in self.pod["volumes"]:
+            self.assertLessEqual(set(v) - {"name"}, {"emptyDir", "secret"}, f"volume {v['name']}")
+        self.assertNotIn("ReadWriteMany", yaml.safe_dump_all(self.docs))
+        self.assertNotIn("persistentVolumeClaim", yaml.safe_dump_all(self.docs))
+
+    def test_everything_the_overlay_does_not_mean_to_change_is_the_bases(self):
+        for kind in ("Service", "HorizontalPodAutoscaler", "PodDisruptionBudget"):
+            self.assertEqual(self.r[kind], self.base[kind], kind)
+        base_config = self.base["ConfigMap"]["data"]
+        changed = {k for k in base_config if self.config.get(k) != base_config[k]}
+        self.assertEqual(changed, {"ZOOMWARP_STORE"}, "base settings the overlay changes")
+
+        def rest(deployment):
+            d = copy.deepcopy(deployment)
+            spec = d["spec"]["template"]["spec"]
+            c = spec["containers"][0]
+            for field in ("args", "envFrom"):
+                c.pop(field)
+            c["resources"]["requests"] = {k: v for k, v in c["resources"]["requests"].items()
+                                          if k not in ("memory", "ephemeral-storage")}
+            c["volumeMounts"] = sorted((m for m in c["volumeMounts"] if m["mountPath"] != "/var/lib/zoomwarp"),
+                                       key=lambda m: m["mountPath"])
+            spec["volumes"] = sorted((v for v in spec["volumes"] if v["name"] not in ("store", "store-cache")),
+                                     key=lambda v: v["name"])
+            return d
+        self.assertEqual(rest(self.deployment), rest(self.base["Deployment"]))
+        # The base's configuration comes first; what follows adds to it.
+        self.assertEqual(self.container["envFrom"][0], self.base["Deployment"]["spec"]["template"]["spec"]
+                         ["containers"][0]["envFrom"][0])
+
+    def test_the_store_is_the_bucket(self):
+        store = self.setting("ZOOMWARP_STORE")
+        self.assertIsNotNone(s3_bucket(store), f"ZOOMWARP_STORE={store!r} is not an s3://BUCKET/PREFIX the binary takes")
+        self.assertEqual(self.container["args"][0], "serve")
+        # One place says where the bucket is, the ConfigMap, which the ingest Job and a
+        # `kubectl exec … zoomwarp` read too: a --store in serve's args would be a second one.
+        self.assertNotIn("store", self.flags)
+        self.assertNotIn("ZOOMWARP_STORE", {e["name"] for e in self.container.get("env", [])})
+        self.assertEqual(self.setting("ZOOMWARP_PORT"), "8080")
+
+    def test_flags_are_options_of_serve_and_ingest(self):
+        # Fails on a flag `zoomwarp serve|ingest --help` does not list: the cache flags
+        # (--store-cache, --store-cache-bytes, --store-memory-bytes) need a binary that has them.
+        flags = command_flags("serve", self.container["args"][1:], strict=True)
+        self.assertLessEqual({"store-cache", "store-cache-bytes", "store-memory-bytes"}, set(flags))
+        job = load_yaml(*S3_OVERLAY, "examples", "ingest-job.yaml")["spec"]["template"]["spec"]["containers"][0]
+        command_flags("ingest", job["args"][1:], strict=True)
+
+    def test_the_cache_fits_its_volume(self):
+        volume = self.volume_at(self.pod, self.container, self.flags["store-cache"])
+        self.assertIn("emptyDir", volume, "the cache is the pod's own")
+        self.assertNotEqual(volume["emptyDir"].get("medium"), "Memory", "the disk cache on disk")
+        limit = size_bytes(volume["emptyDir"]["sizeLimit"].removesuffix("i"))
+        # What the folder holds at most: the cache, the uploads staged until ingested, and the
+        # pyramids being built (about twice an upload's size each: a lossy source is stored at a
+        # higher quality, with the smaller levels on top). A pod past its sizeLimit is evicted.
+        cache = size_bytes(self.flags["store-cache-bytes"])
+        max_upload, staging = size_bytes(self.setting("ZOOMWARP_MAX_UPLOAD")), size_bytes(self.setting("ZOOMWARP_MAX_STAGING"))
+        self.assertNotEqual(staging, 0, "ZOOMWARP_MAX_STAGING unset: the staged uploads have no bound")
+        self.assertGreaterEqual(staging, max_upload, "the largest upload allowed could never be staged")
+        pyramids = int(self.setting("ZOOMWARP_INGEST_WORKERS")) * 2 * max_upload
+        self.assertGreaterEqual(limit, cache + staging + pyramids, "the cache volume's sizeLimit")
+        requested = size_bytes(self.container["resources"]["requests"]["ephemeral-storage"].removesuffix("i"))
+        self.assertGreaterEqual(requested, limit, "the node must have room for the cache volume")
+
+    def test_the_caches_fit_the_memory_request(self):
+        caches = sum(size_bytes(self.setting(v)) for v in ("ZOOMWARP_TILE_CACHE", "ZOOMWARP_RESPONSE_CACHE",
+                                                             "ZOOMWARP_WARP_CACHE"))
+        caches += size_bytes(self.flags["store-memory-bytes"])
+        res = self.container["resources"]
+        request, limit = (size_bytes(str(res[k]["memory"]).removesuffix("i")) for k in ("requests", "limits"))
+        self.assertLessEqual(caches, request, "the four caches do not fit the memory request")
+        self.assertLess(request, limit)
+
+    def test_credentials_come_from_the_secret_only(self):
+        secrets = [e["secretRef"]["name"] for e in self.container["envFrom"] if "secretRef" in e]
+        example = load_yaml("deploy", "k8s", "examples", "s3-credentials-secret.yaml")
+        self.assertEqual(example["kind"], "Secret")
+        self.assertEqual(secrets, [example["metadata"]["name"]])
+        self.assertFalse(self.container["envFrom"][-1].get("secretRef", {}).get("optional"), "pods must not start without it")
+        keys = set(example.get("stringData", {})) | set(example.get("data", {}))
+        self.assertLessEqual({"AWS_ACCESS_KEY_ID", "AWS_SECRET_ACCESS_KEY"}, keys)
+        self.assertLessEqual(keys, AWS_CREDENTIALS, "the Secret holds credentials only")
+        for k, v in example.get("stringData", {}).items():
+            self.assertTrue(placeholder(v), f"examples/s3-credentials-secret.yaml: {k} is not a placeholder")
+        # Nothing else carries them: not the overlay's output, the ConfigMap, or a literal env value.
+        self.assertNotIn("Secret", self.r)
+        self.assertEqual(set(self.config) & AWS_CREDENTIALS, set())
+        for e in self.container.get("env", []):
+            if e["name"] in AWS_CREDENTIALS:
+                self.assertIn("secretKeyRef", e.get("valueFrom", {}), e["name"])
+
+    def test_bucket_address_in_the_configmap(self):
+        aws = {k: str(v) for k, v in self.config.items() if k.startswith("AWS_")}
+        self.assertLessEqual(set(aws), aws_variables() - AWS_CREDENTIALS)
+        self.assertRegex(aws.get("AWS_REGION", ""), r"^[a-z0-9-]{1,64}$")
+        endpoint = aws.get("AWS_ENDPOINT_URL_S3", "")
+        self.assertTrue(endpoint == "" or valid_endpoint(endpoint), f"AWS_ENDPOINT_URL_S3={endpoint!r}")
+
+    def test_ingest_job_example(self):
+        job = load_yaml(*S3_OVERLAY, "examples", "ingest-job.yaml")
+        self.assertEqual(job["kind"], "Job")
+        spec = job["spec"]["template"]["spec"]
+        c = spec["containers"][0]
+        self.assertEqual(c["args"][0], "ingest")
+        flags = command_flags("ingest", c["args"][1:])
+        # Same image (the release kustomize sets), settings, credentials and user as the servers.
+        self.assertEqual(c["image"], self.container["image"])
+        self.assertEqual(c["envFrom"], self.container["envFrom"])
+        self.assertEqual(c["securityContext"], self.container["securityContext"])
+        self.assertEqual(spec["securityContext"], self.pod["securityContext"])
+        self.assertNotIn("store", flags, "the store is the ConfigMap's bucket")
+        self.assertNotIn("ZOOMWARP_STORE", {e["name"] for e in c.get("env", [])})
+        # No volume for the store; the staging and cache folder is an emptyDir holding its bound
+        # and a pyramid.
+        mounted = {m["name"] for m in c["volumeMounts"]}
+        for v in spec["volumes"]:
+            if v["name"] in mounted and "persistentVolumeClaim" in v:
+                self.assertNotEqual(v["persistentVolumeClaim"]["claimName"], "zoomwarp-store")
+        self.assertIn("store-cache", flags, "without it the pyramid is built under /tmp")
+        volume = self.volume_at(spec, c, flags["store-cache"])
+        self.assertIn("emptyDir", volume)
+        limit = size_bytes(volume["emptyDir"]["sizeLimit"].removesuffix("i"))
+        cache = size_bytes(flags.get("store-cache-bytes") or "0")
+        self.assertGreaterEqual(limit, cache + 2 * size_bytes(self.setting("ZOOMWARP_MAX_UPLOAD")))
+        self.assertGreaterEqual(size_bytes(c["resources"]["requests"]["ephemeral-storage"].removesuffix("i")), limit)
+
+    def test_no_access_key_in_any_file(self):
+        # Shapes of real AWS access key ids, in every file of the bucket deployments.
+        files = [os.path.relpath(os.path.join(d, n), ARGS.root) for d, _, names in os.walk(path(*S3_OVERLAY)) for n in names]
+        files += [os.path.join("deploy", n) for n in ("compose.s3.yaml", "s3.env.example")]
+        files.append(os.path.join("deploy", "k8s", "examples", "s3-credentials-secret.yaml"))
+        for rel in files:
+            self.assertIsNone(re.search(r"\b(AKIA|ASIA)[0-9A-Z]{16}\b", read(rel)), rel)
+
+
+class ComposeS3(unittest.TestCase):
+    """deploy/compose.s3.yaml: compose.yaml's services with the store in a bucket. Its services
+    must be compose.yaml's but for the store (so the two cannot drift), with no volume two replicas
+    share, the bucket and credentials from the env file only, and the cache flags those of the
+    Kubernetes overlay."""
+
+    def setUp(self):
+        self.compose = load_yaml("deploy", "compose.yaml")
+        self.s3 = load_yaml("deploy", "compose.s3.yaml")
+        self.server = self.s3["services"]["zoomwarp"]
+        self.env = env_file("deploy", "s3.env.example")
+
+    def test_the_services_are_compose_yamls_but_the_store(self):
+        self.assertEqual(set(self.s3["services"]), set(self.compose["services"]))
+        self.assertEqual(self.s3["services"]["nginx"], self.compose["services"]["nginx"])
+        ours = {k: v for k, v in self.server.items() if k not in ("command", "env_file", "volumes")}
+        theirs = {k: v for k, v in self.compose["services"]["zoomwarp"].items() if k != "volumes"}
+        self.assertEqual(ours, theirs, "compose.s3.yaml's zoomwarp service differs from compose.yaml's")
+        self.assertEqual(self.s3.get("secrets"), self.compose.get("secrets"))
+        self.assertNotEqual(self.s3.get("name"), self.compose.get("name"), "one project's volumes would be the other's")
+
+    def test_no_volume_is_shared(self):
+        self.assertNotIn("volumes", self.s3, "a named volume would be shared by every replica")
+        for v in self.server.get("volumes", []):
+            if isinstance(v, str):
+                self.assertNotIn(":", v, f"{v}: named or bound, so shared; an anonymous volume is a replica's own")
+            else:
+                self.assertEqual(v.get("type", "volume"), "volume", v)
+                self.assertNotIn("source", v, v)
+
+    def test_flags_are_options_of_serve(self):
+        command_flags("serve", self.server["command"][1:], strict=True)
+
+    def test_command_and_cache(self):
+        command = self.server["command"]
+        self.assertEqual(command[0], "serve")
+        flags = command_flags("serve", command[1:])
+        self.assertNotIn("store", flags, "the bucket comes from the env file")
+        # The folder is a volume of each container's own, and the image's VOLUME, which the image
+        # creates owned by uid 10001: anything else would be root's, and not writable.
+        volume = [rest for word, rest in stages()[-1] if word == "VOLUME"]
+        self.assertEqual([flags.get("store-cache")], volume)
+        self.assertIn(flags["store-cache"], self.server["volumes"])
+        # The same cache as the Kubernetes overlay's pods.
+        container = by_kind(kustomize_python(os.path.join(*S3_OVERLAY)))["Deployment"]["spec"]["template"]["spec"]["containers"][0]
+        k8s = command_flags("serve", container["args"][1:])
+        for name in ("store-cache", "store-cache-bytes", "store-memory-bytes"):
+            self.assertEqual(flags.get(name), k8s.get(name), f"--{name} in compose.s3.yaml vs deploy/k8s-s3")
+
+    def test_bucket_and_credentials_from_the_env_file(self):
+        self.assertEqual(self.server["env_file"], ["s3.env"])
+        environment = self.server.get("environment", {})
+        # `environment` wins over env_file: nothing there may hide the file's values.
+        self.assertEqual({k for k in environment if k.startswith("AWS_") or k == "ZOOMWARP_STORE"}, set())
+        self.assertIsNotNone(s3_bucket(self.env.get("ZOOMWARP_STORE")), "s3.env.example's ZOOMWARP_STORE")
+        for k in ("AWS_ACCESS_KEY_ID", "AWS_SECRET_ACCESS_KEY"):
+            self.assertTrue(placeholder(self.env.get(k)), f"s3.env.example: {k} is not a placeholder")
+        known = set(variables("serve", "ingest")) | aws_variables()
+        self.assertEqual(set(self.env) - known, set(), "s3.env.example sets variables nothing reads")
+        mentioned = set(re.findall(r"\b(AWS_[A-Z0-9_]*[A-Z0-9])\b", read("deploy", "s3.env.example")))
+        self.assertEqual(mentioned - aws_variables(), set(), "s3.env.example names AWS variables the binary ignores")
+        endpoint = self.env.get("AWS_ENDPOINT_URL_S3", "")
+        self.assertTrue(endpoint == "" or valid_endpoint(endpoint))
+
+    def test_the_env_file_stays_out_of_git_and_the_image(self):
+        ignored = [l.strip() for l in read("deploy", ".gitignore").splitlines() if l.strip() and not l.startswith("#")]
+        self.assertTrue({"/s3.env", "s3.env"} & set(ignored), "deploy/.gitignore must ignore s3.env")
+        self.assertTrue(dockerignore_excludes("deploy/s3.env"), ".dockerignore should exclude deploy/s3.env")
+
+
+class S3Documentation(unittest.TestCase):
+    def test_readme_and_docs_name_the_bucket_deployments(self):
+        readme = read("deploy", "README.md")
+        for name in ("compose.s3.yaml", "s3.env.example", "k8s-s3/", "examples/s3-credentials-secret.yaml",
+                     "k8s-s3/examples/ingest-job.yaml"):
+            self.assertTrue(f"`{name}`" in readme, f"deploy/README.md does not name {name}")
+        s3 = read("docs", "s3.md")
+        for doc in ("s3-operations.md", "../deploy/README.md"):
+            self.assertTrue(f"({doc}" in s3, f"docs/s3.md does not link {doc}")
+        self.assertTrue("(../docs/s3-operations.md" in readme, "deploy/README.md does not link docs/s3-operations.md")
+        self.assertTrue(os.path.isfile(path("docs", "s3-operations.md")))
 
 
 # ---- the README table -----------------------------------------------------------------------------
