@@ -6,6 +6,7 @@
 #include <atomic>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <map>
 #include <mutex>
 #include <set>
@@ -110,14 +111,8 @@ class BucketObject final : public RandomAccessFile {
       }
       std::uint64_t end = b;  // the run of missing blocks [b, end]
       while (end + 1 <= last && !blocks[end + 1 - first]) ++end;
-      const std::uint64_t from = b * kBlockBytes, to = std::min(size_, (end + 1) * kBlockBytes);
-      const std::string run = fetch(from, std::size_t(to - from));
-      for (std::uint64_t k = b; k <= end; ++k) {
-        const std::uint64_t at = (k - b) * kBlockBytes;
-        auto block = std::make_shared<const std::string>(run.substr(at, kBlockBytes));
-        bucket_->cache->insert(block_key(k), block);
-        blocks[k - first] = std::move(block);
-      }
+      std::vector<std::shared_ptr<const std::string>> run = fetch_blocks(b, end);
+      for (std::uint64_t k = b; k <= end; ++k) blocks[k - first] = std::move(run[k - b]);
       b = end + 1;
     }
     std::size_t done = 0;
@@ -131,8 +126,59 @@ class BucketObject final : public RandomAccessFile {
     return done;
   }
 
+  void prefetch(const std::vector<ByteRange>& ranges) const override {
+    // The blocks not held, as runs of consecutive blocks: one ranged GET each, all at once.
+    std::set<std::uint64_t> missing;
+    for (const ByteRange& r : ranges) {
+      if (r.length == 0 || r.offset >= size_) continue;
+      const std::uint64_t last = std::min(size_, r.offset + r.length) - 1;
+      for (std::uint64_t b = r.offset / kBlockBytes; b <= last / kBlockBytes; ++b)
+        if (!missing.count(b) && !bucket_->cache->find(block_key(b))) missing.insert(b);
+    }
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> runs;
+    for (std::uint64_t b : missing) {
+      if (!runs.empty() && runs.back().second + 1 == b) runs.back().second = b;
+      else runs.emplace_back(b, b);
+    }
+    if (runs.size() > kMaxPrefetchRuns) runs.resize(kMaxPrefetchRuns);
+    std::vector<std::future<void>> others;
+    const S3Deadline until = deadline();  // this thread's: the helpers end with the request
+    for (std::size_t i = 1; i < runs.size(); ++i)
+      others.push_back(std::async(std::launch::async, [this, r = runs[i], until] {
+        const StoreDeadlineScope scope(until);
+        fetch_blocks(r.first, r.second);
+      }));
+    try {
+      if (!runs.empty()) fetch_blocks(runs[0].first, runs[0].second);
+    } catch (const std::exception&) {  // the read that follows asks again, and reports it
+    }
+    for (auto& f : others) {
+      try {
+        f.get();
+      } catch (const std::exception&) {
+      }
+    }
+  }
+
  private:
+  // Prefetches at once no more than this many runs (threads): a region of a level is a few
+  // rows of stored tiles.
+  static constexpr std::size_t kMaxPrefetchRuns = 8;
+
   std::string block_key(std::uint64_t b) const { return name_ + "#" + std::to_string(b); }
+
+  // Blocks [first, last] fetched with one ranged GET and kept in the cache.
+  std::vector<std::shared_ptr<const std::string>> fetch_blocks(std::uint64_t first, std::uint64_t last) const {
+    const std::uint64_t from = first * kBlockBytes, to = std::min(size_, (last + 1) * kBlockBytes);
+    const std::string run = fetch(from, std::size_t(to - from));
+    std::vector<std::shared_ptr<const std::string>> blocks;
+    for (std::uint64_t k = first; k <= last; ++k) {
+      auto block = std::make_shared<const std::string>(run.substr((k - first) * kBlockBytes, kBlockBytes));
+      bucket_->cache->insert(block_key(k), block);
+      blocks.push_back(std::move(block));
+    }
+    return blocks;
+  }
 
   std::string fetch(std::uint64_t offset, std::size_t n) const {
     std::optional<std::string> bytes =

@@ -15,6 +15,7 @@
 #include <utility>
 
 #include "tiles/pyramid_builder.h"
+#include "tiles/tiff_on_file.h"
 
 namespace zoomwarp::tiles {
 
@@ -57,33 +58,68 @@ struct PyramidReader::Impl {
   std::int64_t limit = 0;
   // Counted here: get_pixels() does not go through the ImageCache's own find_tile statistics.
   std::atomic<std::int64_t> lookups{0};
-  // The I/O of remote level files the cache knows, by the name it knows them by. Never dropped:
-  // the cache keeps each file's entry (and its configuration, pointing here) for its lifetime,
-  // and may open an invalidated file again; one is a few hundred bytes, as its own entry is.
-  std::mutex proxies_mu;
-  std::unordered_map<std::string, std::shared_ptr<RangeProxy>> proxies;
+  // A remote level file the cache knows: its I/O, and where its stored tiles are (read once, for
+  // prefetching the tiles a region needs side by side).
+  struct RemoteLevel {
+    std::shared_ptr<const RandomAccessFile> file;
+    std::shared_ptr<RangeProxy> proxy;
+    std::once_flag indexed;
+    std::vector<ByteRange> tiles;  // by TIFF tile number: row-major
+  };
+  // By the name the cache knows them by. Never dropped: the cache keeps each file's entry (and
+  // its configuration, pointing here) for its lifetime, and may open an invalidated file again;
+  // one is a few hundred bytes and its tile index, as the cache's own entry holds.
+  std::mutex remote_mu;
+  std::unordered_map<std::string, std::shared_ptr<RemoteLevel>> remote;
 
   // The name the cache reads level k of `image` by: its local path, or a remote file's location,
-  // added to the cache with its I/O the first time.
-  OIIO::ustring file_name(const ImageEntry& image, int k) {
+  // added to the cache with its I/O the first time (then also returned in `*level`).
+  OIIO::ustring file_name(const ImageEntry& image, int k, std::shared_ptr<RemoteLevel>* level) {
     const std::string name = level_filename(k);
     if (std::optional<std::string> local = image.files->local_path(name)) return OIIO::ustring(*local);
-    const std::string remote = image.files->location() + "/" + name;
+    const std::string key = image.files->location() + "/" + name;
     {
-      std::lock_guard lock(proxies_mu);
-      if (proxies.count(remote)) return OIIO::ustring(remote);
+      std::lock_guard lock(remote_mu);
+      if (auto it = remote.find(key); it != remote.end()) {
+        *level = it->second;
+        return OIIO::ustring(key);
+      }
     }
-    std::shared_ptr<const RandomAccessFile> file = image.files->open(name);
-    if (!file) throw std::runtime_error("cannot read " + remote + ": missing");
-    auto proxy = std::make_shared<RangeProxy>(std::move(file));
-    std::lock_guard lock(proxies_mu);
-    if (proxies.emplace(remote, proxy).second) {
+    auto opened = std::make_shared<RemoteLevel>();
+    opened->file = image.files->open(name);
+    if (!opened->file) throw std::runtime_error("cannot read " + key + ": missing");
+    opened->proxy = std::make_shared<RangeProxy>(opened->file);
+    std::lock_guard lock(remote_mu);
+    auto [it, added] = remote.emplace(key, opened);
+    if (added) {
       OIIO::ImageSpec config;
-      void* io = proxy.get();
+      void* io = opened->proxy.get();
       config.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &io);
-      cache->add_file(OIIO::ustring(remote), nullptr, &config);
+      cache->add_file(OIIO::ustring(key), nullptr, &config);
     }
-    return OIIO::ustring(remote);
+    *level = it->second;
+    return OIIO::ustring(key);
+  }
+
+  // Fetches the stored tiles of `r` (level pixels) that the store has not sent yet, side by side:
+  // a region crossing rows of tiles waits for one round trip, not one per row.
+  static void prefetch(RemoteLevel& level, const Manifest& m, int k, Rect r) {
+    std::call_once(level.indexed, [&] {
+      TiffOnFile tiff(level.file, nullptr);
+      const std::uint32_t count = TIFFNumberOfTiles(tiff.tif());
+      for (std::uint32_t i = 0; i < count; ++i) {
+        int err = 0;
+        const std::uint64_t offset = TIFFGetStrileOffsetWithErr(tiff.tif(), i, &err);
+        const std::uint64_t length = err ? 0 : TIFFGetStrileByteCountWithErr(tiff.tif(), i, &err);
+        level.tiles.push_back(err ? ByteRange{} : ByteRange{offset, length});
+      }
+    });
+    const long long t = m.tile_size, across = (m.level_width(k) + t - 1) / t;
+    std::vector<ByteRange> wanted;
+    for (long long ty = r.y / t; ty <= (r.y + r.h - 1) / t; ++ty)
+      for (long long tx = r.x / t; tx <= (r.x + r.w - 1) / t; ++tx)
+        if (std::size_t(ty * across + tx) < level.tiles.size()) wanted.push_back(level.tiles[ty * across + tx]);
+    level.file->prefetch(wanted);
   }
 
   // After a failed read: the store's failure, if that was why (a 503 stays a 503). The cache does
@@ -116,7 +152,9 @@ Raster PyramidReader::read_level(const ImageEntry& image, int level, Rect r) {
   const long long t = m.tile_size;
   impl_->lookups += ((r.x + r.w - 1) / t - r.x / t + 1) * ((r.y + r.h - 1) / t - r.y / t + 1);
   Raster out(int(r.w), int(r.h), m.channels);
-  const OIIO::ustring file = impl_->file_name(image, level);
+  std::shared_ptr<Impl::RemoteLevel> remote;
+  const OIIO::ustring file = impl_->file_name(image, level, &remote);
+  if (remote) Impl::prefetch(*remote, m, level, r);
   OIIO::ImageCache& cache = *impl_->cache;
   OIIO::ImageCache::Perthread* thread = cache.get_perthread_info();
   OIIO::ImageCache::ImageHandle* handle = cache.get_image_handle(file, thread);

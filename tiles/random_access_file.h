@@ -13,8 +13,13 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace zoomwarp::tiles {
+
+struct ByteRange {
+  std::uint64_t offset = 0, length = 0;
+};
 
 class RandomAccessFile {
  public:
@@ -25,6 +30,10 @@ class RandomAccessFile {
   // many. Throws std::runtime_error when the store cannot answer (StoreUnavailable, store_errors.h,
   // when it is down or slow), never returns a short count for that.
   virtual std::size_t read(std::uint64_t offset, std::size_t n, char* dst) const = 0;
+  // Says that `ranges` are about to be read: a remote file fetches those it does not hold, side
+  // by side, and returns once they are held (a read of several stored tiles then waits for one
+  // round trip, not one per tile). Failures are left for the reads that follow to report.
+  virtual void prefetch(const std::vector<ByteRange>& ranges) const { (void)ranges; }
   // Where the file is, for messages.
   virtual const std::string& name() const = 0;
 };
