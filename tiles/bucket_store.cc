@@ -126,7 +126,7 @@ class BucketObject final : public RandomAccessFile {
     return done;
   }
 
-  void prefetch(const std::vector<ByteRange>& ranges) const override {
+  bool prefetch(const std::vector<ByteRange>& ranges) const override {
     // The blocks not held, as runs of consecutive blocks: one ranged GET each, all at once.
     std::set<std::uint64_t> missing;
     for (const ByteRange& r : ranges) {
@@ -148,16 +148,20 @@ class BucketObject final : public RandomAccessFile {
         const StoreDeadlineScope scope(until);
         fetch_blocks(r.first, r.second);
       }));
+    bool held = true;
     try {
       if (!runs.empty()) fetch_blocks(runs[0].first, runs[0].second);
     } catch (const std::exception&) {  // the read that follows asks again, and reports it
+      held = false;
     }
     for (auto& f : others) {
       try {
         f.get();
       } catch (const std::exception&) {
+        held = false;
       }
     }
+    return held;
   }
 
  private:

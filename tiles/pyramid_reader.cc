@@ -65,6 +65,9 @@ struct PyramidReader::Impl {
     std::shared_ptr<RangeProxy> proxy;
     std::once_flag indexed;
     std::vector<ByteRange> tiles;  // by TIFF tile number: row-major
+    // Tiles prefetched once: not again (a view reads the same tiles many times from the decoded
+    // cache; should their bytes have left the range cache since, a read fetches them itself).
+    std::unique_ptr<std::atomic<bool>[]> fetched;
   };
   // By the name the cache knows them by. Never dropped: the cache keeps each file's entry (and
   // its configuration, pointing here) for its lifetime, and may open an invalidated file again;
@@ -113,13 +116,20 @@ struct PyramidReader::Impl {
         const std::uint64_t length = err ? 0 : TIFFGetStrileByteCountWithErr(tiff.tif(), i, &err);
         level.tiles.push_back(err ? ByteRange{} : ByteRange{offset, length});
       }
+      level.fetched = std::make_unique<std::atomic<bool>[]>(count);
     });
     const long long t = m.tile_size, across = (m.level_width(k) + t - 1) / t;
     std::vector<ByteRange> wanted;
+    std::vector<std::size_t> numbers;
     for (long long ty = r.y / t; ty <= (r.y + r.h - 1) / t; ++ty)
-      for (long long tx = r.x / t; tx <= (r.x + r.w - 1) / t; ++tx)
-        if (std::size_t(ty * across + tx) < level.tiles.size()) wanted.push_back(level.tiles[ty * across + tx]);
-    level.file->prefetch(wanted);
+      for (long long tx = r.x / t; tx <= (r.x + r.w - 1) / t; ++tx) {
+        const std::size_t i = std::size_t(ty * across + tx);
+        if (i >= level.tiles.size() || level.fetched[i].load(std::memory_order_relaxed)) continue;
+        wanted.push_back(level.tiles[i]);
+        numbers.push_back(i);
+      }
+    if (wanted.empty() || !level.file->prefetch(wanted)) return;
+    for (std::size_t i : numbers) level.fetched[i].store(true, std::memory_order_relaxed);
   }
 
   // After a failed read: the store's failure, if that was why (a 503 stays a 503). The cache does

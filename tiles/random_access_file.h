@@ -32,8 +32,12 @@ class RandomAccessFile {
   virtual std::size_t read(std::uint64_t offset, std::size_t n, char* dst) const = 0;
   // Says that `ranges` are about to be read: a remote file fetches those it does not hold, side
   // by side, and returns once they are held (a read of several stored tiles then waits for one
-  // round trip, not one per tile). Failures are left for the reads that follow to report.
-  virtual void prefetch(const std::vector<ByteRange>& ranges) const { (void)ranges; }
+  // round trip, not one per tile). Returns false when some could not be fetched: failures are
+  // left for the reads that follow to report.
+  virtual bool prefetch(const std::vector<ByteRange>& ranges) const {
+    (void)ranges;
+    return true;
+  }
   // Where the file is, for messages.
   virtual const std::string& name() const = 0;
 };
