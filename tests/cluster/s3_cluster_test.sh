@@ -15,13 +15,16 @@
 #              for at least --pause-min s (until every replica's /readyz has said 503 "store not
 #              readable"), then SIGCONTed. Asserted: the replay completes and its only errors are
 #              503/504 (no connection error, no timeout); every non-2xx answer the replicas and
-#              nginx logged is a 503/504; probes of tiles the store must be read for, straight to
+#              nginx logged is a 503/504, nginx's each a replica's answer passed on; probes of
+#              tiles the store must be read for, straight to
 #              each replica and through nginx, are a 503/504 with a JSON error store_timeout,
 #              store_unavailable or deadline_exceeded and Retry-After within --request-timeout +
 #              1.5 s; views through nginx during the pause likewise (when not 2xx); /healthz of
 #              every replica answers 200 within 1 s throughout; /readyz turns 503 on every replica
-#              and 200 again within 5 s of the resume; the replicas count store failures in
-#              zoomwarp_http_requests_failed_total{reason="store"}; fresh tiles are served again
+#              and 200 again within 5 s of the resume (and zoomwarp_store_readable 0, then 1, in
+#              /metrics, answered within 1 s); every non-2xx the replicas logged is counted in
+#              zoomwarp_http_requests_failed_total (reasons store, deadline, negative_cache), the
+#              store's failures among them; fresh tiles are served again
 #              within 5 s of the resume, and no error is answered later than --failure-cache-ms
 #              (5 s) + 1 s after it; an 'after' replay has no error;
 #   4. nothing lost  an upload to replica 2 started during the pause either fails with a 5xx or
@@ -34,8 +37,9 @@
 # the replicas' failure counters and one JSON line. Every process runs on 127.0.0.1 on ports
 # picked below Linux's ephemeral range, with everything in one temp folder; the EXIT trap stops
 # the replay and probes, the replicas, nginx and Swift (whose own watchdog also stops it should
-# this script be SIGKILLed). ~45 s. CTest runs it as `cluster.s3` (labels cluster, s3);
-# `tests/cluster/s3_cluster_test.sh --help` for the options.
+# this script be SIGKILLed). ~55 s on the 2-core test VM (~5 s of it Swift's start). The times
+# "seen after" are upper bounds: the replicas are polled in turn. CTest runs it as `cluster.s3`
+# (labels cluster, s3); `tests/cluster/s3_cluster_test.sh --help` for the options.
 set -euo pipefail
 
 script_dir=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -270,8 +274,9 @@ same_everywhere() {
   done
 }
 
-# seen_everywhere T0 LIMIT_MS CHECK: runs CHECK I for replicas 0..N-1 every 50 ms until it holds
-# for each; seen_ms[I] is when it first held, in ms after T0 (ns). Fails past LIMIT_MS.
+# seen_everywhere T0 LIMIT_MS CHECK: runs CHECK I for replicas 0..N-1 in turn, every 50 ms, until
+# it holds for each; seen_ms[I] is when it first held, in ms after T0 (ns): an upper bound, a round
+# over the replicas taking a few hundred ms on a busy machine. Fails past LIMIT_MS.
 declare -a seen_ms
 seen_everywhere() {
   local t_start=$1 limit=$2 check=$3 i pending
@@ -469,11 +474,16 @@ view_loop() {
   done
 }
 
+store_readable_is() {  # store_readable_is I VALUE: replica I's /metrics, answered within 1 s, has that gauge
+  curl -s -m 1 "$(replica_url "$1")/metrics" >"$work/metrics.$1" || true
+  grep -qx "zoomwarp_store_readable $2" "$work/metrics.$1"
+}
+
 access_lines() { wc -l <"$work/nginx/access.log"; }
 access_grew() { [ "$(access_lines)" -ge "$1" ]; }
 
 fresh_tile_ok() {  # the store is read again: a tile no one asked for is served
-  [ "$(status_of "$(replica_url "$1")/dzi/boats_files/12/$((6 + $1))_5.jpg" 3)" = 200 ]
+  [ "$(status_of "$(replica_url "$1")/dzi/boats_files/12/$((6 + $1))_6.jpg" 3)" = 200 ]
 }
 
 pause_store() {
@@ -496,14 +506,16 @@ pause_store() {
   : >"$work/views"
   view_loop "$work/views" &
   background+=($!); view_pid=$!
-  # Tiles no one asked for (a ranged GET of the level file), straight to each replica and through
-  # nginx: early (the image's version still trusted: the level reader waits) and after
-  # --store-recheck-ms (the lookup of the version waits).
+  # Stored tiles no one has read (a ranged GET of the level file), straight to each replica and
+  # through nginx: early (the image's version still trusted: the level reader waits) and after
+  # --store-recheck-ms (the lookup of the version waits). Early, full-resolution tiles of the
+  # lower right (x >= 1536, y >= 1280), far from the path's points of interest: no view at a zoom
+  # that reads level 0 comes near them, and no other request of the test reads them.
   sleep 0.3
   for ((i = 0; i < replicas; i++)); do
-    probe "early.replica$i" "$(replica_url "$i")/dzi/boats_files/12/$((i + 1))_4.jpg" & probe_pids+=($!)
+    probe "early.replica$i" "$(replica_url "$i")/iiif/3/boats/$((1536 + 256 * i)),1280,256,256/256,/0/default.jpg" & probe_pids+=($!)
   done
-  probe early.nginx "http://127.0.0.1:$nginx_bypass_port/iiif/3/boats/1024,1024,256,256/256,/0/default.jpg" & probe_pids+=($!)
+  probe early.nginx "http://127.0.0.1:$nginx_bypass_port/iiif/3/boats/2304,1280,256,256/256,/0/default.jpg" & probe_pids+=($!)
   sleep $(( (recheck_ms + 999) / 1000 ))
   for ((i = 0; i < replicas; i++)); do
     probe "late.replica$i" "$(replica_url "$i")/iiif/3/boats/$((256 * (i + 4))),0,256,256/256,/0/default.jpg" & probe_pids+=($!)
@@ -528,6 +540,7 @@ pause_store() {
   readyz_failed_ms=()
   for ((i = 0; i < replicas; i++)); do
     readyz_failed_ms[$i]=$(awk -v t="$t_pause_ms" '$1 >= t && $4 == 503 && $5 == 1 { print $1 - t; exit }' "$work/health.$i")
+    store_readable_is "$i" 0 || die "replica $i: /metrics did not say zoomwarp_store_readable 0 within 1 s during the pause: $(grep store_readable "$work/metrics.$i")"
   done
   touch "$work/stop_views"
   wait "$view_pid" || die "a view through nginx during the pause was not a bounded 503/504 with a JSON error (see above)"
@@ -551,6 +564,7 @@ pause_store() {
   readyz_back_ms=()
   for ((i = 0; i < replicas; i++)); do
     readyz_back_ms[$i]=$(awk -v t="$t_resume_ms" '$1 >= t && $4 == 200 { print $1 - t; exit }' "$work/health.$i")
+    store_readable_is "$i" 1 || die "replica $i: /metrics does not say zoomwarp_store_readable 1 once /readyz is 200 again: $(grep store_readable "$work/metrics.$i")"
   done
   note "/readyz 200 again after $(IFS=/; echo "${readyz_back_ms[*]}") ms"
 }
