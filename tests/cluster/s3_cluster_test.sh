@@ -37,9 +37,10 @@
 # the replicas' failure counters and one JSON line. Every process runs on 127.0.0.1 on ports
 # picked below Linux's ephemeral range, with everything in one temp folder; the EXIT trap stops
 # the replay and probes, the replicas, nginx and Swift (whose own watchdog also stops it should
-# this script be SIGKILLed). ~55 s on the 2-core test VM (~5 s of it Swift's start). The times
-# "seen after" are upper bounds: the replicas are polled in turn. CTest runs it as `cluster.s3`
-# (labels cluster, s3); `tests/cluster/s3_cluster_test.sh --help` for the options.
+# this script be SIGKILLed). ~40 s on the 2-core test VM, ~60 s while it builds (2-5 s of it
+# Swift's start). The times "seen after" are upper bounds: the replicas are polled in turn. CTest
+# runs it as `cluster.s3` (labels cluster, s3); `tests/cluster/s3_cluster_test.sh --help` for the
+# options.
 set -euo pipefail
 
 script_dir=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -50,9 +51,9 @@ source "$repo_dir/tests/support/nginx.sh"
 source "$repo_dir/tests/support/replicas.sh"
 
 # ---- defaults (see usage) -----------------------------------------------------------------------
-before=3            # seconds of load before the pause (must have no error)
+before=2            # seconds of load before the pause (must have no error)
 during=12           # seconds of load around the pause
-after=3             # seconds of load once the store is back (must have no error)
+after=2             # seconds of load once the store is back (must have no error)
 pause_min=4         # the store stays paused at least this long…
 pause_max=12        # …and until every replica's /readyz said 503, at most this long
 clients=4
@@ -163,11 +164,33 @@ t0=0                # the run's start (ns), for the timeline
 now_ns() { date +%s%N; }
 ms_since() { echo $(( ($(now_ns) - $1) / 1000000 )); }
 
+# our_child PID: PID is a live child of this shell (not a pid reaped and reused since).
+our_child() {
+  local stat fields
+  read -r stat 2>/dev/null <"/proc/$1/stat" || return 1
+  read -r -a fields <<<"${stat##*) }"   # state, ppid, …
+  [ "${fields[1]}" = $$ ] && [ "${fields[0]}" != Z ]
+}
+
+# stop_tree PID: a background subshell (a probe loop, the upload) and the command it is running:
+# frozen first, so that it starts no other, then both ended. Nothing if PID is no child of ours.
+stop_tree() {
+  local pid=$1 children
+  our_child "$pid" || return 0
+  kill -STOP "$pid" 2>/dev/null || return 0
+  children=$(pgrep -P "$pid" 2>/dev/null || true)
+  # shellcheck disable=SC2086  # one pid a word
+  [ -z "$children" ] || kill -TERM $children 2>/dev/null || true
+  kill -TERM "$pid" 2>/dev/null || true
+  kill -CONT "$pid" 2>/dev/null || true
+  stop_process "$pid"
+}
+
 cleanup() {
   local rc=$? pid
   trap - EXIT INT TERM
   [ "$paused" -eq 0 ] || kill -CONT "$s3_proxy_pid" 2>/dev/null || true
-  for pid in "${background[@]}"; do stop_process "$pid"; done
+  for pid in "${background[@]}"; do stop_tree "$pid"; done
   # The replicas drain (their --drain-delay) all at once rather than one after the other, and
   # are gone before the store is.
   for pid in "${replica_pid[@]}"; do [ -z "$pid" ] || kill -TERM "$pid" 2>/dev/null || true; done
@@ -380,10 +403,14 @@ delete_everywhere() {
 test_status() { [ "$(status_of "$2")" = "$1" ]; }
 
 # ---- 3. load, and the store paused under it ------------------------------------------------------
-replay() {  # replay PHASE PORT ARGS...: `zoomwarp replay --json`, its summary in PHASE.json
+# replay PHASE PORT ARGS...: `zoomwarp replay --json`, its summary in PHASE.json. Run in the
+# background (a subshell of its own), it becomes the replay process: $! is the replay's pid.
+replay() {
   local phase=$1 port=$2; shift 2
-  "$zoomwarp_bin" replay "$view_path" --image boats --url "http://127.0.0.1:$port" \
-    --clients "$clients" --timeout $((request_timeout + 3)) --json "$@" >"$work/$phase.json" 2>"$work/$phase.err"
+  local command=("$zoomwarp_bin" replay "$view_path" --image boats --url "http://127.0.0.1:$port"
+                 --clients "$clients" --timeout $((request_timeout + 3)) --json "$@")
+  if [ "$BASHPID" != $$ ]; then exec "${command[@]}" >"$work/$phase.json" 2>"$work/$phase.err"; fi
+  "${command[@]}" >"$work/$phase.json" 2>"$work/$phase.err"
 }
 
 check_phase() {  # check_phase PHASE ALLOW_5XX
@@ -704,6 +731,7 @@ main() {
   export AWS_ENDPOINT_URL_S3="http://127.0.0.1:$s3_port"
   replica_store="s3://$bucket/$prefix"
   replica_cache_root="$work/caches"
+  drain_delay=0   # (replicas.sh's, deploy/compose.yaml's 2 s) no replica is SIGTERMed under load here
   local serve_flags=(--open-writes --request-timeout "$request_timeout" --store-recheck-ms "$recheck_ms")
   # shellcheck disable=SC2206  # --serve-flags is split into words on purpose
   [ -z "$extra_serve_flags" ] || serve_flags+=($extra_serve_flags)
