@@ -1,6 +1,8 @@
 # shellcheck shell=bash
-# Replicas of `zoomwarp serve` sharing one store on loopback, with nginx (deploy/nginx.conf) in
-# front: the cluster that tests/cluster/cluster_test.sh and tests/soak/soak_test.sh each set up.
+# Replicas of `zoomwarp serve` sharing one store on loopback (a folder, or a bucket and then no
+# folder at all), with nginx (deploy/nginx.conf) in front: the cluster that
+# tests/cluster/cluster_test.sh, tests/cluster/s3_cluster_test.sh and tests/soak/soak_test.sh each
+# set up.
 # Sourced, not run, after tests/support/nginx.sh (whose port picking, waiting, process stopping
 # and nginx_start it uses).
 #
@@ -14,6 +16,11 @@
 #   work                       the temp folder: the store is work/store, replica logs
 #                              work/replicaI.N.log, nginx's prefix folder work/nginx
 #   zoomwarp_bin, nginx_conf   the zoomwarp binary; deploy/nginx.conf (or a stand-in)
+# and, for replicas that share a bucket and no folder (tests/cluster/s3_cluster_test.sh), may set
+#   replica_store              every replica's --store instead of work/store (s3://BUCKET/PREFIX,
+#                              with the AWS_* variables in the environment)
+#   replica_cache_root         each replica's own --store-cache is replica_cache_root/replicaI,
+#                              kept across its restarts and shared with no other replica
 # then calls start_replicas, start_replica I to restart a replica, nginx_start with
 # write_nginx_conf and nginx_answers, and finish_cluster in its EXIT trap. What differs between
 # callers (more `serve` flags, a hook that publishes each replica's pid, how much of nginx's error
@@ -22,6 +29,8 @@
 declare -a replica_pid replica_port replica_log  # per replica: current pid, port, log file
 declare -a replica_serve_flags   # start_replicas' SERVE_FLAGs
 replica_started_hook=""  # start_replicas' HOOK
+replica_store=""         # the caller's: --store of every replica ("" for work/store)
+replica_cache_root=""    # the caller's: each replica's --store-cache is in it ("" for none)
 replica_starts=0         # numbers each replica log file
 starting_cluster=0       # 1 while start_replicas runs: a replica may then move to another port
 drain_delay=2            # ZOOMWARP_DRAIN_DELAY in deploy/compose.yaml
@@ -36,16 +45,21 @@ pick_port() {
 listening() { grep -q '"msg":"listening"' "$1" 2>/dev/null; }
 
 # start_replica I: starts replica I on its port (picking one the first time) with the server's
-# defaults but for the address, port, store, the drain delay deploy/compose.yaml sets and the
-# SERVE_FLAGs given to start_replicas; waits for its 'listening' line, then runs HOOK I.
+# defaults but for the address, port, store (and its cache folder, see replica_cache_root), the
+# drain delay deploy/compose.yaml sets and the SERVE_FLAGs given to start_replicas; waits for its
+# 'listening' line, then runs HOOK I.
 # shellcheck disable=SC2154  # work and zoomwarp_bin are the caller's
 start_replica() {
-  local i=$1 _
+  local i=$1 _ store_flags=(--store "${replica_store:-$work/store}")
+  if [ -n "$replica_cache_root" ]; then
+    mkdir -p "$replica_cache_root/replica$i"
+    store_flags+=(--store-cache "$replica_cache_root/replica$i")
+  fi
   for _ in 1 2 3 4 5; do
     [ -n "${replica_port[$i]:-}" ] || replica_port[$i]=$(pick_port) || exit 1
     replica_starts=$((replica_starts + 1))
     replica_log[$i]="$work/replica$i.$replica_starts.log"
-    "$zoomwarp_bin" serve --host 127.0.0.1 --port "${replica_port[$i]}" --store "$work/store" \
+    "$zoomwarp_bin" serve --host 127.0.0.1 --port "${replica_port[$i]}" "${store_flags[@]}" \
       --drain-delay "$drain_delay" "${replica_serve_flags[@]}" 2>"${replica_log[$i]}" >/dev/null &
     replica_pid[$i]=$!
     if wait_until 20 listening "${replica_log[$i]}"; then
