@@ -31,12 +31,26 @@ S3Deadline deadline() { return StoreDeadlineScope::deadline(kOperationBudget); }
 
 // Runs a request to the store: a store that is down, hung or throttling past the retries is
 // StoreUnavailable to the callers above tiles/ (503/504), other failures stay S3Errors.
+// What a bucket store and its files share: the client, the cache, the bucket, and whether the
+// store failed its last readiness check (BucketStore::problem, every second in a server): requests
+// then fail at once instead of each waiting out its deadline, so that workers stay free for what
+// the caches can answer. Cleared by the first check the store answers.
+struct Bucket {
+  std::shared_ptr<S3Client> client;
+  std::shared_ptr<RangeCache> cache;
+  std::string name;
+  mutable std::atomic<bool> down{false};
+};
+
 // A thread whose deadline has passed (the server's I/O thread sets one in the past: it must never
-// wait for the store) fails at once, without a request.
+// wait for the store) fails at once, without a request; so does every thread while the store is
+// known to be down.
 template <class F>
-auto guarded(F&& request) -> decltype(request()) {
+auto guarded(const Bucket& bucket, F&& request) -> decltype(request()) {
   if (deadline() <= std::chrono::steady_clock::now())
     throw StoreUnavailable("no time left for a request to the store", true);
+  if (bucket.down.load(std::memory_order_relaxed))
+    throw StoreUnavailable("the store did not answer its last check", false, true);
   try {
     return request();
   } catch (const S3Error& e) {
@@ -46,11 +60,11 @@ auto guarded(F&& request) -> decltype(request()) {
 }
 
 // Every key under `prefix`, every page.
-std::vector<S3ListEntry> list_all(S3Client& client, const std::string& bucket, const std::string& prefix) {
+std::vector<S3ListEntry> list_all(const Bucket& bucket, const std::string& prefix) {
   std::vector<S3ListEntry> out;
   std::string continuation;
   do {
-    S3ListPage page = guarded([&] { return client.list(bucket, prefix, "", continuation, deadline()); });
+    S3ListPage page = guarded(bucket, [&] { return bucket.client->list(bucket.name, prefix, "", continuation, deadline()); });
     for (S3ListEntry& e : page.objects) out.push_back(std::move(e));
     continuation = page.truncated ? page.next_continuation : "";
   } while (!continuation.empty());
@@ -58,11 +72,11 @@ std::vector<S3ListEntry> list_all(S3Client& client, const std::string& bucket, c
 }
 
 // The names one level below `prefix` ("a/" of "PREFIX/a/b"), every page, without their slash.
-std::vector<std::string> list_children(S3Client& client, const std::string& bucket, const std::string& prefix) {
+std::vector<std::string> list_children(const Bucket& bucket, const std::string& prefix) {
   std::vector<std::string> out;
   std::string continuation;
   do {
-    S3ListPage page = guarded([&] { return client.list(bucket, prefix, "/", continuation, deadline()); });
+    S3ListPage page = guarded(bucket, [&] { return bucket.client->list(bucket.name, prefix, "/", continuation, deadline()); });
     for (const S3ListEntry& e : page.objects) out.push_back(e.key.substr(prefix.size()));
     for (const std::string& p : page.common_prefixes) out.push_back(p.substr(prefix.size(), p.size() - prefix.size() - 1));
     continuation = page.truncated ? page.next_continuation : "";
@@ -70,12 +84,6 @@ std::vector<std::string> list_children(S3Client& client, const std::string& buck
   return out;
 }
 
-// What a bucket store's files share: the client, the cache, the bucket.
-struct Bucket {
-  std::shared_ptr<S3Client> client;
-  std::shared_ptr<RangeCache> cache;
-  std::string name;
-};
 
 // Blocks of a level file: what one cache entry holds. A tile (tens of kB) is one or two blocks, a
 // TIFF header and tile index a few; a read wanting several missing blocks in a row fetches them
@@ -186,7 +194,7 @@ class BucketObject final : public RandomAccessFile {
 
   std::string fetch(std::uint64_t offset, std::size_t n) const {
     std::optional<std::string> bytes =
-        guarded([&] { return bucket_->client->get_range(bucket_->name, key_, offset, n, deadline()); });
+        guarded(*bucket_, [&] { return bucket_->client->get_range(bucket_->name, key_, offset, n, deadline()); });
     if (!bytes) throw std::runtime_error(name_ + " vanished while being read");
     return std::move(*bytes);
   }
@@ -207,7 +215,7 @@ class BucketFiles final : public VersionFiles {
   std::optional<std::string> read(const std::string& name) const override {
     const std::string key = location_ + "/" + name;
     if (auto cached = bucket_->cache->find(key)) return *cached;
-    std::optional<std::string> bytes = guarded([&] { return client().get(bucket_->name, key_prefix_ + name, deadline()); });
+    std::optional<std::string> bytes = guarded(*bucket_, [&] { return client().get(bucket_->name, key_prefix_ + name, deadline()); });
     if (bytes) {
       bucket_->cache->insert(key, std::make_shared<const std::string>(*bytes));
       remember_size(name, bytes->size());
@@ -218,14 +226,14 @@ class BucketFiles final : public VersionFiles {
   bool exists(const std::string& name) const override { return size_of(name).has_value(); }
 
   void write(const std::string& name, const std::string& bytes) const override {
-    guarded([&] { return client().put(bucket_->name, key_prefix_ + name, bytes, "application/octet-stream", deadline()); });
+    guarded(*bucket_, [&] { return client().put(bucket_->name, key_prefix_ + name, bytes, "application/octet-stream", deadline()); });
     bucket_->cache->insert(location_ + "/" + name, std::make_shared<const std::string>(bytes));
     remember_size(name, bytes.size());
   }
 
   std::vector<std::string> names() const override {
     std::vector<std::string> out;
-    for (const S3ListEntry& e : list_all(client(), bucket_->name, key_prefix_)) out.push_back(e.key.substr(key_prefix_.size()));
+    for (const S3ListEntry& e : list_all(*bucket_, key_prefix_)) out.push_back(e.key.substr(key_prefix_.size()));
     return out;
   }
 
@@ -250,7 +258,7 @@ class BucketFiles final : public VersionFiles {
       std::lock_guard lock(mu_);
       if (auto it = sizes_.find(name); it != sizes_.end()) return it->second;
     }
-    const std::optional<S3ObjectInfo> info = guarded([&] { return client().head(bucket_->name, key_prefix_ + name, deadline()); });
+    const std::optional<S3ObjectInfo> info = guarded(*bucket_, [&] { return client().head(bucket_->name, key_prefix_ + name, deadline()); });
     if (!info) return std::nullopt;
     remember_size(name, info->size);
     return info->size;
@@ -272,7 +280,7 @@ class BucketStore final : public StoreBackend {
  public:
   BucketStore(const S3Location& where, std::shared_ptr<S3Client> client, const std::string& local_dir,
               const RangeCacheOptions& cache)
-      : bucket_(std::make_shared<const Bucket>(Bucket{client, std::make_shared<RangeCache>(cache), where.bucket})),
+      : bucket_(make_bucket(client, cache, where.bucket)),
         client_(std::move(client)),
         where_(where),
         location_(where.url()),
@@ -285,7 +293,7 @@ class BucketStore final : public StoreBackend {
   const std::string& location() const override { return location_; }
 
   std::optional<std::string> read_pointer(const std::string& id) const override {
-    const std::optional<std::string> body = guarded([&] { return client_->get(where_.bucket, pointer_key(id), deadline()); });
+    const std::optional<std::string> body = guarded(*bucket_, [&] { return client_->get(where_.bucket, pointer_key(id), deadline()); });
     if (!body) return std::nullopt;
     std::string v = *body;
     while (!v.empty() && (v.back() == '\n' || v.back() == ' ')) v.pop_back();
@@ -294,11 +302,11 @@ class BucketStore final : public StoreBackend {
   }
 
   bool has_pointer(const std::string& id) const override {
-    return guarded([&] { return client_->head(where_.bucket, pointer_key(id), deadline()); }).has_value();
+    return guarded(*bucket_, [&] { return client_->head(where_.bucket, pointer_key(id), deadline()); }).has_value();
   }
 
   std::vector<std::string> pointer_ids() const override {
-    return list_children(*client_, where_.bucket, where_.prefix + "images/");
+    return list_children(*bucket_, where_.prefix + "images/");
   }
 
   std::shared_ptr<const VersionFiles> version_files(const std::string& version_dir) const override {
@@ -319,7 +327,7 @@ class BucketStore final : public StoreBackend {
   void copy_into_staging(const std::string& version_dir, const std::string& staging) const override {
     const auto files = version_files(version_dir);
     const std::string prefix = version_prefix(version_dir);
-    for (const S3ListEntry& e : list_all(*client_, where_.bucket, prefix)) {
+    for (const S3ListEntry& e : list_all(*bucket_, prefix)) {
       const std::string name = e.key.substr(prefix.size());
       if (name == "manifest.json" || name.find('/') != std::string::npos) continue;
       const std::shared_ptr<const RandomAccessFile> file = files->open(name);
@@ -351,11 +359,11 @@ class BucketStore final : public StoreBackend {
       std::sort(files.begin(), files.end());
       files.push_back(fs::path(staging_dir) / "manifest.json");
       for (const fs::path& f : files)
-        guarded([&] {
+        guarded(*bucket_, [&] {
           return client_->put_file(where_.bucket, prefix + f.filename().string(), f.string(), "application/octet-stream",
                                    deadline());
         });
-      guarded([&] { return client_->put(where_.bucket, pointer_key(id), version_dir + "\n", "text/plain", deadline()); });
+      guarded(*bucket_, [&] { return client_->put(where_.bucket, pointer_key(id), version_dir + "\n", "text/plain", deadline()); });
     } catch (...) {
       discard_staging(staging_dir);
       throw;
@@ -365,7 +373,7 @@ class BucketStore final : public StoreBackend {
 
   bool remove_pointer(const std::string& id) override {
     if (!has_pointer(id)) return false;
-    guarded([&] { client_->remove(where_.bucket, pointer_key(id), deadline()); });
+    guarded(*bucket_, [&] { client_->remove(where_.bucket, pointer_key(id), deadline()); });
     return true;
   }
 
@@ -376,12 +384,12 @@ class BucketStore final : public StoreBackend {
     const std::int64_t now_ms =
         std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
     int removed = 0;
-    for (const std::string& version_dir : list_children(*client_, where_.bucket, where_.prefix + "versions/")) {
+    for (const std::string& version_dir : list_children(*bucket_, where_.prefix + "versions/")) {
       if (live.count(version_dir)) continue;
       const std::optional<std::int64_t> created = created_ms(version_dir);
       if (created && now_ms - *created < std::chrono::duration_cast<std::chrono::milliseconds>(grace).count()) continue;
-      for (const S3ListEntry& e : list_all(*client_, where_.bucket, version_prefix(version_dir)))
-        guarded([&] { client_->remove(where_.bucket, e.key, deadline()); });
+      for (const S3ListEntry& e : list_all(*bucket_, version_prefix(version_dir)))
+        guarded(*bucket_, [&] { client_->remove(where_.bucket, e.key, deadline()); });
       removed_version(version_dir);
       ++removed;
     }
@@ -403,7 +411,11 @@ class BucketStore final : public StoreBackend {
   std::string problem(std::chrono::milliseconds within) const override {
     try {
       client_->list(where_.bucket, where_.prefix + "images/", "/", "", std::chrono::steady_clock::now() + within, 1);
+      bucket_->down = false;
       return "";
+    } catch (const S3Error& e) {
+      bucket_->down = e.unavailable();
+      return e.what();
     } catch (const std::exception& e) {
       return e.what();
     }
@@ -412,6 +424,15 @@ class BucketStore final : public StoreBackend {
   StoreStats stats() const override { return StoreStats{true, client_->stats(), bucket_->cache->stats()}; }
 
  private:
+  static std::shared_ptr<const Bucket> make_bucket(std::shared_ptr<S3Client> client, const RangeCacheOptions& cache,
+                                                   const std::string& name) {
+    auto b = std::make_shared<Bucket>();
+    b->client = std::move(client);
+    b->cache = std::make_shared<RangeCache>(cache);
+    b->name = name;
+    return b;
+  }
+
   std::string pointer_key(const std::string& id) const { return where_.prefix + "images/" + id; }
   std::string version_prefix(const std::string& version_dir) const {
     return where_.prefix + "versions/" + version_dir + "/";

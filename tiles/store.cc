@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "tiles/bucket_store.h"
+#include "tiles/store_errors.h"
 #include "tiles/folder_store.h"
 #include "tiles/image_id.h"
 #include "tiles/pyramid_builder.h"
@@ -99,13 +100,25 @@ std::shared_ptr<const ImageEntry> Store::find(const std::string& id) const {
   if (!is_valid_image_id(id)) return nullptr;
   const auto now = std::chrono::steady_clock::now();
   std::uint64_t generation;
+  std::shared_ptr<const ImageEntry> remembered;
   {
     std::shared_lock lock(links_mu_);
-    if (auto it = links_.find(id); it != links_.end() && now - it->second.read_at < recheck_)
-      return it->second.entry;
+    if (auto it = links_.find(id); it != links_.end()) {
+      if (now - it->second.read_at < recheck_) return it->second.entry;
+      remembered = it->second.entry;
+    }
     generation = generation_;
   }
-  auto entry = read_link(id);
+  std::shared_ptr<const ImageEntry> entry;
+  try {
+    entry = read_link(id);
+  } catch (const StoreUnavailable& e) {
+    // Stale while the store is known to be down: what was published then is served from what is
+    // held here (its files are immutable), trusted for another interval. Not when the store was
+    // not asked for want of time (the I/O thread): a worker asks it.
+    if (!remembered || !e.known_down()) throw;
+    entry = remembered;
+  }
   std::unique_lock lock(links_mu_);
   if (generation == generation_) {
     if (entry) links_.insert_or_assign(id, LinkReading{entry, now});

@@ -75,7 +75,9 @@ class Store {
 
   // The published version of `id` (which must be valid), or null. The link is read again once the
   // last reading is `recheck` old, so another process's publish or remove is seen within that;
-  // manifests are cached per version.
+  // manifests are cached per version. While the store is known to be down (StoreUnavailable::
+  // known_down), the last reading is returned if there is one (and trusted for another
+  // `recheck`); other failures to read the store are thrown.
   std::shared_ptr<const ImageEntry> find(const std::string& id) const;
 
   // Whether images/ID exists, whatever it points to: find() is null for a published image whose

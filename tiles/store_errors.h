@@ -11,11 +11,15 @@ namespace zoomwarp::tiles {
 // server answers 503, or 504 when `timed_out` (api/errors.h), with Retry-After.
 class StoreUnavailable : public std::runtime_error {
  public:
-  StoreUnavailable(const std::string& what, bool timed_out) : std::runtime_error(what), timed_out_(timed_out) {}
+  StoreUnavailable(const std::string& what, bool timed_out, bool known_down = false)
+      : std::runtime_error(what), timed_out_(timed_out), known_down_(known_down) {}
   bool timed_out() const { return timed_out_; }
+  // Not asked: the store failed its last readiness check (a server's monitor), so nothing was
+  // sent. What the caller held from the store before may stand in for the answer.
+  bool known_down() const { return known_down_; }
 
  private:
-  bool timed_out_;
+  bool timed_out_, known_down_;
 };
 
 }  // namespace zoomwarp::tiles
