@@ -149,10 +149,8 @@ TEST_F(S3Serve, APausedStoreGivesBoundedAnswersAndServiceReturnsWithIt) {
   pause();
   // Past --store-recheck-ms, before readiness has noticed: each request's image is looked up in the
   // store again, which the I/O thread must not wait for (it would hold /healthz with it) and a
-  // worker only until the deadline; then the tiles not read before fail in the level readers,
-  // which pass the store's failure on: OpenImageIO's pixels (a Deep Zoom tile with overlap) and
-  // libtiff's stored tiles (a IIIF tile that is one stored tile, sent as it is). As many as there
-  // are workers, so that none fails by waiting in the queue instead.
+  // worker only until the deadline. As many as there are workers, so that none fails by waiting
+  // in the queue instead.
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   const std::vector<std::string> unread = {"/dzi/boats_files/12/9_5.jpg", "/iiif/3/boats/2304,1280,256,256/256,/0/default.jpg"};
   expect_bounded_failures(server->port(), unread, 2 + 1.5);
@@ -162,18 +160,21 @@ TEST_F(S3Serve, APausedStoreGivesBoundedAnswersAndServiceReturnsWithIt) {
   EXPECT_EQ(http.get("/healthz").status, 200);
 
   // Known down: what was read before is served from what the server holds, and the rest fails at
-  // once rather than after the deadline.
+  // once rather than after the deadline, also inside the level readers, which pass the store's
+  // failure on: OpenImageIO's pixels (a Deep Zoom tile with overlap) and libtiff's stored tiles (a
+  // IIIF tile that is one stored tile, sent as it is), both of a level they have open.
   for (std::size_t i = 0; i < read_before.size(); ++i) {
     const auto r = http.get(read_before[i]);
     EXPECT_EQ(r.status, 200) << read_before[i] << " is served from the caches: " << r.body;
     EXPECT_TRUE(r.body == bytes_before[i]) << read_before[i];
   }
-  const std::vector<std::string> more = {"/dzi/boats_files/12/8_5.jpg", "/iiif/3/boats/1024,768,512,512/256,/0/default.jpg"};
+  const std::vector<std::string> more = {"/dzi/boats_files/12/8_5.jpg", "/iiif/3/boats/2048,1280,256,256/256,/0/default.jpg",
+                                         "/iiif/3/boats/1024,768,512,512/256,/0/default.jpg"};
   expect_bounded_failures(server->port(), more, 0.5);
 
   resume();
   EXPECT_TRUE(eventually(10, [&] { return http.get("/readyz").status == 200; })) << "ready again with the store";
-  for (const auto& path : {unread[0], unread[1], more[0], more[1], std::string("/v1/images/boats")}) {
+  for (const auto& path : {unread[0], unread[1], more[0], more[1], more[2], std::string("/v1/images/boats")}) {
     testing::HttpResponse back;
     EXPECT_TRUE(eventually(10, [&] { return (back = http.get(path)).status == 200; }))
         << path << " is served again: " << back.status << " " << back.body;
