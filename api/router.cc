@@ -218,9 +218,11 @@ Response Router::compute_remembering_failure(const std::string& cache_key, const
     return compute();
   } catch (...) {
     // Not a request that was cancelled (its client left: nothing is wrong with the view), nor the
-    // client's own error (as cheap to find again as to remember).
+    // client's own error (as cheap to find again as to remember), nor the store's (nothing is
+    // wrong with the view either; while the store is known down, asking it costs nothing, and the
+    // view is served again as soon as it answers).
     const auto failed = server_failure_response(std::current_exception());
-    if (failed && failed->failure != "cancelled") failures_.put(cache_key, *failed);
+    if (failed && failed->failure != "cancelled" && failed->failure != "store") failures_.put(cache_key, *failed);
     throw;
   }
 }

@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "tiles/image_id.h"
+#include "tiles/store_errors.h"
 
 namespace zoomwarp::tiles {
 
@@ -43,6 +44,9 @@ Manifest ingest_image(Store& store, const std::string& source_path, const std::s
     if (progress) progress(1.0);
     return published;
   } catch (const IngestError&) {
+    store.discard(staging);
+    throw;
+  } catch (const StoreUnavailable&) {  // the store's failure, not the image's: 503/504, not 500
     store.discard(staging);
     throw;
   } catch (const std::exception& e) {

@@ -174,6 +174,8 @@ TEST_F(S3Serve, APausedStoreGivesBoundedAnswersAndServiceReturnsWithIt) {
 
   resume();
   EXPECT_TRUE(eventually(10, [&] { return http.get("/readyz").status == 200; })) << "ready again with the store";
+  // Served again once the store answers (a store's failure is not remembered for the view, as a
+  // deadline's is for --failure-cache-ms).
   for (const auto& path : {unread[0], unread[1], more[0], more[1], more[2], std::string("/v1/images/boats")}) {
     testing::HttpResponse back;
     EXPECT_TRUE(eventually(10, [&] { return (back = http.get(path)).status == 200; }))
