@@ -444,7 +444,8 @@ std::optional<Response> Router::openapi(const Request&, const PathParams&, bool)
 }
 
 // The body of /v1/methods: api's own methods and the registered ones (view_query.h
-// view_methods()), and the saliency kinds. It depends on the binary only, so it is made once and
+// view_methods()) with what each does with lines, the saliency kinds and the line sets (the
+// first is the default). It depends on the binary only, so it is made once and
 // its ETag is its digest.
 namespace {
 const std::string& methods_body() {
@@ -454,10 +455,13 @@ const std::string& methods_body() {
       methods.push_back({{"name", std::string(m.name)},
                          {"summary", std::string(m.summary)},
                          {"zoom", std::string(m.zoom)},
-                         {"mesh", m.has_mesh}});
+                         {"mesh", m.has_mesh},
+                         {"lines", m.lines.empty() ? json(nullptr) : json(std::string(m.lines))}});
     json saliency = json::array();
     for (const warp::Saliency s : warp::kSaliencies) saliency.push_back(std::string(warp::saliency_name(s)));
-    return json{{"methods", methods}, {"saliency", saliency}}.dump(2) + "\n";
+    json lines = json::array();
+    for (const warp::LineSet s : warp::kLineSets) lines.push_back(std::string(warp::line_set_name(s)));
+    return json{{"methods", methods}, {"saliency", saliency}, {"lines", lines}}.dump(2) + "\n";
   }();
   return body;
 }

@@ -70,7 +70,7 @@ std::optional<Response> Router::view_route(const Request& req, const PathParams&
     const std::string variant = kind == warp::Saliency::kDefault ? "" : std::string(warp::saliency_name(kind));
     return image_response(req, *entry, "significance_png", variant, may_compute, [&](const tiles::ImageEntry& e) {
       // The map the ICAZ engine of that kind warps with: faces and the curator's edits painted in.
-      const std::shared_ptr<warp::Icaz> engine = engines_.get(e, kind, false, req.stop);
+      const std::shared_ptr<warp::Icaz> engine = engines_.get(e, kind, warp::LineSet::kCurator, req.stop);
       const warp::SignificanceMap& map = engine->model().significance;
       tiles::Raster grey(map.width, map.height, 1);
       for (std::size_t i = 0; i < map.values.size(); ++i) grey.pixels[i] = std::uint8_t(std::lround(map.values[i] * 255));
@@ -80,7 +80,7 @@ std::optional<Response> Router::view_route(const Request& req, const PathParams&
   if (what == "lines") {
     reject_query(req, what);
     return image_response(req, *entry, "lines_get", "", may_compute, [&](const tiles::ImageEntry& e) {
-      const warp::ImageModel& model = engines_.get(e, warp::Saliency::kDefault, false, req.stop)->model();
+      const warp::ImageModel& model = engines_.get(e, warp::Saliency::kDefault, warp::LineSet::kCurator, req.stop)->model();
       return body_response("application/json", json{{"lines", lines_json(model.lines)},
                                                     {"suggested", lines_json(warp::suggested_lines(e, reader_, model))},
                                                     {"dismissed", lines_json(model.dismissed_lines)}}
@@ -98,10 +98,10 @@ std::optional<Response> Router::view_route(const Request& req, const PathParams&
       std::shared_ptr<warp::Icaz> icaz;
       std::shared_ptr<warp::Retargeter> retargeter;
       if (q.method == ViewMethod::kRetargeting)
-        retargeter = engines_.retargeter_for_screen(e, *q.retargeting, q.saliency, q.view.screen_width, q.view.screen_height,
-                                                    req.stop);
+        retargeter = engines_.retargeter_for_screen(e, *q.retargeting, q.saliency, q.lines, q.view.screen_width,
+                                                    q.view.screen_height, req.stop);
       else
-        icaz = engines_.get(e, q.method == ViewMethod::kTraditional ? warp::Saliency::kDefault : q.saliency, q.auto_lines,
+        icaz = engines_.get(e, q.method == ViewMethod::kTraditional ? warp::Saliency::kDefault : q.saliency, q.lines,
                             req.stop);
       const auto view_of = [&](const warp::ViewRequest& r) {
         switch (q.method) {
@@ -161,7 +161,7 @@ std::optional<Response> Router::edit_route(const Request& req, const PathParams&
   const double W = entry->manifest.width, H = entry->manifest.height;
   const warp::ModelEdit edit = what == "lines" ? parse_lines_body(req.body, W, H) : parse_significance_body(req.body, W, H);
   try {
-    warp::edit_image_model(store_, *entry, edit, engines_.get(*entry, warp::Saliency::kDefault, false, req.stop)->model());
+    warp::edit_image_model(store_, *entry, edit, engines_.get(*entry, warp::Saliency::kDefault, warp::LineSet::kCurator, req.stop)->model());
   } catch (const warp::LimitExceeded& err) {
     throw ApiError(413, err.limit(), err.what());
   } catch (const std::invalid_argument& err) {

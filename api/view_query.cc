@@ -46,10 +46,12 @@ constexpr OwnMethod kOwnMethods[] = {
       "undistorted, and gives up the distortion as you zoom in.",
       "0: the whole image warped to the screen's aspect ratio; 1: 100 % (one screen pixel per image pixel), "
       "undistorted; in between, the warp relaxes as the viewing area shrinks.",
-      true}},
+      true,
+      "the line set's lines are edges of the coarsest mesh and keep their normal through the warp ([ICAZ §4.3]'s "
+      "line term); detected lines are cut back where they cross and left out where the mesh cannot take them"}},
     {ViewMethod::kTraditional,
      {"traditional", "Uniform scaling and cropping: the image's own aspect ratio, letterboxed when zoomed out.",
-      "0: the whole image fits the screen; 1: 100 % (one screen pixel per image pixel).", true}},
+      "0: the whole image fits the screen; 1: 100 % (one screen pixel per image pixel).", true, ""}},
 };
 
 const OwnMethod* find_own_method(std::string_view name) {
@@ -77,7 +79,7 @@ std::vector<MethodDescription> view_methods() {
   std::vector<MethodDescription> out;
   for (const OwnMethod& own : kOwnMethods) out.push_back(own.description);
   for (const warp::RetargetingMethod* m : warp::retargeting_methods())
-    if (!find_own_method(m->name)) out.push_back({m->name, m->summary, m->zoom, m->has_mesh});
+    if (!find_own_method(m->name)) out.push_back({m->name, m->summary, m->zoom, m->has_mesh, m->lines});
   return out;
 }
 
@@ -112,8 +114,9 @@ ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double W
       if (!s) bad("saliency must be default or gbvs, not '" + value + "'");
       q.saliency = *s;
     } else if (name == "lines") {
-      if (value == "auto") q.auto_lines = true;
-      else if (value != "curator") bad("lines must be curator or auto, not '" + value + "'");
+      const auto lines = warp::parse_line_set(value);
+      if (!lines) bad("lines must be auto, curator or none, not '" + value + "'");
+      q.lines = *lines;
     } else if (name == "curve") {
       if (value == "geometric") q.view.curve = warp::ZoomCurve::kGeometric;
       else if (value == "linear") q.view.curve = warp::ZoomCurve::kLinear;
@@ -133,8 +136,9 @@ ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double W
     bad("w and h (screen size in pixels, 16…" + std::to_string(warp::limits::kMaxScreenSide) + ") are required");
   if ((long long)q.view.screen_width * q.view.screen_height > warp::limits::kMaxScreenPixels)
     bad("the screen (w × h) has at most " + std::to_string(warp::limits::kMaxScreenPixels) + " pixels");
-  if (q.auto_lines && q.method != ViewMethod::kIcaz)
-    bad("lines=auto applies to method=icaz only");
+  // A method that takes no lines shows the same view for each line set: one cache entry, one engine.
+  if (q.method == ViewMethod::kTraditional || (q.retargeting && q.retargeting->lines.empty()))
+    q.lines = warp::LineSet::kCurator;
   if (from_zoom || from_cx || from_cy) {
     q.from = q.view;
     if (from_zoom) q.from->zoom = *from_zoom;
@@ -157,7 +161,7 @@ std::string ViewQuery::canonical() const {
   std::string out;
   out.reserve(160);
   out.append(method_name()).append("|").append(warp::saliency_name(saliency)).append("|");
-  out.append(auto_lines ? "auto" : "curator").append("|");
+  out.append(warp::line_set_name(lines)).append("|");
   out.append(view.curve == warp::ZoomCurve::kLinear ? "linear" : "geometric").append("|z=");
   append_g17(out, view.zoom);
   out.append("|c=");

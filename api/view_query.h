@@ -5,7 +5,8 @@
 //   method   icaz (default) | traditional | a registered retargeting method
 //            (warp/methods/retargeting_method.h: retarget-zoom, seam, …)
 //   saliency default (default) | gbvs    which saliency map drives a content-aware method
-//   lines    curator (default) | auto    auto: ICAZ with the automatically detected lines too
+//   lines    auto (default) | curator | none   which lines a method keeps straight
+//            (warp/analysis/line_set.h); ignored (taken as curator) by a method that takes none
 //   curve    geometric (default) | linear
 //   from_zoom, from_cx, from_cy   (mesh only) the previous view, for the geomorph pair
 //   format   jpg (default) | png | webp,  quality 1…100   (viewport only)
@@ -22,6 +23,7 @@
 #include <vector>
 
 #include "tiles/image_format.h"
+#include "warp/analysis/line_set.h"
 #include "warp/core/view.h"
 #include "warp/methods/retargeting_method.h"
 
@@ -35,7 +37,7 @@ struct ViewQuery {
   ViewMethod method = ViewMethod::kIcaz;
   const warp::RetargetingMethod* retargeting = nullptr;  // for kRetargeting: which one
   warp::Saliency saliency = warp::Saliency::kDefault;
-  bool auto_lines = false;  // lines=auto
+  warp::LineSet lines = warp::LineSet::kAuto;
   std::optional<warp::ViewRequest> from;  // from_* given (all three optional, default: this view's)
   tiles::ImageFormat format = tiles::ImageFormat::kJpeg;
   int quality = 0;  // 0: the server's default
@@ -53,6 +55,7 @@ struct MethodDescription {
   std::string_view summary;  // one sentence
   std::string_view zoom;     // what `zoom` means for it
   bool has_mesh = true;      // false: /mesh answers 501, a client shows /viewport images
+  std::string_view lines;    // what it does with `lines=` (warp/analysis/line_set.h); empty: takes none
 };
 
 // Every method a request may name, in the order a viewer lists them: api's own (icaz,

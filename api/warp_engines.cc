@@ -17,8 +17,9 @@ namespace {
 constexpr int kRetryAfterSeconds = 1;
 constexpr std::size_t kMaxWarmed = 4096;
 
-std::string icaz_key(const tiles::ImageEntry& image, warp::Saliency saliency, bool auto_lines) {
-  return image.files->location() + "|icaz|" + std::string(warp::saliency_name(saliency)) + (auto_lines ? "|auto" : "");
+std::string icaz_key(const tiles::ImageEntry& image, warp::Saliency saliency, warp::LineSet lines) {
+  return image.files->location() + "|icaz|" + std::string(warp::saliency_name(saliency)) + "|" +
+         std::string(warp::line_set_name(lines));
 }
 
 }  // namespace
@@ -32,11 +33,11 @@ WarpEngines::WarpEngines(tiles::PyramidReader& reader, WarpEngineOptions options
       background_(options_.analysis_threads, options_.max_pending) {}
 
 std::shared_ptr<warp::Icaz> WarpEngines::load_icaz(const tiles::ImageEntry& image, warp::Saliency saliency,
-                                                   bool auto_lines) {
+                                                   warp::LineSet lines) {
   const std::string& id = image.manifest.id;
   warp::LoadedModel loaded;
   try {
-    loaded = warp::load_image_model(image, reader_, options_.significance, {saliency, auto_lines});
+    loaded = warp::load_image_model(image, reader_, options_.significance, {saliency, lines});
   } catch (const warp::ModelFileError& e) {
     if (log_)
       log_("error", "warp model damaged, curator edits unreadable",
@@ -54,7 +55,7 @@ std::shared_ptr<warp::Icaz> WarpEngines::load_icaz(const tiles::ImageEntry& imag
     log_("info", "warp model computed on first use",
          {{"image", id}, {"version", image.manifest.version}, {"saliency", warp::saliency_name(saliency)}});
   if (loaded.unmeshable_suggestions > 0 && log_)
-    log_("info", "lines=auto: suggested lines left out, the coarsest mesh cannot be built with them",
+    log_("info", "lines=auto: detected lines left out, the coarsest mesh cannot be built with them",
          {{"image", id}, {"version", image.manifest.version}, {"left_out", loaded.unmeshable_suggestions}});
   warp::ImageModel& model = loaded.model;
   warp::IcazOptions icaz;
@@ -67,16 +68,18 @@ std::shared_ptr<warp::Icaz> WarpEngines::load_icaz(const tiles::ImageEntry& imag
 
 std::shared_ptr<warp::Retargeter> WarpEngines::load_retargeter(const tiles::ImageEntry& image,
                                                                const warp::RetargetingMethod& method,
-                                                               warp::Saliency saliency) {
-  // Every method reads the version's model (size, lines, significance): the default ICAZ
-  // engine's, loaded once and shared.
-  const auto icaz = icaz_now(image);
-  warp::LoadedRetargeter loaded = warp::load_retargeter(image, reader_, icaz->model(), method, saliency);
+                                                               warp::Saliency saliency, warp::LineSet lines) {
+  // Every method reads the version's model (size, lines, significance): a default-saliency ICAZ
+  // engine's, loaded once and shared — the stored one (the curator's lines), or the line set's
+  // for a method that loads its lines (method_files.h load_retargeter).
+  const auto icaz = icaz_now(image, method.loads_lines ? lines : warp::LineSet::kCurator);
+  warp::LoadedRetargeter loaded = warp::load_retargeter(image, reader_, icaz->model(), method, saliency, lines);
   (loaded.source == warp::MethodSource::kStored || loaded.source == warp::MethodSource::kNoFile ? read_ : computed_)++;
   const nlohmann::json fields = {{"image", image.manifest.id},
                                  {"version", image.manifest.version},
                                  {"method", method.name},
-                                 {"saliency", warp::saliency_name(saliency)}};
+                                 {"saliency", warp::saliency_name(saliency)},
+                                 {"lines", warp::line_set_name(lines)}};
   if (loaded.source == warp::MethodSource::kRebuiltDamaged && log_) {
     nlohmann::json f = fields;
     f["error"] = loaded.reason;
@@ -90,10 +93,10 @@ std::shared_ptr<warp::Retargeter> WarpEngines::load_retargeter(const tiles::Imag
   return std::move(loaded.engine);
 }
 
-std::shared_ptr<warp::Icaz> WarpEngines::icaz_now(const tiles::ImageEntry& image) {
-  const std::string key = icaz_key(image, warp::Saliency::kDefault, false);
+std::shared_ptr<warp::Icaz> WarpEngines::icaz_now(const tiles::ImageEntry& image, warp::LineSet lines) {
+  const std::string key = icaz_key(image, warp::Saliency::kDefault, lines);
   return std::get<std::shared_ptr<warp::Icaz>>(
-      engines_.get(key, [&] { return Engine(load_icaz(image, warp::Saliency::kDefault, false)); }).value);
+      engines_.get(key, [&] { return Engine(load_icaz(image, warp::Saliency::kDefault, lines)); }).value);
 }
 
 WarpEngines::Engine WarpEngines::await(const tiles::BackgroundFlights<Engine>::Future& flight,
@@ -127,33 +130,36 @@ WarpEngines::Engine WarpEngines::engine(const std::string& key, std::function<En
   return await(flight, stop);
 }
 
-std::shared_ptr<warp::Icaz> WarpEngines::get(const tiles::ImageEntry& image, warp::Saliency saliency, bool auto_lines,
-                                             const warp::StopToken* stop) {
+std::shared_ptr<warp::Icaz> WarpEngines::get(const tiles::ImageEntry& image, warp::Saliency saliency,
+                                             warp::LineSet lines, const warp::StopToken* stop) {
   return std::get<std::shared_ptr<warp::Icaz>>(engine(
-      icaz_key(image, saliency, auto_lines),
-      [this, image, saliency, auto_lines] { return Engine(load_icaz(image, saliency, auto_lines)); }, stop));
+      icaz_key(image, saliency, lines), [this, image, saliency, lines] { return Engine(load_icaz(image, saliency, lines)); },
+      stop));
 }
 
 namespace {
 std::string retargeter_key(const tiles::ImageEntry& image, const warp::RetargetingMethod& method,
-                           warp::Saliency saliency) {
-  return image.files->location() + "|" + std::string(method.name) + "|" + std::string(warp::saliency_name(saliency));
+                           warp::Saliency saliency, warp::LineSet lines) {
+  return image.files->location() + "|" + std::string(method.name) + "|" + std::string(warp::saliency_name(saliency)) +
+         "|" + std::string(warp::line_set_name(method.lines.empty() ? warp::LineSet::kCurator : lines));
 }
 }  // namespace
 
 std::shared_ptr<warp::Retargeter> WarpEngines::retargeter(const tiles::ImageEntry& image,
                                                           const warp::RetargetingMethod& method,
-                                                          warp::Saliency saliency, const warp::StopToken* stop) {
+                                                          warp::Saliency saliency, warp::LineSet lines,
+                                                          const warp::StopToken* stop) {
   return std::get<std::shared_ptr<warp::Retargeter>>(engine(
-      retargeter_key(image, method, saliency),
-      [this, image, &method, saliency] { return Engine(load_retargeter(image, method, saliency)); }, stop));
+      retargeter_key(image, method, saliency, lines),
+      [this, image, &method, saliency, lines] { return Engine(load_retargeter(image, method, saliency, lines)); }, stop));
 }
 
 std::shared_ptr<warp::Retargeter> WarpEngines::retargeter_for_screen(const tiles::ImageEntry& image,
                                                                      const warp::RetargetingMethod& method,
-                                                                     warp::Saliency saliency, int screen_width,
-                                                                     int screen_height, const warp::StopToken* stop) {
-  const std::string key = retargeter_key(image, method, saliency);
+                                                                     warp::Saliency saliency, warp::LineSet lines,
+                                                                     int screen_width, int screen_height,
+                                                                     const warp::StopToken* stop) {
+  const std::string key = retargeter_key(image, method, saliency, lines);
   const std::string screen = std::to_string(screen_width) + "x" + std::to_string(screen_height);
   // The engines whose warp for a screen has been computed, by address: an engine evicted and
   // loaded again is another object, whose caches are empty.
@@ -170,9 +176,9 @@ std::shared_ptr<warp::Retargeter> WarpEngines::retargeter_for_screen(const tiles
   // of time leaves both to finish, so that its retry is answered from them.
   tiles::BackgroundFlights<Engine>::Future flight;
   try {
-    flight = background_.run(key + "|" + screen, [this, key, image, &method, saliency, screen_width, screen_height] {
+    flight = background_.run(key + "|" + screen, [this, key, image, &method, saliency, lines, screen_width, screen_height] {
       const auto engine = std::get<std::shared_ptr<warp::Retargeter>>(
-          engines_.get(key, [&] { return Engine(load_retargeter(image, method, saliency)); }).value);
+          engines_.get(key, [&] { return Engine(load_retargeter(image, method, saliency, lines)); }).value);
       warp::ViewRequest whole;  // zoom 0: the whole retargeted image, no deadline
       whole.cx = 0, whole.cy = 0, whole.screen_width = screen_width, whole.screen_height = screen_height;
       try {

@@ -40,6 +40,7 @@
 #include "tiles/pyramid_reader.h"
 #include "tiles/single_flight.h"
 #include "tiles/store.h"
+#include "warp/analysis/line_set.h"
 #include "warp/core/stop_token.h"
 #include "warp/icaz/icaz.h"
 #include "warp/methods/retargeting_method.h"
@@ -60,23 +61,25 @@ class WarpEngines {
  public:
   WarpEngines(tiles::PyramidReader& reader, WarpEngineOptions options, EventLog log = {});
 
-  // The ICAZ operator of the version and variant. Throws ApiError(500, "model_damaged") if the
+  // The ICAZ operator of the version and variant (saliency kind, line set: by default the curator's
+  // and the detected lines, warp/analysis/line_set.h). Throws ApiError(500, "model_damaged") if the
   // curator's edits cannot be read, ApiError(503, "analysis_pending") when `stop`'s deadline
   // passes while its analysis is computed, warp::Stopped(kCancelled) when `stop` is cancelled
   // meanwhile, and std::runtime_error if the model cannot be built.
   std::shared_ptr<warp::Icaz> get(const tiles::ImageEntry& image, warp::Saliency saliency = warp::Saliency::kDefault,
-                                  bool auto_lines = false, const warp::StopToken* stop = nullptr);
+                                  warp::LineSet lines = warp::LineSet::kAuto, const warp::StopToken* stop = nullptr);
 
-  // The registered method's engine for the version (its model file, or precomputed and added to
-  // the version). Throws as get() does.
+  // The registered method's engine for the version and line set (its model file, or precomputed
+  // and added to the version). Throws as get() does.
   std::shared_ptr<warp::Retargeter> retargeter(const tiles::ImageEntry& image, const warp::RetargetingMethod& method,
-                                               warp::Saliency saliency, const warp::StopToken* stop = nullptr);
+                                               warp::Saliency saliency, warp::LineSet lines = warp::LineSet::kAuto,
+                                               const warp::StopToken* stop = nullptr);
 
   // The same, with its warp for a `screen_width`×`screen_height` screen computed (in the
   // background: every view of that screen shares it). Throws as get() does.
   std::shared_ptr<warp::Retargeter> retargeter_for_screen(const tiles::ImageEntry& image,
                                                           const warp::RetargetingMethod& method, warp::Saliency saliency,
-                                                          int screen_width, int screen_height,
+                                                          warp::LineSet lines, int screen_width, int screen_height,
                                                           const warp::StopToken* stop = nullptr);
 
   // The engines' bytes as last measured (for /metrics).
@@ -97,12 +100,13 @@ class WarpEngines {
   Engine engine(const std::string& key, std::function<Engine()> load, const warp::StopToken* stop);
   // Waits for a background flight as long as `stop` allows (see get()).
   Engine await(const tiles::BackgroundFlights<Engine>::Future& flight, const warp::StopToken* stop);
-  // On a background thread: the default ICAZ engine every method reads the model of, loaded here
-  // (waiting for another background flight from a background thread could wait for itself).
-  std::shared_ptr<warp::Icaz> icaz_now(const tiles::ImageEntry& image);
-  std::shared_ptr<warp::Icaz> load_icaz(const tiles::ImageEntry& image, warp::Saliency saliency, bool auto_lines);
+  // On a background thread: the default-saliency ICAZ engine of a line set, whose model every
+  // method reads, loaded here (waiting for another background flight from a background thread
+  // could wait for itself).
+  std::shared_ptr<warp::Icaz> icaz_now(const tiles::ImageEntry& image, warp::LineSet lines);
+  std::shared_ptr<warp::Icaz> load_icaz(const tiles::ImageEntry& image, warp::Saliency saliency, warp::LineSet lines);
   std::shared_ptr<warp::Retargeter> load_retargeter(const tiles::ImageEntry& image, const warp::RetargetingMethod& method,
-                                                    warp::Saliency saliency);
+                                                    warp::Saliency saliency, warp::LineSet lines);
 
   tiles::PyramidReader& reader_;
   const WarpEngineOptions options_;

@@ -31,7 +31,7 @@ warp::SignificanceMap AnalysedImage::saliency(warp::Saliency kind) const {
 }
 
 warp::MethodInput AnalysedImage::input(warp::Saliency kind, const warp::SignificanceMap& map) const {
-  return {model, kind, map, analysis, detected};
+  return {model, kind, map, analysis, model.lines, detected};
 }
 
 }  // namespace zoomwarp::testing

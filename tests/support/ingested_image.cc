@@ -20,12 +20,12 @@ IngestedImage::MeshViews IngestedImage::mesh_views(const std::string& query) {
   MeshViews m{api::parse_view_query(query, api::ViewRoute::kMesh, e.manifest.width, e.manifest.height), {}, {}};
   const api::ViewQuery& q = m.query;
   if (q.method == api::ViewMethod::kRetargeting) {
-    const auto engine = engines.retargeter(e, *q.retargeting, q.saliency);
+    const auto engine = engines.retargeter(e, *q.retargeting, q.saliency, q.lines);
     m.view = engine->view(q.view);
     if (q.from) m.morph = warp::Geomorph{m.view.source, {}, engine->view(*q.from).screen, m.view.screen};
     return m;
   }
-  const auto icaz = engines.get(e, q.saliency, q.auto_lines);
+  const auto icaz = engines.get(e, q.saliency, q.lines);
   if (q.method == api::ViewMethod::kTraditional) {
     m.view = icaz->traditional(q.view);
     if (q.from) m.morph = warp::Geomorph{m.view.source, {}, icaz->traditional(*q.from).screen, m.view.screen};

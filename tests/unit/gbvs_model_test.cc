@@ -39,7 +39,7 @@ class GbvsModel : public ::testing::Test {
   }
 
   warp::LoadedModel gbvs_model(const tiles::ImageEntry& e) {
-    return warp::load_image_model(e, reader_, {}, {warp::Saliency::kGbvs, false});
+    return warp::load_image_model(e, reader_, {}, {warp::Saliency::kGbvs, warp::LineSet::kCurator});
   }
 
   static testing::TempDir* dir_;

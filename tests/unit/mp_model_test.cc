@@ -184,7 +184,7 @@ struct Input {
     saliency.scale = scale;
     saliency.values.assign(std::size_t(wa) * ha, 0.f);
   }
-  warp::MethodInput get() const { return {model, kind, saliency, image, detected}; }
+  warp::MethodInput get() const { return {model, kind, saliency, image, model.lines, detected}; }
   // A disc of saliency 1 (map px) and a bright disc in the image.
   void disc(double cx, double cy, double r) {
     for (int y = 0; y < saliency.height; ++y)

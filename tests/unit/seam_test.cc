@@ -293,7 +293,7 @@ TEST(SeamResolution, LargeAnalysisImagesAreCarvedReduced) {
   EXPECT_THROW(seam.load(model, saliency,
                          warp::visibility_map_bytes(warp::compute_visibility_maps(smaller, significance_of(smaller)))),
                std::runtime_error);
-  EXPECT_EQ(seam.precompute(warp::MethodInput{model, warp::Saliency::kDefault, saliency, image, {}}),
+  EXPECT_EQ(seam.precompute(warp::MethodInput{model, warp::Saliency::kDefault, saliency, image, {}, {}}),
             warp::visibility_map_bytes(reduced))
       << "the precomputation is the reduced maps";
 }

@@ -24,8 +24,14 @@ std::vector<std::string> stored_analyses(const tiles::ImageEntry& image) {
   if (exists(image, kDetectedLinesFile)) out.push_back("lines");
   for (const RetargetingMethod* method : retargeting_methods())
     for (Saliency kind : kSaliencies)
-      if (method->precompute && exists(image, method_file_name(*method, kind).c_str()))
-        out.push_back(std::string(method->name) + "." + std::string(saliency_name(kind)));
+      for (LineSet lines : kLineSets) {
+        if (!method->precompute || (lines != LineSet::kAuto && !method->reads_lines) ||
+            !exists(image, method_file_name(*method, kind, lines).c_str()))
+          continue;
+        std::string name = std::string(method->name) + "." + std::string(saliency_name(kind));
+        if (lines != LineSet::kAuto) name += "." + std::string(line_set_name(lines));
+        out.push_back(name);
+      }
   return out;
 }
 

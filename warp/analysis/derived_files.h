@@ -33,6 +33,8 @@ bool add_derived_file(const tiles::ImageEntry& image, const char* file, const st
 //   "icaz.gbvs"           ICAZ's model and the GBVS map (gbvs.bin)
 //   "lines"               the detected straight edges (lines.detected.json)
 //   "<method>.<saliency>" a registered method's precomputation (methods/retargeting_method.h)
+//   "<method>.<saliency>.curator", "<method>.<saliency>.none"
+//                         the same for lines=curator and lines=none (method_files.h)
 // Reads only whether the files exist, not whether they are intact.
 std::vector<std::string> stored_analyses(const tiles::ImageEntry& image);
 

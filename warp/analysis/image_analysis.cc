@@ -287,12 +287,14 @@ LoadedModel load_image_model(const tiles::ImageEntry& image, tiles::PyramidReade
     if (!map.damaged.empty() && loaded.source == ModelSource::kStored)
       loaded = {std::move(loaded.model), ModelSource::kRebuiltWithEdits, kGbvsFile, map.damaged};
   }
-  if (variant.auto_lines) {
+  if (variant.lines == LineSet::kAuto) {
     // [ICAZ §4.3] The detected lines [Guo09 §3.3.3] constrain the warp like the curator's: the
     // coarsest mesh, the forest and its node means are rebuilt with them, in memory.
     const auto lines = auto_line_set(loaded.model, suggested_lines(image, reader, loaded.model),
                                      &loaded.unmeshable_suggestions);
     set_lines(loaded.model, lines);
+  } else if (variant.lines == LineSet::kNone && !loaded.model.lines.empty()) {
+    set_lines(loaded.model, {});
   }
   return loaded;
 }

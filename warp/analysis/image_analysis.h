@@ -33,6 +33,7 @@
 
 #include "tiles/pyramid_reader.h"
 #include "tiles/store.h"
+#include "warp/analysis/line_set.h"
 #include "warp/analysis/method_files.h"
 #include "warp/analysis/model_file.h"
 #include "warp/analysis/saliency_files.h"
@@ -100,13 +101,15 @@ struct LoadedModel {
 //
 // A variant other than the default is ICAZ driven by another saliency map (the same mesh and
 // forest; the map and the node means are the kind's, from method_files.h saliency_map: a
-// damaged gbvs.bin is computed again in memory and reported as kRebuiltWithEdits) or with the
-// automatically detected lines added to the curator's: the suggestions not dismissed
-// (detected_lines.h suggested_lines), within the curator's limits, minus any CGAL cannot mesh
-// (auto_line_set); the mesh and forest are rebuilt in memory (set_lines).
+// damaged gbvs.bin is computed again in memory and reported as kRebuiltWithEdits) or with
+// another line set (line_set.h) than the stored curator's: for kAuto the detected lines added to
+// the curator's — the suggestions not dismissed (detected_lines.h suggested_lines), within the
+// curator's limits, minus any CGAL cannot mesh (auto_line_set) —, for kNone no lines; the mesh
+// and forest are then rebuilt in memory (set_lines). kNone of a version without curator lines is
+// the stored model itself.
 struct ModelVariant {
   Saliency saliency = Saliency::kDefault;
-  bool auto_lines = false;
+  LineSet lines = LineSet::kCurator;
 };
 LoadedModel load_image_model(const tiles::ImageEntry& image, tiles::PyramidReader& reader,
                              const SignificanceOptions& significance = {}, const ModelVariant& variant = {});

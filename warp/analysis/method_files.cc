@@ -26,9 +26,14 @@ SharedInput shared_input(const tiles::ImageEntry& image, tiles::PyramidReader& r
   return {read_reduced_image(image, reader), suggested_lines(image, reader, model)};
 }
 
-std::string precompute(const RetargetingMethod& method, const ImageModel& model, Saliency kind,
+// The line set's lines (line_set.h) as MethodInput takes them: the curator's unless none, the
+// detected ones for auto only.
+std::string precompute(const RetargetingMethod& method, const ImageModel& model, Saliency kind, LineSet lines,
                        const SignificanceMap& saliency, const SharedInput& shared) {
-  return method.precompute(MethodInput{model, kind, saliency, shared.analysis, shared.detected});
+  static const std::vector<Segment> kNoLines;
+  return method.precompute(MethodInput{model, kind, saliency, shared.analysis,
+                                       lines == LineSet::kNone ? kNoLines : model.lines,
+                                       lines == LineSet::kAuto ? shared.detected : kNoLines});
 }
 
 // Format 2 of every method's file: this magic, the method's own, the payload deflated
@@ -51,12 +56,18 @@ std::string method_payload(const std::string& file, std::string bytes, const Ret
   }
   const std::string body = checked_payload(file.c_str(), std::move(bytes), kDeflatedMagic, kDeflatedMagic).first;
   const std::string_view rest = std::string_view(body).substr(kDeflatedMagic.size());
-  if (rest.substr(0, magic.size()) != magic) throw ModelFileError(file, "another method's file");
+  if (rest.substr(0, magic.size()) != magic) {
+    if (rest.size() >= magic.size() && rest.substr(0, magic.size() - 1) == magic.substr(0, magic.size() - 1))
+      throw OutdatedMethodFile(file, "an earlier format of the method's file");
+    throw ModelFileError(file, "another method's file");
+  }
   return inflated(file.c_str(), rest.substr(magic.size()));
 }
 
-std::string method_file_name(const RetargetingMethod& method, Saliency saliency) {
-  return std::string(method.name) + "." + std::string(saliency_name(saliency)) + ".bin";
+std::string method_file_name(const RetargetingMethod& method, Saliency saliency, LineSet lines) {
+  const std::string stem = std::string(method.name) + "." + std::string(saliency_name(saliency));
+  if (!method.reads_lines || lines == LineSet::kAuto) return stem + ".bin";
+  return stem + (lines == LineSet::kCurator ? ".curator-lines.bin" : ".no-lines.bin");
 }
 
 std::vector<MethodFile> method_files(std::span<const Saliency> kinds, MethodSelection which) {
@@ -70,7 +81,10 @@ std::vector<MethodFile> method_files(std::span<const Saliency> kinds, MethodSele
 std::vector<MethodFile> stored_method_files(const tiles::ImageEntry& image, MethodSelection which) {
   std::vector<MethodFile> out;
   for (const MethodFile& f : method_files(kSaliencies, which))
-    if (exists(image, method_file_name(*f.method, f.saliency).c_str())) out.push_back(f);
+    for (LineSet lines : kLineSets)
+      if ((lines == LineSet::kAuto || f.method->reads_lines) &&
+          exists(image, method_file_name(*f.method, f.saliency, lines).c_str()))
+        out.push_back({f.method, f.saliency, lines});
   return out;
 }
 
@@ -93,8 +107,9 @@ std::vector<MethodFileTiming> write_method_files(const tiles::VersionFiles& to, 
     jobs.push_back({[&, i] {
       const auto start = std::chrono::steady_clock::now();
       const RetargetingMethod& method = *files[i].method;
-      const std::string file = method_file_name(method, files[i].saliency);
-      to.write(file, sealed(method, precompute(method, model, files[i].saliency, maps.at(files[i].saliency), shared)));
+      const MethodFile& f = files[i];
+      const std::string file = method_file_name(method, f.saliency, f.lines);
+      to.write(file, sealed(method, precompute(method, model, f.saliency, f.lines, maps.at(f.saliency), shared)));
       out[i] = {file, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()};
     }, files[i].method->precompute_bytes_per_pixel * analysis_pixels});
   tiles::run_jobs(jobs, threads, memory_budget);
@@ -102,15 +117,17 @@ std::vector<MethodFileTiming> write_method_files(const tiles::VersionFiles& to, 
 }
 
 LoadedRetargeter load_retargeter(const tiles::ImageEntry& image, tiles::PyramidReader& reader, const ImageModel& model,
-                                 const RetargetingMethod& method, Saliency saliency) {
+                                 const RetargetingMethod& method, Saliency saliency, LineSet lines) {
   const SignificanceMap map = saliency_map(image, reader, model, saliency);
   if (!method.precompute) return {method.load(model, map, ""), MethodSource::kNoFile, ""};
-  const std::string file = method_file_name(method, saliency);
-  if (!exists(image, file.c_str())) {
-    const std::string payload = precompute(method, model, saliency, map, shared_input(image, reader, model));
+  const std::string file = method_file_name(method, saliency, lines);
+  const auto precomputed = [&] { return precompute(method, model, saliency, lines, map, shared_input(image, reader, model)); };
+  const auto added = [&] {
+    const std::string payload = precomputed();
     const bool stored = add_derived_file(image, file.c_str(), sealed(method, payload));
-    return {method.load(model, map, payload), MethodSource::kBuiltInMemory, "", stored};
-  }
+    return LoadedRetargeter{method.load(model, map, payload), MethodSource::kBuiltInMemory, "", stored};
+  };
+  if (!exists(image, file.c_str())) return added();
   try {
     const std::string payload = method_payload(file, read_whole(image, file.c_str()), method);
     try {
@@ -118,9 +135,10 @@ LoadedRetargeter load_retargeter(const tiles::ImageEntry& image, tiles::PyramidR
     } catch (const std::runtime_error& e) {
       throw ModelFileError(file, e.what());
     }
+  } catch (const OutdatedMethodFile&) {
+    return added();
   } catch (const ModelFileError& damaged) {
-    return {method.load(model, map, precompute(method, model, saliency, map, shared_input(image, reader, model))),
-            MethodSource::kRebuiltDamaged, damaged.what()};
+    return {method.load(model, map, precomputed()), MethodSource::kRebuiltDamaged, damaged.what()};
   }
 }
 

@@ -30,15 +30,18 @@
 
 namespace zoomwarp::warp {
 
-// What a precomputation may read, all of one image version.
+// What a precomputation may read, all of one image version. The lines to keep straight are
+// `lines` then `detected_lines` (the request's line set, analysis/line_set.h: both for lines=auto,
+// the first for lines=curator, neither for lines=none) — not model.lines.
 struct MethodInput {
-  const ImageModel& model;            // image size, curator lines and edits, default significance
+  const ImageModel& model;            // image size, default significance
   Saliency saliency_kind;
   const SignificanceMap& saliency;    // the selected kind, faces and curator edits painted in
   const tiles::Raster& analysis_image;  // the reduced copy the maps were made from (long side
                                         // ≤ kSignificanceMaxSide, `saliency.scale` px per image px)
+  const std::vector<Segment>& lines;  // the curator's lines, image pixels (empty for lines=none)
   // Automatic lines (lines/), image pixels, longest first: the version's suggestions the curator
-  // neither dismissed nor drew (analysis/detected_lines.h suggested_lines).
+  // neither dismissed nor drew (analysis/detected_lines.h suggested_lines); empty unless lines=auto.
   const std::vector<Segment>& detected_lines;
 };
 
@@ -47,12 +50,19 @@ struct RetargetingMethod {
   std::string_view summary;  // one sentence for the viewer and the OpenAPI description
   std::string_view zoom;     // what `zoom` means for it (README, OpenAPI)
   bool has_mesh = true;      // false: /mesh answers 501 (seam carving)
+  // What the method does with the request's line set (analysis/line_set.h), for /v1/methods and
+  // the OpenAPI description; empty: it takes no lines, and every `lines=` gives the same view.
+  std::string_view lines;
   // The model file's magic (8 bytes, its format version included); unused without precompute.
   std::array<char, 8> magic{};
-  // Whether the precomputation reads lines (the curator's and MethodInput::detected_lines): an
-  // edit of the lines or of the dismissed suggestions then precomputes it again. Every
-  // precomputation is taken to read the saliency map (edited by significance edits).
+  // Whether the precomputation reads lines (MethodInput::lines and detected_lines): it is then
+  // kept per line set, and an edit of the lines or of the dismissed suggestions precomputes it
+  // again. Every precomputation is taken to read the saliency map (edited by significance edits).
   bool reads_lines = false;
+  // Whether load() reads the lines, as the ImageModel's `lines` of the request's line set (the
+  // ICAZ model of that set, analysis/image_analysis.h ModelVariant: for lines=auto the detected
+  // lines as ICAZ meshes them). Such a method takes no lines in its precomputation.
+  bool loads_lines = false;
   // The precomputation's bytes; empty: the method keeps no file and load() gets "".
   std::function<std::string(const MethodInput&)> precompute;
   // The precomputation's peak memory per analysis-image pixel, measured (issue 18: RSS sampled

@@ -82,7 +82,7 @@ FeaturePoints feature_points(const MethodInput& input, double wa, double ha, dou
   std::vector<Segment> candidates;
   if (input.model.width > 0 && input.model.height > 0) {
     const double sx = wa / input.model.width, sy = ha / input.model.height;
-    for (const auto* set : {&input.model.lines, &input.detected_lines})
+    for (const auto* set : {&input.lines, &input.detected_lines})
       for (const Segment& s : *set) candidates.push_back({{s.a.x * sx, s.a.y * sy}, {s.b.x * sx, s.b.y * sy}});
   }
   const double inset = d / 4;

@@ -89,6 +89,8 @@ const RetargetingMethod& mp_method() {
                  "per-row and per-column lengths, detected and curator lines kept straight, then zoomed uniformly",
       .zoom = kZoomIntoTheRetargetedImage,
       .has_mesh = true,
+      .lines = "lines are chains of mesh edges held collinear by [Guo09 eq. 7]'s structure term (cross-product "
+               "form, weight 1e5), cut back where they cross",
       .magic = {'Z', 'W', 'M', 'P', 'M', 'D', 'L', '1'},
       .reads_lines = true,
       .precompute = [](const MethodInput& input) { return mp_model_bytes(build_mp_model(input)); },

@@ -15,7 +15,7 @@ std::vector<Segment> patch_lines(const MethodInput& input) {
     if (auto c = clip_segment({{s.a.x * sx, s.a.y * sy}, {s.b.x * sx, s.b.y * sy}}, 0, 0, image.width, image.height))
       out.push_back(*c);
   };
-  for (const Segment& s : input.model.lines) add(s);
+  for (const Segment& s : input.lines) add(s);
   for (const Segment& s : input.detected_lines) add(s);
   return out;
 }

@@ -67,6 +67,8 @@ const RetargetingMethod& patch_method() {
                  "combination of two precomputed solves, then zoomed uniformly",
       .zoom = kZoomIntoTheRetargetedImage,
       .has_mesh = true,
+      .lines = "each line sampled every quad side, each sample held on the chord of the line's warped ends "
+               "(a linear term of ours, weight 100)",
       .magic = {'Z', 'W', 'P', 'A', 'T', 'C', 'H', '1'},
       .reads_lines = true,
       .precompute = [](const MethodInput& input) { return patch_model_bytes(build_patch_model(input)); },

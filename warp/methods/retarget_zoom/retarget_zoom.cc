@@ -126,7 +126,10 @@ const RetargetingMethod& retarget_zoom_method() {
                  "energy), then zoomed uniformly",
       .zoom = kZoomIntoTheRetargetedImage,
       .has_mesh = true,
+      .lines = "the line set's lines are edges of its uniform mesh and keep their normal from the affine "
+               "stretch (ICAZ's line term, [ICAZ §4.3])",
       .magic = {},
+      .loads_lines = true,
       .precompute = {},
       .load = [](const ImageModel& model, const SignificanceMap& saliency, std::string_view) -> std::unique_ptr<Retargeter> {
         return std::make_unique<RetargetZoom>(model, saliency);
