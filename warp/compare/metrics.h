@@ -19,7 +19,8 @@
 //                   anisotropy is ("rotation_spread"), degrees. The spread is what bends: a
 //                   rotation that differs from place to place turns a straight edge into a curve,
 //                   while a whole view turned by one angle bends nothing (spread 0, p95 = |θ|).
-//                   θ is not wrapped: a turn past ±90° happens only in a fold, counted below;
+//                   θ ∈ (−180°, 180°]; the spread does not wrap around ±180° (a view turned
+//                   that far is upside down, not bent);
 //   straightness    per line (the curator's and the detected ones the curator did not dismiss,
 //                   as the caller passes them), the largest distance of its warped image on
 //                   screen from the chord through the first and last of its points on screen,
