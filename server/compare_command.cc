@@ -24,6 +24,7 @@
 #include "server/settings.h"
 #include "tiles/encode.h"
 #include "tiles/ingest.h"
+#include "warp/analysis/detected_lines.h"
 #include "warp/analysis/method_files.h"
 #include "warp/compare/contact_sheet.h"
 #include "warp/compare/metrics.h"
@@ -148,14 +149,18 @@ std::string text(const std::optional<double>& v, const char* format = "%.2f") {
   return buf;
 }
 
+// Three lines that fit under a 360 px cell: method and zoom with folds and coverage; gain and
+// anisotropy; rotation (p95 / spread, degrees) and the worst line's bend (px).
 std::vector<std::string> label(const std::string& method, const Cell& c) {
-  char line[96];
-  std::snprintf(line, sizeof line, "%s  z=%.2f", method.c_str(), c.zoom);
+  const warp::ViewMetrics& m = c.metrics;
+  char line[128];
+  std::snprintf(line, sizeof line, "%s  z=%.2f  folds %s  cover %.3f", method.c_str(), c.zoom,
+                m.folds ? std::to_string(*m.folds).c_str() : "n/a", m.coverage);
   std::vector<std::string> out = {line};
-  std::snprintf(line, sizeof line, "gain %s  folds %s", text(c.metrics.scale_gain).c_str(),
-                c.metrics.folds ? std::to_string(*c.metrics.folds).c_str() : "n/a");
+  std::snprintf(line, sizeof line, "gain %s  aniso %s", text(m.scale_gain).c_str(), text(m.anisotropy_salient).c_str());
   out.push_back(line);
-  std::snprintf(line, sizeof line, "aniso %s  cover %.3f", text(c.metrics.anisotropy_salient).c_str(), c.metrics.coverage);
+  std::snprintf(line, sizeof line, "rot %s/%s deg  line %s px", text(m.rotation_p95, "%.1f").c_str(),
+                text(m.rotation_spread, "%.1f").c_str(), text(m.straightness, "%.1f").c_str());
   out.push_back(line);
   return out;
 }
@@ -173,7 +178,10 @@ std::string markdown(const json& report) {
      << report["screen"][1] << ", saliency " << report["saliency"].get<std::string>()
      << ", view centre the image centre. Gain: on-screen area of the top tenth of the significance map over its area "
         "under traditional zoom; anisotropy: σ1/σ2 of the triangles' affine maps, salient-area and "
-        "significance weighted; line: worst curator line's distance from its chord on screen (px); "
+        "significance weighted; rot. p95: 95th percentile of the triangles' rotation (degrees, polar "
+        "decomposition) over the salient region's on-screen area; rot. spread: its significance-weighted standard "
+        "deviation (what bends shapes); line px: the worst line's distance from its chord on screen, over the "
+        "curator's and the detected lines not dismissed whose chord on screen is at least 8 px (lines: how many); "
         "viewport ms: the cell's first render (caches warm from the cells before it).\n\n"
      << "| method | precompute ms |\n|---|---|\n";
   for (const auto& m : report["methods"]) {
@@ -181,19 +189,22 @@ std::string markdown(const json& report) {
     std::snprintf(buf, sizeof buf, "%.1f", m["precompute_ms"].get<double>());
     md << "| " << m["name"].get<std::string>() << " | " << buf << " |\n";
   }
-  md << "\n| method | zoom | gain | aniso. salient | aniso. weighted | line px | folds | coverage | viewport ms |\n"
-        "|---|---|---|---|---|---|---|---|---|\n";
+  md << "\n| method | zoom | gain | aniso. salient | aniso. weighted | rot. p95 | rot. spread | line px | lines | folds "
+        "| coverage | viewport ms |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   auto cell = [](const json& v, const char* format = "%.2f") {
     if (v.is_null()) return std::string("n/a");
     char buf[32];
     std::snprintf(buf, sizeof buf, format, v.get<double>());
     return std::string(buf);
   };
+  auto count = [](const json& v) { return v.is_null() ? std::string("n/a") : std::to_string(v.get<int>()); };
   for (const auto& r : report["rows"])
     md << "| " << r["method"].get<std::string>() << " | " << cell(r["zoom"]) << " | " << cell(r["scale_gain"]) << " | "
-       << cell(r["anisotropy_salient"]) << " | " << cell(r["anisotropy_weighted"]) << " | " << cell(r["line_px"])
-       << " | " << (r["folds"].is_null() ? "n/a" : std::to_string(r["folds"].get<int>())) << " | "
-       << cell(r["coverage"], "%.4f") << " | " << cell(r["viewport_ms"], "%.1f") << " |\n";
+       << cell(r["anisotropy_salient"]) << " | " << cell(r["anisotropy_weighted"]) << " | "
+       << cell(r["rotation_p95"], "%.1f") << " | " << cell(r["rotation_spread"], "%.1f") << " | " << cell(r["line_px"])
+       << " | " << count(r["lines_measured"]) << " | " << count(r["folds"]) << " | " << cell(r["coverage"], "%.4f")
+       << " | " << cell(r["viewport_ms"], "%.1f") << " |\n";
   return md.str();
 }
 
@@ -203,8 +214,11 @@ constexpr const char* kHelp =
     "Renders IMAGE (a file, ingested into a temporary store; or image ID of store S) with each\n"
     "method at each zoom on one screen, as /viewport does, and writes DIR/sheet.png (a row per\n"
     "method, a column per zoom, labelled), DIR/metrics.json and DIR/metrics.md: salient-region\n"
-    "scale gain over traditional zoom, anisotropy, line straightness, fold-overs, screen coverage,\n"
-    "time per request, precompute time. Exit codes: 0 done, 2 bad arguments, 1 anything else.\n\n";
+    "scale gain over traditional zoom, anisotropy, rotation (95th percentile over the salient\n"
+    "region, and its spread: what bends shapes), line bend (the worst of the curator's and the\n"
+    "detected lines not dismissed, each at least 8 px long on screen, and how many were measured),\n"
+    "fold-overs, screen coverage, time per request, precompute time. Exit codes: 0 done, 2 bad\n"
+    "arguments, 1 anything else.\n\n";
 
 // What the command line asks for, checked (std::invalid_argument says what is wrong).
 struct Settings {
@@ -278,7 +292,10 @@ json row_json(const std::string& method, const Cell& c) {
           {"scale_gain", optional_json(m.scale_gain)},
           {"anisotropy_salient", optional_json(m.anisotropy_salient)},
           {"anisotropy_weighted", optional_json(m.anisotropy_weighted)},
+          {"rotation_p95", optional_json(m.rotation_p95)},
+          {"rotation_spread", optional_json(m.rotation_spread)},
           {"line_px", optional_json(m.straightness)},
+          {"lines_measured", m.lines_measured ? json(*m.lines_measured) : json(nullptr)},
           {"folds", m.folds ? json(*m.folds) : json(nullptr)},
           {"coverage", m.coverage},
           {"viewport_ms", c.viewport_ms}};
@@ -293,7 +310,9 @@ std::vector<std::vector<warp::SheetCell>> run(const Settings& s, const tiles::Im
   const std::shared_ptr<warp::Icaz> plain = engines.get(e);
   const double plain_load_ms = ms_since(t0);
   const warp::SignificanceMap map = warp::saliency_map(e, reader, plain->model(), s.saliency);
-  const std::vector<warp::Segment>& lines = plain->model().lines;
+  // The lines that must stay straight: the curator's and the detected ones not dismissed.
+  std::vector<warp::Segment> lines = plain->model().lines;
+  for (const warp::Segment& l : warp::suggested_lines(e, reader, plain->model())) lines.push_back(l);
   const std::vector<Contender> contenders = make_contenders(s, engines, e, reader, plain, plain_load_ms);
 
   const bool progress = ::isatty(STDERR_FILENO);

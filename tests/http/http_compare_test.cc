@@ -40,6 +40,16 @@ TEST(CompareCommand, WritesTheSheetAndTheTablesForEveryMethodAndZoom) {
     if (method == "icaz" || method == "retarget-zoom") {
       EXPECT_EQ(row["folds"], 0) << method;
       EXPECT_GE(row["coverage"].get<double>(), 0.999) << method;
+      // Rotation and line bend on every mesh view; the boats' detected lines are measured.
+      EXPECT_GE(row["rotation_p95"].get<double>(), 0) << method;
+      EXPECT_GE(row["rotation_spread"].get<double>(), 0) << method;
+      EXPECT_GE(row["lines_measured"].get<int>(), 0) << method;
+    }
+    if (method == "traditional") {
+      EXPECT_NEAR(row["rotation_spread"].get<double>(), 0, 1e-9) << "a uniform scale turns nothing";
+    }
+    if (method == "seam") {
+      EXPECT_TRUE(row["rotation_p95"].is_null() && row["lines_measured"].is_null()) << "no mesh";
     }
     if (method == "traditional") {
       EXPECT_DOUBLE_EQ(row["scale_gain"].get<double>(), 1);

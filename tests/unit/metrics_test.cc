@@ -7,6 +7,8 @@
 #include <cstdio>
 #include <functional>
 #include <limits>
+#include <numbers>
+#include <random>
 #include <string>
 
 #include "tests/support/images.h"
@@ -35,6 +37,39 @@ warp::View grid_view(int n, double size, const std::function<Point(Point)>& to) 
   for (const Point& p : v.source.vertices) v.screen.push_back(to(p)), v.warped.push_back(to(p));
   for (int f = 0; f < int(v.source.triangles.size()); ++f) v.visible.push_back(f);
   return v;
+}
+
+// The same grid with every triangle on vertices of its own, drawn on screen by `to(p, centroid)`:
+// neighbouring triangles may be drawn by different maps (a torn view, for piecewise tests).
+warp::View torn_grid_view(int n, double size, const std::function<Point(Point, Point)>& to) {
+  const warp::View grid = grid_view(n, size, [](Point p) { return p; });
+  warp::View v;
+  for (const warp::Triangle& t : grid.source.triangles) {
+    const Point &a = grid.source.vertices[t[0]], &b = grid.source.vertices[t[1]], &c = grid.source.vertices[t[2]];
+    const Point centroid{(a.x + b.x + c.x) / 3, (a.y + b.y + c.y) / 3};
+    const int base = int(v.source.vertices.size());
+    for (const Point& p : {a, b, c}) v.source.vertices.push_back(p), v.screen.push_back(to(p, centroid));
+    v.source.triangles.push_back({base, base + 1, base + 2});
+  }
+  v.warped = v.screen;
+  for (int f = 0; f < int(v.source.triangles.size()); ++f) v.visible.push_back(f);
+  return v;
+}
+
+// p turned by `degrees` about `centre` (+x towards +y), then moved by `shift`.
+Point turned(Point p, Point centre, double degrees, Point shift = {0, 0}) {
+  const double t = degrees * std::numbers::pi / 180, c = std::cos(t), s = std::sin(t);
+  const double x = p.x - centre.x, y = p.y - centre.y;
+  return {centre.x + c * x - s * y + shift.x, centre.y + s * x + c * y + shift.y};
+}
+
+// A map of the square [0, size]² at one map pixel per image pixel, all of one value: the salient
+// tenth is its top tenth of rows (ties by position), the mass spread evenly.
+warp::SignificanceMap flat_map(int size) {
+  warp::SignificanceMap m;
+  m.width = m.height = size, m.scale = 1;
+  m.values.assign(std::size_t(size) * size, 0.5f);
+  return m;
 }
 
 // A map of the square [0, size]² at one map pixel per image pixel, with a bright block.
@@ -77,6 +112,57 @@ TEST(Metrics, AnAffineStretchHasItsRatioAsAnisotropyAndItsAreaAsGain) {
   EXPECT_NEAR(warp::anisotropy({0, 0}, {1, 0}, {0, 1}, {0, 0}, {0.6, 0.8}, {-0.8, 0.6}), 1, 1e-12);
 }
 
+TEST(Metrics, ARigidRotationHasItsAngleAsRotationAndNoSpread) {
+  // The whole view turned by 10° about its centre (onto the middle of a 200 × 200 screen): every
+  // triangle turns by 10°, which bends nothing.
+  const warp::View v = grid_view(4, 100, [](Point p) { return turned(p, {50, 50}, 10, {50, 50}); });
+  const auto m = warp::mesh_view_metrics(v, v, block_map(100), {}, 200, 200);
+  ASSERT_TRUE(m.rotation_p95 && m.rotation_spread);
+  EXPECT_NEAR(*m.rotation_p95, 10, 1e-9);
+  EXPECT_NEAR(*m.rotation_spread, 0, 1e-9);
+  EXPECT_NEAR(*m.anisotropy_salient, 1, 1e-6) << "a rotation keeps shapes (σ1/σ2 from √(‖M‖⁴ − 4det²) ≈ √0)";
+  EXPECT_NEAR(warp::rotation_degrees({0, 0}, {1, 0}, {0, 1}, {0, 0}, {0, 1}, {-1, 0}), 90, 1e-12);
+  EXPECT_NEAR(warp::rotation_degrees({0, 0}, {1, 0}, {0, 1}, {0, 0}, {0.6, -0.8}, {0.8, 0.6}),
+              -std::atan2(0.8, 0.6) * 180 / std::numbers::pi, 1e-12);
+}
+
+TEST(Metrics, AStretchTurnsNothing) {
+  // Uniform (× 2) and anisotropic (x × 2, y × 0.5) stretches along the axes: no rotation at all.
+  const warp::View identity = grid_view(4, 100, [](Point p) { return p; });
+  for (const Point k : {Point{2, 2}, Point{2, 0.5}}) {
+    const warp::View v = grid_view(4, 100, [k](Point p) { return Point{k.x * p.x, k.y * p.y}; });
+    const auto m = warp::mesh_view_metrics(v, identity, block_map(100), {}, 200, 200);
+    ASSERT_TRUE(m.rotation_p95 && m.rotation_spread);
+    EXPECT_NEAR(*m.rotation_p95, 0, 1e-12);
+    EXPECT_NEAR(*m.rotation_spread, 0, 1e-12);
+  }
+  // A shear is not a stretch: its closest rotation turns (x + 0.5y, y): atan2(−0.5, 2).
+  EXPECT_NEAR(warp::rotation_degrees({0, 0}, {1, 0}, {0, 1}, {0, 0}, {1, 0}, {0.5, 1}),
+              std::atan2(-0.5, 2) * 180 / std::numbers::pi, 1e-12);
+}
+
+TEST(Metrics, HalvesTurnedOppositeWaysSpreadByTheAngle) {
+  // The left half turned by +8° and the right by −8° (each about its own centre): equal
+  // significance mass each way, so the spread is 8° about a mean of 0 — a bend a whole-view
+  // rotation does not have; every salient triangle is turned by 8°.
+  const warp::View v = torn_grid_view(4, 100, [](Point p, Point centroid) {
+    return centroid.x < 50 ? turned(p, {25, 50}, 8, {100, 100}) : turned(p, {75, 50}, -8, {100, 100});
+  });
+  const auto m = warp::mesh_view_metrics(v, v, flat_map(100), {}, 300, 300);
+  ASSERT_TRUE(m.rotation_p95 && m.rotation_spread);
+  EXPECT_NEAR(*m.rotation_spread, 8, 1e-9);
+  EXPECT_NEAR(*m.rotation_p95, 8, 1e-9);
+}
+
+TEST(Metrics, WeightedQuantileAndSpread) {
+  EXPECT_EQ(warp::weighted_quantile({{3, 90}, {1, 4}, {2, 6}}, 0.95), 3);
+  EXPECT_EQ(warp::weighted_quantile({{3, 4}, {1, 90}, {2, 6}}, 0.95), 2) << "90 % at 1, 96 % at 2";
+  EXPECT_TRUE(std::isnan(warp::weighted_quantile({}, 0.95)));
+  EXPECT_NEAR(warp::weighted_spread({{-2, 1}, {2, 1}}), 2, 1e-15);
+  EXPECT_NEAR(warp::weighted_spread({{5, 3}, {5, 1}}), 0, 1e-15);
+  EXPECT_NEAR(warp::weighted_spread({{0, 3}, {4, 1}}), std::sqrt(3.0), 1e-15) << "mean 1: (3·1 + 9) / 4";
+}
+
 TEST(Metrics, AFlippedTriangleIsCounted) {
   // The centre vertex of a 2×2 grid pushed past its right neighbours' column: the triangles on
   // its right turn over.
@@ -101,6 +187,88 @@ TEST(Metrics, ABentLineHasItsBendAsStraightnessResidual) {
   const auto m = warp::mesh_view_metrics(v, v, block_map(100), {{{0, 50}, {100, 50}}}, 100, 100);
   EXPECT_NEAR(*m.straightness, 3, 1e-9);
   EXPECT_NEAR(warp::chord_deviation({{0, 0}, {5, 2}, {10, 0}}), 2, 1e-12);
+}
+
+TEST(Metrics, AKinkIsMeasuredWhereItIsNotWhereASampleFalls) {
+  // A 10 × 10 image shown × 40 with its centre vertex lifted by 30 screen px: the line y = 5 from
+  // x = 0.4 to 9.7 kinks at the centre vertex, (200, 170) on screen. Its bend is that point's
+  // distance from the chord between its ends' screen images, whichever samples a scan would take
+  // (every source pixel from x = 0.4 misses x = 5 by 0.05, 2 screen px).
+  warp::View v = grid_view(2, 10, [](Point p) { return Point{40 * p.x, 40 * p.y}; });
+  v.screen[4] = {200, 170};
+  const Point a{0.4 * 40, 200 - 30 * 0.4 / 5}, b{9.7 * 40, 200 - 30 * 0.3 / 5};  // along the lifted edges
+  const auto m = warp::mesh_view_metrics(v, v, block_map(10), {{{0.4, 5}, {9.7, 5}}}, 400, 400);
+  ASSERT_TRUE(m.straightness);
+  EXPECT_NEAR(*m.straightness, warp::chord_deviation({a, {200, 170}, b}), 1e-9);
+  EXPECT_EQ(*m.lines_measured, 1);
+  // Only what is on screen: on a 300 px wide screen the line ends at the border (x = 300).
+  const auto cut = warp::line_bend(v, {{0.4, 5}, {9.7, 5}}, 300, 400);
+  ASSERT_TRUE(cut);
+  EXPECT_NEAR(cut->deviation, warp::chord_deviation({a, {200, 170}, {300, 170 + 30 * 0.5}}), 1e-9);
+}
+
+TEST(Metrics, ALineShorterThanEightScreenPixelsIsNotMeasured) {
+  // On the identity, a 7 px line is not measured and a 9 px one is; × 4, a 3 px source line is
+  // 12 screen px long and is measured. Screen pixels decide, and a line off the screen is none.
+  const warp::View identity = grid_view(2, 100, [](Point p) { return p; });
+  auto m = warp::mesh_view_metrics(identity, identity, block_map(100), {{{20, 30}, {27, 30}}}, 100, 100);
+  EXPECT_FALSE(m.straightness);
+  EXPECT_EQ(*m.lines_measured, 0);
+  m = warp::mesh_view_metrics(identity, identity, block_map(100), {{{20, 30}, {29, 30}}, {{20, 30}, {27, 30}}}, 100, 100);
+  EXPECT_NEAR(*m.straightness, 0, 1e-12);
+  EXPECT_EQ(*m.lines_measured, 1);
+  const warp::View magnified = grid_view(2, 100, [](Point p) { return Point{4 * p.x, 4 * p.y}; });
+  m = warp::mesh_view_metrics(magnified, magnified, block_map(100), {{{5, 10}, {8, 10}}, {{90, 90}, {99, 90}}}, 100,
+                              100);
+  EXPECT_EQ(*m.lines_measured, 1) << "the second line is at x = 360…396, off a 100 px screen";
+}
+
+TEST(Metrics, TheRasterisedMapLocatesAsTheScan) {
+  // A fold-free random mesh (a 8 × 8 grid over [0, 100]², half its inner vertices jittered, the
+  // rest left on lines x, y = 12.5·k through pixel centres, so that many centres lie exactly on
+  // edges) under a smooth warp: each map pixel's triangle is locate_in's, and the salient area
+  // and anisotropy are those of a scan over every pixel with locate_in.
+  std::mt19937 random(30);
+  std::uniform_real_distribution<double> jitter(-3, 3);
+  warp::View v = grid_view(8, 100, [](Point p) {
+    return Point{5 + 2 * p.x + 3 * std::sin(p.y / 15), 5 + 2 * p.y + 3 * std::sin(p.x / 17)};
+  });
+  for (int i = 0; i < int(v.source.vertices.size()); ++i) {
+    Point& p = v.source.vertices[i];
+    if (p.x > 0 && p.x < 100 && p.y > 0 && p.y < 100 && random() % 2) p.x += jitter(random), p.y += jitter(random);
+  }
+  const warp::View identity = grid_view(8, 100, [](Point p) { return p; });
+  warp::SignificanceMap map = block_map(100);
+  std::uniform_real_distribution<float> value(0, 1);
+  for (float& s : map.values) s = value(random);
+  const std::vector<int> holder = warp::map_pixel_triangles(v.source, 100, 100, 1);
+  double area = 0, aniso = 0, count = 0;
+  const auto salient = [&] {  // the top tenth: no ties among random floats
+    std::vector<float> sorted = map.values;
+    std::nth_element(sorted.begin(), sorted.begin() + 999, sorted.end(), std::greater<>());
+    return sorted[999];
+  }();
+  int on_edges = 0;
+  for (int y = 0; y < 100; ++y)
+    for (int x = 0; x < 100; ++x) {
+      const Point p{x + 0.5, y + 0.5};
+      const warp::MeshPoint where = warp::locate_in(v.source, p);
+      ASSERT_EQ(holder[std::size_t(y) * 100 + x], where.triangle) << x << ", " << y;
+      on_edges += std::min({where.barycentric[0], where.barycentric[1], where.barycentric[2]}) < 1e-12;
+      if (map.values[std::size_t(y) * 100 + x] < salient) continue;
+      const warp::Triangle& t = v.source.triangles[where.triangle];
+      const Point &a = v.source.vertices[t[0]], &b = v.source.vertices[t[1]], &c = v.source.vertices[t[2]];
+      area += std::abs(warp::signed_area2(v.screen[t[0]], v.screen[t[1]], v.screen[t[2]]) / warp::signed_area2(a, b, c));
+      aniso += warp::anisotropy(a, b, c, v.screen[t[0]], v.screen[t[1]], v.screen[t[2]]), ++count;
+    }
+  EXPECT_GT(on_edges, 100) << "the test must probe centres on edges";
+  const auto m = warp::mesh_view_metrics(v, identity, map, {}, 215, 215);
+  EXPECT_NEAR(*m.scale_gain, area / count, 1e-12 * area / count);
+  EXPECT_NEAR(*m.anisotropy_salient, aniso / count, 1e-12);
+  // A centre off the mesh has no triangle (it is not drawn), rather than the nearest one's.
+  const std::vector<int> wider = warp::map_pixel_triangles(v.source, 120, 120, 1);
+  EXPECT_EQ(wider[std::size_t(50) * 120 + 110], -1);
+  EXPECT_EQ(wider[std::size_t(50) * 120 + 50], holder[std::size_t(50) * 100 + 50]);
 }
 
 TEST(Metrics, PartialCoverageIsItsShare) {
@@ -191,8 +359,10 @@ std::string cell_text(const std::optional<double>& v) {
 }
 
 TEST(MetricsOnSamples, RetargetingMethodsNeverFoldAndCoverTheScreen) {
-  std::printf("| image | screen | zoom | method | gain | aniso. salient | aniso. weighted | line px | folds | coverage |\n"
-              "|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| image | screen | zoom | method | gain | aniso. salient | aniso. weighted | rot. p95 | rot. spread | line px | "
+      "folds | coverage |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Sample& s : {Sample{"boats_lake_sunset.jpg", true}, Sample{"interior_wine_djembe_tall.jpg", false},
                           Sample{"pano_grossmugl_field_4to1.png", false}}) {
     warp::Icaz icaz(sample_model(s));
@@ -208,9 +378,10 @@ TEST(MetricsOnSamples, RetargetingMethodsNeverFoldAndCoverTheScreen) {
         for (const auto& [name, v] : views) {
           SCOPED_TRACE(::testing::Message() << s.file << " " << sw << "×" << sh << " z=" << z << " " << name);
           const auto m = warp::mesh_view_metrics(v, traditional, model.significance, model.lines, sw, sh);
-          std::printf("| %s | %d×%d | %.1f | %s | %s | %s | %s | %s | %d | %.4f |\n", s.file, sw, sh, z, name,
+          std::printf("| %s | %d×%d | %.1f | %s | %s | %s | %s | %s | %s | %s | %d | %.4f |\n", s.file, sw, sh, z, name,
                       cell_text(m.scale_gain).c_str(), cell_text(m.anisotropy_salient).c_str(),
-                      cell_text(m.anisotropy_weighted).c_str(), cell_text(m.straightness).c_str(), *m.folds, m.coverage);
+                      cell_text(m.anisotropy_weighted).c_str(), cell_text(m.rotation_p95).c_str(),
+                      cell_text(m.rotation_spread).c_str(), cell_text(m.straightness).c_str(), *m.folds, m.coverage);
           EXPECT_EQ(*m.folds, 0);
           // The retargeting methods cover the screen — except where zoom 1 shows an image smaller
           // than the screen 1:1, letterboxed by design (zoom_curve.h): then the image's share.

@@ -1,11 +1,12 @@
 #include "warp/compare/metrics.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <numeric>
 
-#include "warp/core/triangle_locator.h"
 #include "warp/core/uniform_zoom.h"
 
 namespace zoomwarp::warp {
@@ -31,16 +32,34 @@ std::vector<char> salient_region(const SignificanceMap& map) {
   return salient;
 }
 
-// What one view shows of the map: the salient region's on-screen area, and the two weighted
-// means of the triangles' anisotropy.
+// The linear part M = [m11 m12; m21 m22] of the affine map taking triangle (a, b, c) to
+// (a', b', c'): M·[b−a, c−a] = [b'−a', c'−a']. None for a degenerate source triangle.
+std::optional<std::array<double, 4>> linear_part(const Point& a, const Point& b, const Point& c, const Point& a2,
+                                                 const Point& b2, const Point& c2) {
+  const double e11 = b.x - a.x, e12 = c.x - a.x, e21 = b.y - a.y, e22 = c.y - a.y;
+  const double f11 = b2.x - a2.x, f12 = c2.x - a2.x, f21 = b2.y - a2.y, f22 = c2.y - a2.y;
+  const double det = e11 * e22 - e12 * e21;
+  if (det == 0) return std::nullopt;
+  return std::array<double, 4>{(f11 * e22 - f12 * e21) / det, (f12 * e11 - f11 * e12) / det,
+                               (f21 * e22 - f22 * e21) / det, (f22 * e11 - f21 * e12) / det};
+}
+
+// A centre whose smallest barycentric coordinate is at least this is in the triangle: on a shared
+// edge rounding leaves every triangle's coordinate a hair (~1e-16 × extent / height) below 0;
+// anything further out is not drawn by the view.
+constexpr double kOnEdge = -1e-9;
+
+// What one view shows of the map: the salient region's on-screen area, the two weighted means of
+// the triangles' anisotropy, and per triangle the weights of the rotation statistics.
 struct MapMeasure {
   double salient_area = 0;
   double anisotropy_salient = kNaN, anisotropy_weighted = kNaN;
+  std::vector<double> salient_screen_area, mass;  // per triangle, on screen
 };
 
 MapMeasure measure_map(const View& view, const SignificanceMap& map, const std::vector<char>& salient, int sw, int sh) {
   const Mesh& mesh = view.source;
-  const TriangleLocator locator(mesh);
+  const std::vector<int> holder = map_pixel_triangles(mesh, map.width, map.height, map.scale);
   std::vector<double> stretch(mesh.triangles.size(), kNaN), aniso(mesh.triangles.size(), kNaN);
   auto triangle = [&](int f) {
     if (std::isnan(stretch[f])) {
@@ -55,64 +74,203 @@ MapMeasure measure_map(const View& view, const SignificanceMap& map, const std::
   const double pixel_area = 1 / (map.scale * map.scale);  // image px² per map pixel
   double salient_weight = 0, salient_sum = 0, mass = 0, mass_sum = 0;
   MapMeasure out;
+  out.salient_screen_area.assign(mesh.triangles.size(), 0);
+  out.mass.assign(mesh.triangles.size(), 0);
   for (int y = 0; y < map.height; ++y)
     for (int x = 0; x < map.width; ++x) {
-      const Point p{(x + 0.5) / map.scale, (y + 0.5) / map.scale};
-      const MeshPoint where = locator.find(p);
-      const int f = where.triangle;
+      const std::size_t i = std::size_t(y) * map.width + x;
+      const int f = holder[i];
       if (f < 0) continue;
+      const Point p{(x + 0.5) / map.scale, (y + 0.5) / map.scale};
+      const Triangle& t = mesh.triangles[f];
+      const MeshPoint where{f, barycentric(p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]])};
       if (!on_screen(locate(mesh, view.screen, p, where), sw, sh)) continue;
       triangle(f);
-      const std::size_t i = std::size_t(y) * map.width + x;
       if (salient[i]) {
         out.salient_area += pixel_area * stretch[f];
+        out.salient_screen_area[f] += pixel_area * stretch[f];
         salient_weight += pixel_area, salient_sum += pixel_area * aniso[f];
       }
       const double m = pixel_area * map.values[i];
       mass += m, mass_sum += m * aniso[f];
+      out.mass[f] += m;
     }
   if (salient_weight > 0) out.anisotropy_salient = salient_sum / salient_weight;
   if (mass > 0) out.anisotropy_weighted = mass_sum / mass;
   return out;
 }
 
-// The worst line's deviation from straight on screen: each line sampled every source pixel (at
-// most 4096 samples), the samples that land on screen kept in order.
-std::optional<double> straightness(const View& view, const std::vector<Segment>& lines, int sw, int sh) {
-  const TriangleLocator locator(view.source);
-  std::optional<double> worst;
-  for (const Segment& s : lines) {
-    const double length = std::hypot(s.b.x - s.a.x, s.b.y - s.a.y);
-    const int n = std::clamp(int(std::ceil(length)), 2, 4096);
-    std::vector<Point> shown;
-    for (int i = 0; i <= n; ++i) {
-      const double u = double(i) / n;
-      const Point p{s.a.x + u * (s.b.x - s.a.x), s.a.y + u * (s.b.y - s.a.y)};
-      const MeshPoint where = locator.find(p);
-      if (where.triangle < 0) continue;
-      const Point q = locate(view.source, view.screen, p, where);
-      if (on_screen(q, sw, sh)) shown.push_back(q);
-    }
-    if (shown.size() >= 2) worst = std::max(worst.value_or(0.0), chord_deviation(shown));
+// rotation_p95 and rotation_spread (metrics.h) from a view's per-triangle weights.
+void rotation_statistics(const View& view, const MapMeasure& shown, ViewMetrics& out) {
+  const Mesh& mesh = view.source;
+  std::vector<Weighted> magnitude, turn;
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+    if (shown.salient_screen_area[f] == 0 && shown.mass[f] == 0) continue;
+    const Triangle& t = mesh.triangles[f];
+    const double theta = rotation_degrees(mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]],
+                                          view.screen[t[0]], view.screen[t[1]], view.screen[t[2]]);
+    if (std::isnan(theta)) continue;
+    if (shown.salient_screen_area[f] > 0) magnitude.push_back({std::abs(theta), shown.salient_screen_area[f]});
+    if (shown.mass[f] > 0) turn.push_back({theta, shown.mass[f]});
   }
-  return worst;
+  const double p95 = weighted_quantile(std::move(magnitude), 0.95), spread = weighted_spread(turn);
+  if (!std::isnan(p95)) out.rotation_p95 = p95;
+  if (!std::isnan(spread)) out.rotation_spread = spread;
+}
+
+// The worst bend of the lines whose chord on screen is at least kMinMeasuredLinePx, and their count.
+void straightness(const View& view, const std::vector<Segment>& lines, int sw, int sh, ViewMetrics& out) {
+  out.lines_measured = 0;
+  for (const Segment& s : lines) {
+    const std::optional<LineBend> bend = line_bend(view, s, sw, sh);
+    if (!bend || bend->chord < kMinMeasuredLinePx) continue;
+    ++*out.lines_measured;
+    out.straightness = std::max(out.straightness.value_or(0.0), bend->deviation);
+  }
+}
+
+// The parameter interval [lo, hi] ⊆ [0, 1] of p + u·d inside the box [x0, x1] × [y0, y1]
+// (Liang–Barsky); false when empty.
+bool clip_to_box(const Point& p, const Point& d, double x0, double y0, double x1, double y1, double& lo, double& hi) {
+  const double q[4][2] = {{-d.x, p.x - x0}, {d.x, x1 - p.x}, {-d.y, p.y - y0}, {d.y, y1 - p.y}};
+  for (const auto& [step, room] : q) {
+    if (step == 0) {
+      if (room < 0) return false;
+    } else if (step < 0) {
+      lo = std::max(lo, room / step);
+    } else {
+      hi = std::min(hi, room / step);
+    }
+  }
+  return lo <= hi;
 }
 
 }  // namespace
 
 double anisotropy(const Point& a, const Point& b, const Point& c, const Point& a2, const Point& b2, const Point& c2) {
-  // The affine map's linear part M solves M·[b−a, c−a] = [b'−a', c'−a'].
-  const double e11 = b.x - a.x, e12 = c.x - a.x, e21 = b.y - a.y, e22 = c.y - a.y;
-  const double f11 = b2.x - a2.x, f12 = c2.x - a2.x, f21 = b2.y - a2.y, f22 = c2.y - a2.y;
-  const double det = e11 * e22 - e12 * e21;
-  if (det == 0) return kNaN;
-  const double m11 = (f11 * e22 - f12 * e21) / det, m12 = (f12 * e11 - f11 * e12) / det;
-  const double m21 = (f21 * e22 - f22 * e21) / det, m22 = (f22 * e11 - f21 * e12) / det;
+  const auto m = linear_part(a, b, c, a2, b2, c2);
+  if (!m) return kNaN;
+  const auto [m11, m12, m21, m22] = *m;
   // Singular values of a 2×2 matrix: σ1² + σ2² = ‖M‖_F², σ1·σ2 = |det M|.
   const double fro = m11 * m11 + m12 * m12 + m21 * m21 + m22 * m22, dm = std::abs(m11 * m22 - m12 * m21);
   const double s1 = std::sqrt((fro + std::sqrt(std::max(0.0, fro * fro - 4 * dm * dm))) / 2);
   if (dm == 0) return std::numeric_limits<double>::infinity();
   return s1 * s1 / dm;  // σ1/σ2 = σ1² / (σ1·σ2)
+}
+
+// The polar decomposition M = R·S (R a rotation, S symmetric) of a 2×2 M has R's angle
+// atan2(m21 − m12, m11 + m22): the rotation maximising tr(Rᵀ M) = cos θ (m11 + m22) +
+// sin θ (m21 − m12) is the closest to M in the Frobenius norm.
+double rotation_degrees(const Point& a, const Point& b, const Point& c, const Point& a2, const Point& b2,
+                        const Point& c2) {
+  const auto m = linear_part(a, b, c, a2, b2, c2);
+  if (!m) return kNaN;
+  const auto [m11, m12, m21, m22] = *m;
+  return std::atan2(m21 - m12, m11 + m22) * 180 / std::numbers::pi;
+}
+
+double weighted_quantile(std::vector<Weighted> values, double q) {
+  std::sort(values.begin(), values.end(), [](const Weighted& a, const Weighted& b) { return a.value < b.value; });
+  double total = 0;
+  for (const Weighted& v : values) total += v.weight;
+  if (!(total > 0)) return kNaN;
+  double sum = 0;
+  for (const Weighted& v : values) {
+    sum += v.weight;
+    if (sum >= q * total) return v.value;
+  }
+  return values.back().value;  // q × total not reached by rounding
+}
+
+double weighted_spread(const std::vector<Weighted>& values) {
+  double total = 0, mean = 0;
+  for (const Weighted& v : values) total += v.weight, mean += v.weight * v.value;
+  if (!(total > 0)) return kNaN;
+  mean /= total;
+  double variance = 0;
+  for (const Weighted& v : values) variance += v.weight * (v.value - mean) * (v.value - mean);
+  return std::sqrt(variance / total);
+}
+
+// Each triangle, in mesh order, visits the centres in its bounding box (one pixel wider, which
+// holds every centre within kOnEdge of it): a centre takes the first triangle that holds it
+// (smallest coordinate ≥ 0) and, until one does, the first of those that come nearest — the
+// order and the comparisons of locate_in's scan, over the only triangles that can matter.
+std::vector<int> map_pixel_triangles(const Mesh& mesh, int width, int height, double scale) {
+  const std::size_t n = std::size_t(std::max(width, 0)) * std::max(height, 0);
+  std::vector<int> holder(n, -1);
+  std::vector<double> best(n, -std::numeric_limits<double>::infinity());
+  for (int f = 0; f < int(mesh.triangles.size()); ++f) {
+    const Triangle& t = mesh.triangles[f];
+    const Point &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]], &c = mesh.vertices[t[2]];
+    if (signed_area2(a, b, c) == 0) continue;  // no coordinates: locate_in's NaN never wins
+    // Centre x + 0.5 = X · scale for X in the box.
+    const int x0 = std::max(0, int(std::floor(std::min({a.x, b.x, c.x}) * scale - 0.5)) - 1);
+    const int x1 = std::min(width - 1, int(std::ceil(std::max({a.x, b.x, c.x}) * scale - 0.5)) + 1);
+    const int y0 = std::max(0, int(std::floor(std::min({a.y, b.y, c.y}) * scale - 0.5)) - 1);
+    const int y1 = std::min(height - 1, int(std::ceil(std::max({a.y, b.y, c.y}) * scale - 0.5)) + 1);
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) {
+        const std::size_t i = std::size_t(y) * width + x;
+        if (best[i] >= 0) continue;
+        const auto l = barycentric({(x + 0.5) / scale, (y + 0.5) / scale}, a, b, c);
+        const double inside = std::min({l[0], l[1], l[2]});
+        if (inside > best[i]) best[i] = inside, holder[i] = f;
+      }
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    if (best[i] < kOnEdge) holder[i] = -1;
+  return holder;
+}
+
+// The line's screen image is affine within each visible triangle: its piece there (the interval
+// of u on which s(u) = a + u·(b − a) has every barycentric coordinate ≥ 0, the coordinates being
+// affine in u; a line along an edge, whose coordinate for it is 0 but for rounding, lies in the
+// triangles on both sides) maps to a straight segment, which is cut to the screen. The polyline through
+// the kept pieces' ends, in order of u, is the line on screen; its farthest point from a line is
+// one of those ends.
+std::optional<LineBend> line_bend(const View& view, const Segment& s, int sw, int sh) {
+  const Mesh& mesh = view.source;
+  const Point d{s.b.x - s.a.x, s.b.y - s.a.y};
+  std::vector<std::pair<double, Point>> shown;  // (u, screen point)
+  const double sx0 = std::min(s.a.x, s.b.x), sx1 = std::max(s.a.x, s.b.x);
+  const double sy0 = std::min(s.a.y, s.b.y), sy1 = std::max(s.a.y, s.b.y);
+  for (int f : view.visible) {
+    const Triangle& t = mesh.triangles[f];
+    const Point &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]], &c = mesh.vertices[t[2]];
+    if (std::max({a.x, b.x, c.x}) < sx0 || std::min({a.x, b.x, c.x}) > sx1 || std::max({a.y, b.y, c.y}) < sy0 ||
+        std::min({a.y, b.y, c.y}) > sy1 || signed_area2(a, b, c) == 0)
+      continue;
+    const auto l0 = barycentric(s.a, a, b, c), l1 = barycentric(s.b, a, b, c);
+    double lo = 0, hi = 1;
+    for (int k = 0; k < 3 && lo <= hi; ++k) {
+      if (std::max(std::abs(l0[k]), std::abs(l1[k])) <= -kOnEdge) continue;  // along edge k: on both sides
+      const double slope = l1[k] - l0[k];  // l_k(u) = l0[k] + u·slope ≥ 0
+      if (slope == 0) {
+        if (l0[k] < 0) hi = -1;
+      } else if (slope > 0) {
+        lo = std::max(lo, -l0[k] / slope);
+      } else {
+        hi = std::min(hi, -l0[k] / slope);
+      }
+    }
+    if (lo > hi) continue;
+    auto screen_at = [&](double u) {
+      const Point p{s.a.x + u * d.x, s.a.y + u * d.y};
+      return locate(mesh, view.screen, p, {f, barycentric(p, a, b, c)});
+    };
+    const Point q0 = screen_at(lo), q1 = screen_at(hi);
+    double v0 = 0, v1 = 1;  // the screen segment q0 + v·(q1 − q0) cut to the screen
+    if (!clip_to_box(q0, {q1.x - q0.x, q1.y - q0.y}, 0, 0, sw, sh, v0, v1)) continue;
+    for (double v : {v0, v1})
+      shown.push_back({lo + v * (hi - lo), {q0.x + v * (q1.x - q0.x), q0.y + v * (q1.y - q0.y)}});
+  }
+  if (shown.empty()) return std::nullopt;
+  std::sort(shown.begin(), shown.end(), [](const auto& p, const auto& q) { return p.first < q.first; });
+  std::vector<Point> polyline;
+  for (const auto& [u, q] : shown) polyline.push_back(q);
+  const Point &first = polyline.front(), &last = polyline.back();
+  return LineBend{chord_deviation(polyline), std::hypot(last.x - first.x, last.y - first.y)};
 }
 
 int fold_count(const View& view) {
@@ -192,12 +350,13 @@ ViewMetrics mesh_view_metrics(const View& view, const View& traditional, const S
   ViewMetrics out;
   out.folds = fold_count(view);
   out.coverage = coverage(view, sw, sh);
-  out.straightness = straightness(view, lines, sw, sh);
+  straightness(view, lines, sw, sh, out);
   if (significance.values.empty()) return out;
   const std::vector<char> salient = salient_region(significance);
   const MapMeasure shown = measure_map(view, significance, salient, sw, sh);
   const MapMeasure reference = measure_map(traditional, significance, salient, sw, sh);
   if (reference.salient_area > 0) out.scale_gain = shown.salient_area / reference.salient_area;
+  rotation_statistics(view, shown, out);
   if (!std::isnan(shown.anisotropy_salient)) out.anisotropy_salient = shown.anisotropy_salient;
   if (!std::isnan(shown.anisotropy_weighted)) out.anisotropy_weighted = shown.anisotropy_weighted;
   return out;
