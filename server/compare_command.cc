@@ -25,6 +25,7 @@
 #include "tiles/encode.h"
 #include "tiles/ingest.h"
 #include "warp/analysis/detected_lines.h"
+#include "warp/analysis/line_set.h"
 #include "warp/analysis/method_files.h"
 #include "warp/compare/contact_sheet.h"
 #include "warp/compare/metrics.h"
@@ -175,7 +176,8 @@ std::string markdown(const json& report) {
   std::ostringstream md;
   md << "# zoomwarp compare: " << report["image"].get<std::string>() << "\n\n"
      << "Image " << report["width"] << "×" << report["height"] << ", screen " << report["screen"][0] << "×"
-     << report["screen"][1] << ", saliency " << report["saliency"].get<std::string>()
+     << report["screen"][1] << ", saliency " << report["saliency"].get<std::string>() << ", lines "
+     << report["lines"].get<std::string>()
      << ", view centre the image centre. Gain: on-screen area of the top tenth of the significance map over its area "
         "under traditional zoom; anisotropy: σ1/σ2 of the triangles' affine maps, salient-area and "
         "significance weighted; rot. p95: 95th percentile of the triangles' rotation (degrees, polar "
@@ -226,6 +228,7 @@ struct Settings {
   int screen_width = 0, screen_height = 0;
   std::vector<double> zooms;
   warp::Saliency saliency = warp::Saliency::kDefault;
+  warp::LineSet lines = warp::LineSet::kAuto;
   std::filesystem::path out;
   std::string file;      // an IMAGE file, or
   std::string image_id;  // an image of --store
@@ -239,6 +242,9 @@ Settings parse_settings(const Options& o) {
   const auto saliency = warp::parse_saliency(o.str("saliency"));
   if (!saliency) throw std::invalid_argument("--saliency must be default or gbvs, not '" + o.str("saliency") + "'");
   s.saliency = *saliency;
+  const auto lines = warp::parse_line_set(o.str("lines"));
+  if (!lines) throw std::invalid_argument("--lines must be auto, curator or none, not '" + o.str("lines") + "'");
+  s.lines = *lines;
   s.out = o.str("out");
   if (s.out.empty()) throw std::invalid_argument("give the output folder with -o DIR");
   s.image_id = o.str("image");
@@ -264,7 +270,7 @@ std::vector<Contender> make_contenders(const Settings& s, api::WarpEngines& engi
     const auto t0 = Clock::now();
     if (name == "icaz" || name == "traditional") {
       const bool own = name == "icaz" && s.saliency != warp::Saliency::kDefault;
-      const std::shared_ptr<warp::Icaz> icaz = own ? engines.get(e, s.saliency) : plain;
+      const std::shared_ptr<warp::Icaz> icaz = own ? engines.get(e, s.saliency, s.lines) : plain;
       if (!own) c.precompute_ms = plain_load_ms;
       c.view = name == "icaz" ? std::function([icaz](const warp::ViewRequest& r) { return icaz->view(r); })
                               : std::function([icaz](const warp::ViewRequest& r) { return icaz->traditional(r); });
@@ -273,7 +279,7 @@ std::vector<Contender> make_contenders(const Settings& s, api::WarpEngines& engi
       };
     } else {
       const std::shared_ptr<warp::Retargeter> engine =
-          engines.retargeter(e, *warp::find_retargeting_method(name), s.saliency);
+          engines.retargeter(e, *warp::find_retargeting_method(name), s.saliency, s.lines);
       c.has_mesh = engine->has_mesh();
       c.view = [engine](const warp::ViewRequest& r) { return engine->view(r); };
       c.render = [&e, &reader, engine](const warp::ViewRequest& r) { return engine->render(r, e, reader); };
@@ -307,12 +313,16 @@ std::vector<std::vector<warp::SheetCell>> run(const Settings& s, const tiles::Im
   api::WarpEngines engines(reader, {.budget_bytes = std::size_t(4) << 30, .significance = significance});
   // The reference (traditional zoom), and the map that defines the salient region.
   const auto t0 = Clock::now();
-  const std::shared_ptr<warp::Icaz> plain = engines.get(e);
+  const std::shared_ptr<warp::Icaz> plain = engines.get(e, warp::Saliency::kDefault, s.lines);
   const double plain_load_ms = ms_since(t0);
-  const warp::SignificanceMap map = warp::saliency_map(e, reader, plain->model(), s.saliency);
-  // The lines that must stay straight: the curator's and the detected ones not dismissed.
-  std::vector<warp::Segment> lines = plain->model().lines;
-  for (const warp::Segment& l : warp::suggested_lines(e, reader, plain->model())) lines.push_back(l);
+  // The stored model: the curator's lines as drawn (a line set's model holds them with the
+  // detected ones cut back), and the map of the salient region.
+  const warp::ImageModel& stored = engines.get(e, warp::Saliency::kDefault, warp::LineSet::kCurator)->model();
+  const warp::SignificanceMap map = warp::saliency_map(e, reader, stored, s.saliency);
+  // The lines that must stay straight, whatever --lines gives the methods: the curator's and the
+  // detected ones not dismissed.
+  std::vector<warp::Segment> lines = stored.lines;
+  for (const warp::Segment& l : warp::suggested_lines(e, reader, stored)) lines.push_back(l);
   const std::vector<Contender> contenders = make_contenders(s, engines, e, reader, plain, plain_load_ms);
 
   const bool progress = ::isatty(STDERR_FILENO);
@@ -351,6 +361,7 @@ int compare_command(const std::vector<std::string>& raw_args) {
       {"size", "360x640", "screen WIDTHxHEIGHT"},
       {"zoom", "0,0.5,1", "zoom levels, comma-separated, each in [0, 1]"},
       {"saliency", "default", "default or gbvs: the map that drives the methods and defines the salient region"},
+      {"lines", "auto", "auto, curator or none: the lines the methods keep straight (the bend is measured on auto's)"},
       {"image", "", "an image id of --store instead of an IMAGE file"},
       {"out", "", "output folder (also -o)"},
   };
@@ -384,6 +395,7 @@ int compare_command(const std::vector<std::string>& raw_args) {
     report["width"] = entry->manifest.width, report["height"] = entry->manifest.height;
     report["screen"] = {s.screen_width, s.screen_height};
     report["saliency"] = std::string(warp::saliency_name(s.saliency));
+    report["lines"] = std::string(warp::line_set_name(s.lines));
     report["zooms"] = s.zooms;
     report["methods"] = json::array();
     report["rows"] = json::array();

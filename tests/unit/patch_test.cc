@@ -16,6 +16,7 @@
 
 #include "tests/support/analysed_image.h"
 #include "warp/compare/metrics.h"
+#include "warp/methods/method_lines.h"
 #include "warp/core/fold_blend.h"
 #include "warp/methods/patch/patch_precompute.h"
 #include "warp/methods/patch/patch_retargeter.h"
@@ -44,7 +45,7 @@ const Built& built(const std::string& file, warp::Saliency kind = warp::Saliency
     b.map = b.image.saliency(kind);
     const warp::MethodInput in = b.image.input(kind, b.map);
     b.model = warp::build_patch_model(in);
-    b.lines = warp::patch_lines(in);
+    b.lines = warp::method_lines(in);
     it = cache.emplace(key, std::move(b)).first;
   }
   return it->second;

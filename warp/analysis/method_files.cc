@@ -41,6 +41,14 @@ std::string precompute(const RetargetingMethod& method, const ImageModel& model,
 // trailer — is still read.
 constexpr Magic kDeflatedMagic = {'Z', 'W', 'D', 'E', 'F', 'L', '2', 0};
 
+// Two method magics that differ only in their version digits ("ZWPFEM1" and "ZWPFEM2").
+bool same_but_version(std::string_view a, std::string_view b) {
+  const auto digit = [](char c) { return c >= '0' && c <= '9'; };
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (a[i] != b[i] && !(digit(a[i]) && digit(b[i]))) return false;
+  return true;
+}
+
 std::string sealed(const RetargetingMethod& method, const std::string& payload) {
   return with_trailer(std::string(kDeflatedMagic.begin(), kDeflatedMagic.end()) +
                       std::string(method.magic.begin(), method.magic.end()) + deflated(payload));
@@ -57,8 +65,8 @@ std::string method_payload(const std::string& file, std::string bytes, const Ret
   const std::string body = checked_payload(file.c_str(), std::move(bytes), kDeflatedMagic, kDeflatedMagic).first;
   const std::string_view rest = std::string_view(body).substr(kDeflatedMagic.size());
   if (rest.substr(0, magic.size()) != magic) {
-    if (rest.size() >= magic.size() && rest.substr(0, magic.size() - 1) == magic.substr(0, magic.size() - 1))
-      throw OutdatedMethodFile(file, "an earlier format of the method's file");
+    if (rest.size() >= magic.size() && same_but_version(rest.substr(0, magic.size()), magic))
+      throw OutdatedMethodFile(file, "another format of the method's file");
     throw ModelFileError(file, "another method's file");
   }
   return inflated(file.c_str(), rest.substr(magic.size()));

@@ -8,9 +8,8 @@
 //                             the same for lines=curator and lines=none (line_set.h), for a
 //                             method whose precomputation reads lines; the plain name is lines=auto
 //
-// A file whose method magic differs from the method's only in its last byte (the format's
-// version) was written by an earlier release: it is precomputed again and replaced, as a missing
-// one is.
+// A file whose method magic differs from the method's only in its digits (the format's version)
+// was written by another release: it is precomputed again and replaced, as a missing one is.
 //
 // computed on first use and added to the published version (derived_files.h), or eagerly at
 // ingest (write_image_analysis, AnalysisSet::kAll); an edit precomputes again those its version

@@ -2,23 +2,11 @@
 
 #include <stdexcept>
 
+#include "warp/methods/method_lines.h"
 #include "warp/methods/model_bytes.h"
 #include "warp/methods/patch/patch_segmentation.h"
 
 namespace zoomwarp::warp {
-
-std::vector<Segment> patch_lines(const MethodInput& input) {
-  const tiles::Raster& image = input.analysis_image;
-  const double sx = double(image.width) / input.model.width, sy = double(image.height) / input.model.height;
-  std::vector<Segment> out;
-  const auto add = [&](const Segment& s) {
-    if (auto c = clip_segment({{s.a.x * sx, s.a.y * sy}, {s.b.x * sx, s.b.y * sy}}, 0, 0, image.width, image.height))
-      out.push_back(*c);
-  };
-  for (const Segment& s : input.lines) add(s);
-  for (const Segment& s : input.detected_lines) add(s);
-  return out;
-}
 
 PatchModel build_patch_model(const MethodInput& input, const PatchPrecomputeOptions& options) {
   const tiles::Raster& image = input.analysis_image;
@@ -26,7 +14,7 @@ PatchModel build_patch_model(const MethodInput& input, const PatchPrecomputeOpti
   const Patches patches = segment_patches(image, options.segmentation);
   PatchModel m;
   m.grid = make_patch_grid(patches, input.saliency, double(image.width) / input.model.width, options.energy);
-  PatchBasis basis = solve_patch_basis(m.grid, patch_lines(input), options.energy);
+  PatchBasis basis = solve_patch_basis(m.grid, method_lines(input), options.energy);
   m.per_width = std::move(basis.per_width);
   m.per_height = std::move(basis.per_height);
   return m;

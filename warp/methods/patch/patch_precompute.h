@@ -2,7 +2,7 @@
 // patch.<saliency>.bin. On the analysis image: the patches (patch_segmentation.h), their
 // significance from the selected saliency map (faces and curator edits painted in), the quad
 // grid, and the two solves V_W, V_H from which every target size follows by one axpy. Lines: the
-// curator's and the suggested ones the curator kept (MethodInput::detected_lines).
+// curator's and the suggested ones the curator kept (method_lines.h).
 //
 // Thread safety: pure functions.
 #pragma once
@@ -26,9 +26,6 @@ struct PatchPrecomputeOptions {
   SegmentationOptions segmentation;
   PatchEnergyOptions energy;
 };
-
-// The lines of `input` in analysis pixels, clipped to the analysis image.
-std::vector<Segment> patch_lines(const MethodInput& input);
 
 PatchModel build_patch_model(const MethodInput& input, const PatchPrecomputeOptions& options = {});
 

@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "warp/meshing/cvt_mesh.h"
+#include "warp/methods/method_lines.h"
 #include "warp/methods/model_bytes.h"
 #include "warp/methods/polyfem/polyfem_export.h"
 
@@ -25,14 +26,15 @@ PolygonMesh polyfem_mesh(const SignificanceMap& s, double width, double height) 
 
 }  // namespace
 
-PolyfemModel build_polyfem_model(const MethodInput& input) {
+PolyfemModel build_polyfem_model(const MethodInput& input, const PolyfemOptions& options) {
   const tiles::Raster& image = input.analysis_image;
   if (image.empty()) throw std::invalid_argument("polyfem precompute: no analysis image");
   const SignificanceMap& s = input.saliency;
   PolyfemModel m;
   m.mesh = polyfem_mesh(s, image.width, image.height);
-  m.solution = solve_polyfem(m.mesh, ScalarMap{s.width, s.height, double(image.width), double(image.height), s.values});
-  m.fold_free = polyfem_fold_free_range(m.mesh, m.solution);
+  m.solution = solve_polyfem(m.mesh, ScalarMap{s.width, s.height, double(image.width), double(image.height), s.values},
+                             options, method_lines(input));
+  m.fold_free = polyfem_fold_free_range(m.mesh, m.solution, options);
   const std::vector<Point> g = polyfem_g_field(m.solution);
   for (int c = 0; c < int(m.mesh.cells.size()); ++c) {
     std::array<Point, PolyfemModel::kChordLevels> delta;
@@ -57,9 +59,11 @@ std::string polyfem_model_bytes(const PolyfemModel& m) {
   const PolyfemSolution& s = m.solution;
   out.put_count(s.g_x.size());
   for (std::size_t i = 0; i < s.g_x.size(); ++i) out.put(s.g_x[i]), out.put(s.g_y[i]);
-  out.put_count(s.stiffness.value.size());
-  for (std::size_t e = 0; e < s.stiffness.value.size(); ++e)
-    out.put(std::int32_t(s.stiffness.row[e])), out.put(std::int32_t(s.stiffness.col[e])), out.put(s.stiffness.value[e]);
+  for (const SymmetricMatrix* k : {&s.stiffness, &s.line_x, &s.line_y}) {
+    out.put_count(k->value.size());
+    for (std::size_t e = 0; e < k->value.size(); ++e)
+      out.put(std::int32_t(k->row[e])), out.put(std::int32_t(k->col[e])), out.put(k->value[e]);
+  }
   out.put(m.fold_free.low), out.put(m.fold_free.high);
   return out.take();
 }
@@ -89,12 +93,13 @@ PolyfemModel parse_polyfem_model(std::string_view bytes) {
   if (nodes != m.solution.nodes.positions.size()) in.fail("the solves do not match the mesh's nodes");
   m.solution.g_x.resize(nodes), m.solution.g_y.resize(nodes);
   for (std::size_t i = 0; i < nodes; ++i) m.solution.g_x[i] = in.number(), m.solution.g_y[i] = in.number();
-  SymmetricMatrix& k = m.solution.stiffness;
-  k.size = int(nodes);
-  const std::size_t entries = in.count(16);
-  for (std::size_t e = 0; e < entries; ++e) {
-    k.row.push_back(in.index(nodes)), k.col.push_back(in.index(nodes)), k.value.push_back(in.number());
-    if (k.row.back() > k.col.back()) in.fail("a stiffness entry below the diagonal");
+  for (SymmetricMatrix* k : {&m.solution.stiffness, &m.solution.line_x, &m.solution.line_y}) {
+    k->size = int(nodes);
+    const std::size_t entries = in.count(16);
+    for (std::size_t e = 0; e < entries; ++e) {
+      k->row.push_back(in.index(nodes)), k->col.push_back(in.index(nodes)), k->value.push_back(in.number());
+      if (k->row.back() > k->col.back()) in.fail("a matrix entry below the diagonal");
+    }
   }
   m.fold_free.low = in.number(), m.fold_free.high = in.number();
   if (!(m.fold_free.low < 1 && m.fold_free.high > 1)) in.fail("a fold-free range without the identity");

@@ -271,12 +271,14 @@ const RetargetingMethod& polyfem_method() {
   static const RetargetingMethod kMethod{
       .name = "polyfem",
       .summary = "polygonal finite elements [PolyFEM]: ~200 saliency-adaptive convex cells with quadratic serendipity "
-                 "elements, E_T = ∫ s|J − I|² solved once per axis so that any aspect is one combination (L-BFGS "
-                 "with per-cell rollback where that would fold), then zoomed uniformly",
+                 "elements, E_T = ∫ s|J − I|² plus a term keeping lines straight, solved once per axis so that any aspect "
+                 "is one combination (L-BFGS with per-cell rollback where that would fold), then zoomed uniformly",
       .zoom = kZoomIntoTheRetargetedImage,
       .has_mesh = true,
-      .magic = {'Z', 'W', 'P', 'F', 'E', 'M', '1', 0},
-      .reads_lines = false,
+      .lines = "each line sampled every ≤ 4 analysis px through its cells' serendipity basis; its second differences "
+               "across the line are penalised per axis (a quadratic term of ours, λ = 100)",
+      .magic = {'Z', 'W', 'P', 'F', 'E', 'M', '2', 0},  // 2: L_x, L_y after K
+      .reads_lines = true,
       .precompute = [](const MethodInput& input) { return polyfem_model_bytes(build_polyfem_model(input)); },
       .precompute_bytes_per_pixel = 26,  // 18-25 MB at 996×934
       .load = [](const ImageModel& model, const SignificanceMap&, std::string_view bytes) -> std::unique_ptr<Retargeter> {

@@ -9,6 +9,7 @@
 #include <map>
 #include <stdexcept>
 
+#include "warp/methods/polyfem/polyfem_lines.h"
 #include "warp/methods/polyfem/serendipity.h"
 
 namespace zoomwarp::warp {
@@ -176,6 +177,19 @@ std::vector<double> boundary(const PolyfemNodes& nodes, bool x_axis, double exte
   return fixed;
 }
 
+// K + L (L's upper triangle mirrored); K itself when L is empty.
+Eigen::SparseMatrix<double> plus(const Eigen::SparseMatrix<double>& k, const SymmetricMatrix& l) {
+  if (l.value.empty()) return k;
+  std::vector<Eigen::Triplet<double>> triplets;
+  for (std::size_t e = 0; e < l.value.size(); ++e) {
+    triplets.emplace_back(l.row[e], l.col[e], l.value[e]);
+    if (l.row[e] != l.col[e]) triplets.emplace_back(l.col[e], l.row[e], l.value[e]);
+  }
+  Eigen::SparseMatrix<double> m(k.rows(), k.cols());
+  m.setFromTriplets(triplets.begin(), triplets.end());
+  return k + m;
+}
+
 void check_mesh(const PolygonMesh& mesh) {
   if (!(mesh.width > 0 && mesh.height > 0) || mesh.cells.empty()) throw std::invalid_argument("polyfem: an empty mesh");
   for (const auto& cell : mesh.cells) {
@@ -232,13 +246,16 @@ PolyfemNodes polyfem_nodes(const PolygonMesh& mesh) {
   return nodes;
 }
 
-PolyfemSolution solve_polyfem(const PolygonMesh& mesh, const ScalarMap& saliency, const PolyfemOptions& options) {
+PolyfemSolution solve_polyfem(const PolygonMesh& mesh, const ScalarMap& saliency, const PolyfemOptions& options,
+                              const std::vector<Segment>& lines) {
   PolyfemSolution s;
   s.nodes = polyfem_nodes(mesh);
   const Assembled k = assemble(mesh, s.nodes, saliency, options);
+  PolyfemLineTerm l = polyfem_line_term(mesh, s.nodes, lines, options);
   const Eigen::VectorXd none = Eigen::VectorXd::Zero(Eigen::Index(s.nodes.positions.size()));
-  s.g_x = solve_axis(k.stiffness, none, boundary(s.nodes, true, mesh.width, 0, 1), false);
-  s.g_y = solve_axis(k.stiffness, none, boundary(s.nodes, false, mesh.height, 0, 1), false);
+  s.g_x = solve_axis(plus(k.stiffness, l.x), none, boundary(s.nodes, true, mesh.width, 0, 1), false);
+  s.g_y = solve_axis(plus(k.stiffness, l.y), none, boundary(s.nodes, false, mesh.height, 0, 1), false);
+  s.line_x = std::move(l.x), s.line_y = std::move(l.y);
   s.stiffness.size = int(k.stiffness.rows());
   for (int col = 0; col < k.stiffness.outerSize(); ++col)
     for (Eigen::SparseMatrix<double>::InnerIterator it(k.stiffness, col); it; ++it)
@@ -305,12 +322,16 @@ std::vector<Point> polyfem_positions(const PolyfemSolution& s, double width, dou
 }
 
 std::vector<Point> solve_polyfem_direct(const PolygonMesh& mesh, const ScalarMap& saliency, double target_w,
-                                        double target_h, const PolyfemOptions& options) {
+                                        double target_h, const PolyfemOptions& options,
+                                        const std::vector<Segment>& lines) {
   const PolyfemNodes nodes = polyfem_nodes(mesh);
   const Assembled k = assemble(mesh, nodes, saliency, options);
-  // ∂E/∂c = 2(K·c − b): the loads carry the identity's pull e_a.
-  const std::vector<double> x = solve_axis(k.stiffness, k.load_x, boundary(nodes, true, mesh.width, 0, target_w), true);
-  const std::vector<double> y = solve_axis(k.stiffness, k.load_y, boundary(nodes, false, mesh.height, 0, target_h), true);
+  const PolyfemLineTerm l = polyfem_line_term(mesh, nodes, lines, options);
+  // ∂E/∂c = 2((K + L_a)·c − b): the loads carry the identity's pull e_a; E_L has none.
+  const std::vector<double> x =
+      solve_axis(plus(k.stiffness, l.x), k.load_x, boundary(nodes, true, mesh.width, 0, target_w), true);
+  const std::vector<double> y =
+      solve_axis(plus(k.stiffness, l.y), k.load_y, boundary(nodes, false, mesh.height, 0, target_h), true);
   std::vector<Point> out(x.size());
   for (std::size_t i = 0; i < out.size(); ++i) out[i] = {x[i], y[i]};
   return out;

@@ -6,7 +6,9 @@
 //            the 1-D P2 basis of its three nodes from either side);
 //   energy   E_T(f) = ∫ s·|J(f) − I|²_F [eq. 11], f = Σ_k B_k·c_k: quadratic in c and separate
 //            per axis, E_T = Σ_a ∫ s·|∇f_a − e_a|²; s = 0.1 + 0.9·saliency (ours: a cell of
-//            zero saliency would make K singular);
+//            zero saliency would make K singular); plus E_L, the line term (ours,
+//            polyfem_lines.h), c_xᵀL_x·c_x + c_yᵀL_y·c_y, also separate and zero at the identity —
+//            so each axis solves with its own matrix, K + L_x or K + L_y, and all below holds;
 //   boundary [eq. 12] x fixed on the left/right nodes (0, W'), y on the top/bottom ones (0, H');
 //            the other coordinate slides;
 //   solve    by linear precision the identity is stationary at W' = W, H' = H, so
@@ -59,6 +61,12 @@ PolyfemNodes polyfem_nodes(const PolygonMesh& mesh);
 struct PolyfemOptions {
   double saliency_floor = 0.1;     // s = floor + (1 − floor)·saliency (ours)
   double max_triangle_area = 16;   // quadrature triangles, px² (METHODS §3 step 6)
+  // The line term (ours, polyfem_lines.h): λ, what a line bent by one analysis px into an arc
+  // costs in E_T's units (px²), and the spacing of a line's samples, analysis px. λ = 100: on the
+  // corpus at 1 MP, phone screens both ways up, the worst line bends 0.7 screen px (λ = 10:
+  // 1.6 px, λ = 1: 4.3 px, λ = 1000: 0.5 px, the export's chord error by then).
+  double line_weight = 100;
+  double line_spacing = 4;
 };
 
 // A symmetric sparse matrix by its upper triangle (row ≤ col), plain data.
@@ -68,15 +76,18 @@ struct SymmetricMatrix {
   std::vector<double> value;
 };
 
-// g_x, g_y per node: c(W', H') = v + ((W' − W)·g_x, (H' − H)·g_y). K too, for the fallback's
-// energy: with c = v + d, E_T = d_xᵀK·d_x + d_yᵀK·d_y (the identity is stationary, so no linear
-// term is left on the free nodes).
+// g_x, g_y per node: c(W', H') = v + ((W' − W)·g_x, (H' − H)·g_y). K and L_x, L_y too, for the
+// fallback's energy: with c = v + d, E_T + E_L = d_xᵀ(K + L_x)·d_x + d_yᵀ(K + L_y)·d_y (the
+// identity is stationary, so no linear term is left on the free nodes).
 struct PolyfemSolution {
   PolyfemNodes nodes;
   std::vector<double> g_x, g_y;
   SymmetricMatrix stiffness;
+  SymmetricMatrix line_x, line_y;  // L_x, L_y; empty without lines
 };
-PolyfemSolution solve_polyfem(const PolygonMesh& mesh, const ScalarMap& saliency, const PolyfemOptions& options = {});
+// `lines` (analysis px, inside the rectangle) are kept straight by E_L; none: E_T alone.
+PolyfemSolution solve_polyfem(const PolygonMesh& mesh, const ScalarMap& saliency, const PolyfemOptions& options = {},
+                              const std::vector<Segment>& lines = {});
 
 // (g_x, g_y) per node as one field, what chord deviations of G are measured on (polyfem_export.h).
 std::vector<Point> polyfem_g_field(const PolyfemSolution& solution);
@@ -105,6 +116,7 @@ AspectRange polyfem_fold_free_range(const PolygonMesh& mesh, const PolyfemSoluti
 // For tests: the same energy solved directly for one target (both axes, their boundary values
 // W', H'), by another factorization — what the axpy must reproduce.
 std::vector<Point> solve_polyfem_direct(const PolygonMesh& mesh, const ScalarMap& saliency, double target_w,
-                                        double target_h, const PolyfemOptions& options = {});
+                                        double target_h, const PolyfemOptions& options = {},
+                                        const std::vector<Segment>& lines = {});
 
 }  // namespace zoomwarp::warp
