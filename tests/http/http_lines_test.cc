@@ -16,7 +16,7 @@
 #include <thread>
 
 #include "tests/support/http_client.h"
-#include "tests/support/mesh_bend.h"
+#include "tests/http/mesh_bend.h"
 #include "tests/support/images.h"
 #include "tests/support/server_process.h"
 
@@ -262,8 +262,8 @@ TEST_F(Lines, EveryMeshMethodKeepsTheDetectedLinesStraightByDefault) {
       const auto by_default = http().get(view), without = http().get(view + "&lines=none");
       ASSERT_EQ(by_default.status, 200) << method << " " << screen << ": " << by_default.body;
       ASSERT_EQ(without.status, 200) << method << " " << screen << ": " << without.body;
-      const testing::LineBend bent = testing::worst_line_bend(json::parse(by_default.body), lines, 8);
-      const testing::LineBend free = testing::worst_line_bend(json::parse(without.body), lines, 8);
+      const testing::MeshLineBend bent = testing::worst_line_bend(json::parse(by_default.body), lines);
+      const testing::MeshLineBend free = testing::worst_line_bend(json::parse(without.body), lines);
       std::printf("%s %s: %d lines, worst bend %.2f px (lines=none: %.2f px)\n", method, screen, bent.measured,
                   bent.worst_px, free.worst_px);
       EXPECT_GE(bent.measured, 4) << method << " " << screen;

@@ -12,6 +12,7 @@
 
 #include "tests/support/server_process.h"
 #include "tiles/ingest.h"
+#include "warp/analysis/deflated_payload.h"
 #include "warp/analysis/detected_lines.h"
 #include "warp/analysis/image_analysis.h"
 #include "warp/analysis/method_files.h"
@@ -220,6 +221,29 @@ TEST_F(ModelFiles, ADamagedCompressedMethodFileIsPrecomputedAgainInMemory) {
     EXPECT_TRUE(loaded.engine);
     EXPECT_EQ(testing::read_file(path), before) << "never written into a published version";
   }
+}
+
+// A method file of another format — written by a release before a method's format changed (issue
+// 30 changed polyfem's and mp's) — is precomputed again and replaced by the current format, not
+// rebuilt in memory on every load as a damaged one is.
+TEST_F(ModelFiles, AMethodFileOfAnotherFormatIsPrecomputedAgainAndReplaced) {
+  const warp::ImageModel model = warp::read_image_model(*edited_);
+  const warp::RetargetingMethod& seam = *warp::find_retargeting_method("seam");
+  const std::string file = warp::method_file_name(seam, warp::Saliency::kDefault);
+  const tiles::ImageEntry c = copy();
+  const std::string path = c.files->location() + "/" + file;
+  const std::string payload = warp::method_payload(file, testing::read_file(path), seam);
+  std::string old_magic(seam.magic.begin(), seam.magic.end());
+  ASSERT_EQ(old_magic[6], '1');
+  old_magic[6] = '0';
+  write_bytes(path, warp::with_trailer(std::string("ZWDEFL2\0", 8) + old_magic + warp::deflated(payload)));
+  EXPECT_THROW(warp::method_payload(file, testing::read_file(path), seam), warp::OutdatedMethodFile);
+
+  const warp::LoadedRetargeter loaded = warp::load_retargeter(c, reader_, model, seam, warp::Saliency::kDefault);
+  EXPECT_EQ(loaded.source, warp::MethodSource::kBuiltInMemory);
+  EXPECT_TRUE(loaded.stored);
+  EXPECT_EQ(warp::method_payload(file, testing::read_file(path), seam), payload) << "replaced in the current format";
+  EXPECT_EQ(warp::load_retargeter(c, reader_, model, seam, warp::Saliency::kDefault).source, warp::MethodSource::kStored);
 }
 
 TEST_F(ModelFiles, AChecksumCatchesAFlipThatParsesAndAFileOfAnotherImageIsRefused) {
