@@ -7,7 +7,8 @@
 //
 // Everything is in analysis pixels (model.width × model.height onto target_w × target_h).
 //
-// The solve, in order:
+// The solve, in order (each step a function of mp_solve.cc: make_problem, rigid_start,
+// shape_continuation, penalty_continuation, final_run):
 //   1. z = mp_object_scale(): one scale for all objects, ≤ 1 and small enough that every row and
 //      column keeps a background scale ≥ β·W'/W (β·H'/H), so the ideal lengths of eq. 8 stay
 //      positive; z = 1 at W' = W, H' = H. Ours: each object's bounding box too (the row tables
