@@ -89,7 +89,7 @@ const RetargetingMethod& mp_method() {
                  "per-row and per-column lengths, detected and curator lines kept straight, then zoomed uniformly",
       .zoom = kZoomIntoTheRetargetedImage,
       .has_mesh = true,
-      .magic = {'Z', 'W', 'M', 'P', 'M', 'D', 'L', '1'},
+      .magic = {'Z', 'W', 'M', 'P', 'M', 'D', 'L', '2'},
       .reads_lines = true,
       .precompute = [](const MethodInput& input) { return mp_model_bytes(build_mp_model(input)); },
       .precompute_bytes_per_pixel = 4,  // under 2 MB at 996×934

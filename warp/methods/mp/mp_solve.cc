@@ -47,9 +47,9 @@ Borders borders_of(const Point& p, double w, double h) {
 // — so ∂Q_i/∂(variable) is 1 in every case and the chain rule onto the pole is a scatter-add.
 struct Layout {
   bool hard = false;
-  // The objects' map in the hard parametrization: Q_i = Q_O + diag(scale)(P_i − P_O); (z, z) is
-  // eq. 3, anything else a stage of the shape continuation in mp_solve.
-  Point scale;
+  // Per object, its map in the hard parametrization: Q_i = Q_O + diag(scale)(P_i − P_O); the
+  // Problem's object_scale is eq. 3, anything else a stage of the shape continuation.
+  std::vector<Point> scale;
   std::vector<std::array<int, 2>> vertex_var;  // variable index per coordinate, −1: fixed
   std::vector<std::array<int, 2>> pole_var;
   std::vector<Point> vertex_fixed;  // the value of a fixed vertex coordinate
@@ -61,6 +61,9 @@ struct Layout {
 struct Problem {
   const MpModel* model = nullptr;
   double tw = 0, th = 0, z = 1, line_weight = 0;
+  // Per object, the diagonal of its map under eq. 3: (z, z), or (ours) W'/W across an object
+  // touching the left and the right border, H'/H across one touching the top and the bottom.
+  std::vector<Point> object_scale;
   std::vector<int> object_of;        // per vertex: its object or −1
   std::vector<MpEdge> edges;         // those with ends in two different objects or outside objects
   std::vector<double> line_length;   // L_k, source length of each line
@@ -83,7 +86,7 @@ void positions(const Problem& pb, const Layout& lay, const Eigen::VectorXd& x, s
     if (lay.hard && o >= 0) {  // [Guo09 eq. 3], rotation 0
       const Point& p = m.mesh.vertices[i];
       const Point& po = m.objects[o].pole;
-      q[i] = {poles[o].x + lay.scale.x * (p.x - po.x), poles[o].y + lay.scale.y * (p.y - po.y)};
+      q[i] = {poles[o].x + lay.scale[o].x * (p.x - po.x), poles[o].y + lay.scale[o].y * (p.y - po.y)};
     } else {
       const auto& v = lay.vertex_var[i];
       q[i] = {v[0] >= 0 ? x[v[0]] : lay.vertex_fixed[i].x, v[1] >= 0 ? x[v[1]] : lay.vertex_fixed[i].y};
@@ -198,7 +201,8 @@ double evaluate(const Problem& pb, const Layout& lay, const Eigen::VectorXd& x, 
       if (o < 0) continue;
       const Point& p = m.mesh.vertices[i];
       const Point& po = m.objects[o].pole;
-      const double r[2] = {q[i].x - poles[o].x - pb.z * (p.x - po.x), q[i].y - poles[o].y - pb.z * (p.y - po.y)};
+      const Point& s = pb.object_scale[o];
+      const double r[2] = {q[i].x - poles[o].x - s.x * (p.x - po.x), q[i].y - poles[o].y - s.y * (p.y - po.y)};
       for (int c = 0; c < 2; ++c) {
         e += mu * r[c] * r[c];
         if (!grad && !hess) continue;
@@ -332,7 +336,7 @@ int newton(const Problem& pb, const Layout& lay, Eigen::VectorXd& x, double mu, 
 
 // The layout of one run: hard (eq. 3 substituted) or penalty (object vertices free), with the
 // boundary of eq. 1.
-Layout make_layout(const Problem& pb, bool hard, Point scale) {
+Layout make_layout(const Problem& pb, bool hard, const std::vector<Point>& scale) {
   const MpModel& m = *pb.model;
   const size_t n = m.mesh.vertices.size(), no = m.objects.size();
   Layout lay;
@@ -343,7 +347,8 @@ Layout make_layout(const Problem& pb, bool hard, Point scale) {
   lay.vertex_fixed.assign(n, {});
   lay.pole_fixed.assign(no, {});
   // Poles: an object touching a border pins that coordinate so that its border vertices land on
-  // the border under eq. 3 (two opposite borders are refused in mp_solve).
+  // the border under eq. 3 (on two opposite borders both pins agree: its scale across them is the
+  // target's, object_scale).
   for (size_t o = 0; o < no; ++o) {
     Borders touch;
     for (int i : m.objects[o].vertices) {
@@ -351,10 +356,10 @@ Layout make_layout(const Problem& pb, bool hard, Point scale) {
       touch.left |= b.left, touch.right |= b.right, touch.top |= b.top, touch.bottom |= b.bottom;
     }
     const Point& po = m.objects[o].pole;
-    if (touch.left) lay.pole_fixed[o].x = scale.x * po.x;
-    if (touch.right) lay.pole_fixed[o].x = pb.tw - scale.x * (m.width - po.x);
-    if (touch.top) lay.pole_fixed[o].y = scale.y * po.y;
-    if (touch.bottom) lay.pole_fixed[o].y = pb.th - scale.y * (m.height - po.y);
+    if (touch.left) lay.pole_fixed[o].x = scale[o].x * po.x;
+    if (touch.right && !touch.left) lay.pole_fixed[o].x = pb.tw - scale[o].x * (m.width - po.x);
+    if (touch.top) lay.pole_fixed[o].y = scale[o].y * po.y;
+    if (touch.bottom && !touch.top) lay.pole_fixed[o].y = pb.th - scale[o].y * (m.height - po.y);
     if (!touch.left && !touch.right) lay.pole_var[o][0] = lay.size++;
     if (!touch.top && !touch.bottom) lay.pole_var[o][1] = lay.size++;
   }
@@ -517,8 +522,9 @@ std::vector<Point> rigid_poles(const Problem& pb, const Layout& hard) {
       const Point& v = m.mesh.vertices[i];
       x0 = std::min(x0, v.x), x1 = std::max(x1, v.x), y0 = std::min(y0, v.y), y1 = std::max(y1, v.y);
     }
-    poles[o].x = hard.pole_var[o][0] < 0 ? hard.pole_fixed[o].x : rigid_pole(x0, x1, obj.pole.x, m.width, pb.tw, pb.z);
-    poles[o].y = hard.pole_var[o][1] < 0 ? hard.pole_fixed[o].y : rigid_pole(y0, y1, obj.pole.y, m.height, pb.th, pb.z);
+    const Point& s = pb.object_scale[o];
+    poles[o].x = hard.pole_var[o][0] < 0 ? hard.pole_fixed[o].x : rigid_pole(x0, x1, obj.pole.x, m.width, pb.tw, s.x);
+    poles[o].y = hard.pole_var[o][1] < 0 ? hard.pole_fixed[o].y : rigid_pole(y0, y1, obj.pole.y, m.height, pb.th, s.y);
   }
   return poles;
 }
@@ -535,7 +541,8 @@ std::vector<Point> rigid_start(const Problem& pb, const Extension& extend, const
     if (o < 0) continue;
     const Point& p = m.mesh.vertices[i];
     const Point& po = m.objects[o].pole;
-    q[i] = {poles[o].x + pb.z * (p.x - po.x), poles[o].y + pb.z * (p.y - po.y)};
+    const Point& s = pb.object_scale[o];
+    q[i] = {poles[o].x + s.x * (p.x - po.x), poles[o].y + s.y * (p.y - po.y)};
   }
   extend(false, q);
   return q;
@@ -610,8 +617,11 @@ Problem make_problem(const MpModel& model, double target_w, double target_h, con
       const Borders b = borders_of(model.mesh.vertices[i], model.width, model.height);
       touch.left |= b.left, touch.right |= b.right, touch.top |= b.top, touch.bottom |= b.bottom;
     }
-    if ((touch.left && touch.right) || (touch.top && touch.bottom))
-      throw std::invalid_argument("mp_solve: an object touches two opposite borders");
+    // Ours: between two opposite borders eq. 1 fixes the object's scale across them; z ≤ W'/W
+    // (H'/H) there already (its bounding box spans the width), so the map stays a similarity
+    // whenever z reaches it, and is the least stretch of it otherwise.
+    pb.object_scale.push_back({touch.left && touch.right ? target_w / model.width : pb.z,
+                               touch.top && touch.bottom ? target_h / model.height : pb.z});
   }
   // An edge inside one object keeps its length z·|P_i − P_j| under eq. 3: skipped [Guo09 §3.4.1].
   for (const MpEdge& e : mp_ideal_edges(model, target_w, target_h, pb.z))
@@ -661,9 +671,9 @@ void finish(const Problem& pb, const Layout& lay, const Eigen::VectorXd& x, MpSo
     if (o < 0) continue;
     const Point& p = model.mesh.vertices[i];
     const Point& po = model.objects[o].pole;
-    const Point& q = sol.positions[i];
-    sol.rigidity_residual = std::max(sol.rigidity_residual, std::hypot(q.x - sol.poles[o].x - pb.z * (p.x - po.x),
-                                                                       q.y - sol.poles[o].y - pb.z * (p.y - po.y)));
+    const Point &q = sol.positions[i], &s = pb.object_scale[o];
+    sol.rigidity_residual = std::max(sol.rigidity_residual, std::hypot(q.x - sol.poles[o].x - s.x * (p.x - po.x),
+                                                                       q.y - sol.poles[o].y - s.y * (p.y - po.y)));
   }
 }
 
@@ -723,7 +733,10 @@ bool shape_continuation(const Problem& pb, const Extension& extend, Progress& ru
   const size_t n = model.mesh.vertices.size();
   const Point stretch{pb.tw / model.width, pb.th / model.height};
   auto layout_at = [&](double t) {
-    return make_layout(pb, true, {stretch.x + t * (pb.z - stretch.x), stretch.y + t * (pb.z - stretch.y)});
+    std::vector<Point> scale;
+    for (const Point& s : pb.object_scale)
+      scale.push_back({stretch.x + t * (s.x - stretch.x), stretch.y + t * (s.y - stretch.y)});
+    return make_layout(pb, true, scale);
   };
   Layout lay = layout_at(0);
   auto [qs, ps] = uniform_stretch(pb);
@@ -765,7 +778,7 @@ bool shape_continuation(const Problem& pb, const Extension& extend, Progress& ru
 // remaining stages would only creep toward what the hard parametrization reaches in a few steps:
 // the final run (step 5) then; if that folds, the stages go on, and the μ = 1e6 result stands.
 void penalty_continuation(const Problem& pb, const Layout& hard, double rigid_enough, Progress& run) {
-  const Layout soft = make_layout(pb, false, {pb.z, pb.z});
+  const Layout soft = make_layout(pb, false, pb.object_scale);
   NewtonSystem soft_system;
   const auto [q0, p0] = uniform_stretch(pb);
   Eigen::VectorXd x = pack(pb, soft, q0, p0);
@@ -877,7 +890,8 @@ MpSolution mp_solve(const MpModel& model, double target_w, double target_h, cons
   Progress run;
   run.stop = options.stop;
   run.sol.object_scale = pb.z;
-  const Layout hard = make_layout(pb, true, {pb.z, pb.z});
+  run.sol.object_scales = pb.object_scale;
+  const Layout hard = make_layout(pb, true, pb.object_scale);
 
   if (const auto [q, poles] = warm_start(pb, options); !q.empty() && final_run(pb, hard, q, poles, run)) {
     run.sol.warm_started = true;

@@ -16,6 +16,10 @@
 //      on each row (column) the objects' mesh extents added up, an object on a border reaching it
 //      (the tables count masks; vertices sharing rows that masks do not left z = 1 where eq. 3
 //      could not put two objects side by side, and every continuation stalled between them).
+//      Each object's map under eq. 3 is diag(s): s = (z, z), except (ours) across an object
+//      touching two opposite borders, where eq. 1 fixes it: W'/W for the left and the right, H'/H
+//      for the top and the bottom (one touching all four: the uniform stretch). Its bounding box
+//      spans that side, so z ≤ W'/W (H'/H) already, and the map is a similarity when z reaches it.
 //   2. The rigid start (ours): every object placed by eq. 3 at scale z, a pinned pole coordinate
 //      as eq. 1 needs it, a free one putting the object's bounding box where eq. 8 puts a lone
 //      object in its band (the gaps before and after scaled alike, so it stays inside the
@@ -88,8 +92,9 @@ struct MpSolution {
   std::vector<Point> positions;  // per mesh vertex, analysis px of the target rectangle
   std::vector<Point> poles;      // Q_O per object
   double object_scale = 1;       // z
+  std::vector<Point> object_scales;  // per object, the diagonal of its map under eq. 3 (above)
   bool rigid = true;             // eq. 3 holds exactly (step 5 ran); false: the penalty result
-  double rigidity_residual = 0;  // max over object vertices of |Q_i − Q_O − z(P_i − P_O)|, px
+  double rigidity_residual = 0;  // max over object vertices of |Q_i − Q_O − diag(s)(P_i − P_O)|, px
   int iterations = 0;            // Newton steps, all runs together
   double energy = 0;             // E_l + λ·E_line at the result (no penalty, no barrier)
   int folds = 0;                 // triangles with signed area ≤ 0 (0 by construction)
@@ -124,8 +129,8 @@ Point mp_edge_gradient(Point d, double l);
 MpSym2 mp_edge_hessian(Point d, double l);
 
 // The solve above. Preconditions (the precompute guarantees them; std::invalid_argument
-// otherwise): positive sizes, boundary vertices on the rectangle, CCW triangles, no object
-// touching two opposite borders, no vertex in two objects, lines with two distinct ends.
+// otherwise): positive sizes, boundary vertices on the rectangle, CCW triangles, no vertex in two
+// objects, lines with two distinct ends.
 MpSolution mp_solve(const MpModel& model, double target_w, double target_h, const MpSolveOptions& options = {});
 
 }  // namespace zoomwarp::warp
