@@ -309,20 +309,25 @@ TEST(MpPropertyTerms, WithoutTheLineTermALineBends) {
 }
 
 
-// Issue 30: a salient shape spanning the image stays upright and keeps its shape on a phone.
-// Through the Retargeter as a request sees it (zoom 0, view centred) on a 360×640 and a 640×360
-// screen, over the salient region (the top tenth of the map's pixels), each triangle weighted by
-// the on-screen area of the salient region it holds:
+// Issue 30: nothing salient leans, no line bends, and a salient shape spanning the image keeps
+// its shape on a phone. Through the Retargeter as a request sees it (zoom 0, view centred) on a
+// 360×640 and a 640×360 screen, over the salient region (the top tenth of the map's pixels), each
+// triangle weighted by the on-screen area of the salient region it holds:
 //   - rotation p95 ≤ 10°: per triangle the angle of the closest rotation to its affine map
 //     source → screen, θ = atan2(A10 − A01, A00 + A11), the 95th percentile of |θ|;
-//   - anisotropy ≤ 1.5: the weighted mean of σ1/σ2 (warp/compare/metrics.h) — the shape kept
-//     (1.29 at 360×640, 1.09 at 640×360: the triangles across the roof line are salient but not
-//     in the object); with the façade dropped as an object (the rule before issue 30) it is
-//     stretched like the background, 2.67 at 360×640 (1.18 at 640×360, under the bound).
-// The worst bend of the detected lines at least 8 screen px long is printed, not asserted: on
-// the façade it is 6.5 px at 360×640 (the sky above takes the height the façade does not,
-// unevenly beside the tower), and on the samples mp's salient rotation is 16–57° at one screen
-// or the other whatever the rule — issue 30's acceptance, not reached (docs/algorithms.md, mp).
+//   - the worst bend of the detected lines at least 8 screen px long (its samples' largest
+//     distance from the chord of its warped ends; every detected line, also those the mesh has
+//     no chain for) is printed, not asserted: issue 30 asks ≤ 2 px, and mp is not there —
+//     interior_wine_djembe_tall.jpg 3.2 px at 640×360, pano_grossmugl_field_4to1.png 5.6 px at
+//     360×640 (the mesh's own chains stay within 1 px: MpProperty above);
+//   - on the façade across the image: anisotropy ≤ 1.5, the weighted mean of σ1/σ2
+//     (warp/compare/metrics.h) — the shape kept (1.16 at 360×640, 1.09 at 640×360: the
+//     triangles across the roof line are salient but not in the object); with the façade
+//     dropped as an object (the rule before issue 30) it is stretched like the background, 2.67
+//     at 360×640 (1.18 at 640×360, under the bound). A line in the sky beside the tower bends
+//     2.2 px at 360×640 (0 when the façade was dropped and the picture simply stretched).
+// Without the rotation term (rotation_weight = 0, mp_solve.h) the samples' salient rotation p95
+// is 16–23° at one screen or the other.
 constexpr double kMaxSalientRotation = 10;  // degrees, p95
 constexpr double kMaxSalientAnisotropy = 1.5;
 constexpr double kShortestLine = 8;         // screen px
@@ -411,14 +416,43 @@ double worst_screen_bend(const warp::View& v, const std::vector<warp::Segment>& 
   return worst;
 }
 
-TEST(MpUpright, AFacadeAcrossTheImageStaysUprightAndKeepsItsShape) {
+constexpr std::pair<int, int> kPhoneScreens[] = {{360, 640}, {640, 360}};
+
+// Zoom 0, the view centred.
+warp::View phone_view(warp::MpRetargeting& retargeter, const Subject& s, int sw, int sh) {
+  warp::ViewRequest request;
+  request.cx = s.image->model.width / 2.0, request.cy = s.image->model.height / 2.0;
+  request.screen_width = sw, request.screen_height = sh;
+  return retargeter.view(request);
+}
+
+class MpUpright : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(MpUpright, SalientRegionUprightAndLinesStraightOnPhoneScreens) {
+  const Subject& s = subject(GetParam(), Saliency::kDefault);
+  warp::MpRetargeting retargeter(s.image->model.width, s.image->model.height, s.model);
+  for (const auto& [sw, sh] : kPhoneScreens) {
+    const warp::View v = phone_view(retargeter, s, sw, sh);
+    const double rotation = salient_shape(v, s.map).rotation_p95, bend = worst_screen_bend(v, s.image->detected);
+    std::printf("[ upright  ] %s %dx%d: salient rotation p95 %.1f deg, worst detected-line bend %.2f px\n",
+                GetParam(), sw, sh, rotation, bend);
+    EXPECT_LE(rotation, kMaxSalientRotation) << sw << "x" << sh;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(MpUprightSamples, MpUpright,
+                         ::testing::Values("boats_lake_sunset.jpg", "astronaut_portrait.png",
+                                           "interior_wine_djembe_tall.jpg", "pano_grossmugl_field_4to1.png"),
+                         [](const ::testing::TestParamInfo<const char*>& info) {
+                           const std::string image = info.param;
+                           return image.substr(0, image.find('.'));
+                         });
+
+TEST(MpUprightFacade, AFacadeAcrossTheImageStaysUprightAndKeepsItsShape) {
   const Subject& s = subject(kFacade, Saliency::kDefault);
   warp::MpRetargeting retargeter(s.image->model.width, s.image->model.height, s.model);
-  for (const auto [sw, sh] : {std::pair{360, 640}, std::pair{640, 360}}) {
-    warp::ViewRequest request;
-    request.cx = s.image->model.width / 2.0, request.cy = s.image->model.height / 2.0;
-    request.screen_width = sw, request.screen_height = sh;
-    const warp::View v = retargeter.view(request);
+  for (const auto& [sw, sh] : kPhoneScreens) {
+    const warp::View v = phone_view(retargeter, s, sw, sh);
     const SalientShape shape = salient_shape(v, s.map);
     std::printf("[ upright  ] facade %dx%d: %zu objects, salient rotation p95 %.1f deg, anisotropy %.2f, worst "
                 "detected-line bend %.2f px\n",
