@@ -327,7 +327,7 @@ TEST(MpPropertyTerms, WithoutTheLineTermALineBends) {
 //     at 360×640 (1.18 at 640×360, under the bound). A line in the sky beside the tower bends
 //     2.2 px at 360×640 (0 when the façade was dropped and the picture simply stretched).
 // Without the rotation term (rotation_weight = 0, mp_solve.h) the samples' salient rotation p95
-// is 16–23° at one screen or the other.
+// is 16–57° at one screen or the other.
 constexpr double kMaxSalientRotation = 10;  // degrees, p95
 constexpr double kMaxSalientAnisotropy = 1.5;
 constexpr double kShortestLine = 8;         // screen px
