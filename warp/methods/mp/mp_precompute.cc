@@ -236,16 +236,14 @@ void add_objects(MpModel& model, const std::vector<bool>& salient, const MpPreco
       o.area += 0.5 * signed_area2(mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
     }
     if (o.area < options.min_object_fraction * wa * ha) continue;
-    bool left = false, right = false, top = false, bottom = false;
+    // Kept also when it touches two opposite borders: mp_solve then fixes its scale across them
+    // (ours, mp_solve.h) — dropping it left the largest salient shapes, a façade spanning the
+    // width, to bend with the background.
     for (int v : o.vertices) {
       const Point& p = mesh.vertices[std::size_t(v)];
-      left |= p.x == 0, right |= p.x == wa, top |= p.y == 0, bottom |= p.y == ha;
       o.pole.x += p.x / double(o.vertices.size());
       o.pole.y += p.y / double(o.vertices.size());
     }
-    // Rigid between two opposite borders contradicts the boundary constraint [Guo09 eq. 1] at
-    // any other aspect (ours).
-    if ((left && right) || (top && bottom)) continue;
     for (int f : region[c]) {
       const auto& t = mesh.triangles[std::size_t(f)];
       for_pixels_in(mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]], iw, ih,

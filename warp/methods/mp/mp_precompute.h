@@ -18,9 +18,9 @@
 //            saliency=gbvs instead [Kumar (004) §III-B] triangles with ≥ 50 % of their area in
 //            attention regions with AV ≥ 0.1·max AV (saliency/attention.h) — grouped into
 //            vertex-connected components, so no vertex is in two objects; objects under 0.2 % of
-//            the image, and objects touching two opposite borders (whose rigidity the boundary
-//            constraint [eq. 1] would contradict: ours), are dropped; the pole is the mean of the
-//            object's vertices [§3.3.2]. An object's region — its area A_O and its mask — is every
+//            the image are dropped (ours), those touching two opposite borders kept (mp_solve
+//            fixes their scale across them: ours); the pole is the mean of the object's vertices
+//            [§3.3.2]. An object's region — its area A_O and its mask — is every
 //            triangle whose corners are all its vertices: what moves rigidly under [eq. 3];
 //   tables   Lr(y), Lc(x) [eqs 8–9]: the object pixels on analysis row y (pixel centres y + 0.5)
 //            and column x, the objects' regions rasterised by pixel centre (edges included).

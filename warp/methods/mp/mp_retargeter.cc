@@ -91,7 +91,7 @@ const RetargetingMethod& mp_method() {
       .has_mesh = true,
       .lines = "lines are chains of mesh edges held collinear by [Guo09 eq. 7]'s structure term (cross-product "
                "form, weight 1e5), cut back where they cross",
-      .magic = {'Z', 'W', 'M', 'P', 'M', 'D', 'L', '1'},
+      .magic = {'Z', 'W', 'M', 'P', 'M', 'D', 'L', '2'},
       .reads_lines = true,
       .precompute = [](const MethodInput& input) { return mp_model_bytes(build_mp_model(input)); },
       .precompute_bytes_per_pixel = 4,  // under 2 MB at 996×934

@@ -47,9 +47,9 @@ Borders borders_of(const Point& p, double w, double h) {
 // — so ∂Q_i/∂(variable) is 1 in every case and the chain rule onto the pole is a scatter-add.
 struct Layout {
   bool hard = false;
-  // The objects' map in the hard parametrization: Q_i = Q_O + diag(scale)(P_i − P_O); (z, z) is
-  // eq. 3, anything else a stage of the shape continuation in mp_solve.
-  Point scale;
+  // Per object, its map in the hard parametrization: Q_i = Q_O + diag(scale)(P_i − P_O); the
+  // Problem's object_scale is eq. 3, anything else a stage of the shape continuation.
+  std::vector<Point> scale;
   std::vector<std::array<int, 2>> vertex_var;  // variable index per coordinate, −1: fixed
   std::vector<std::array<int, 2>> pole_var;
   std::vector<Point> vertex_fixed;  // the value of a fixed vertex coordinate
@@ -61,10 +61,14 @@ struct Layout {
 struct Problem {
   const MpModel* model = nullptr;
   double tw = 0, th = 0, z = 1, line_weight = 0;
+  // Per object, the diagonal of its map under eq. 3: (z, z), or (ours) W'/W across an object
+  // touching the left and the right border, H'/H across one touching the top and the bottom.
+  std::vector<Point> object_scale;
   std::vector<int> object_of;        // per vertex: its object or −1
   std::vector<MpEdge> edges;         // those with ends in two different objects or outside objects
   std::vector<double> line_length;   // L_k, source length of each line
   double barrier = 0;                // ε of the fold barrier
+  double rotation_weight = 0;        // ρ of the rotation term
   std::vector<double> stretch_area;  // per triangle, its area under the uniform stretch
 };
 
@@ -83,7 +87,7 @@ void positions(const Problem& pb, const Layout& lay, const Eigen::VectorXd& x, s
     if (lay.hard && o >= 0) {  // [Guo09 eq. 3], rotation 0
       const Point& p = m.mesh.vertices[i];
       const Point& po = m.objects[o].pole;
-      q[i] = {poles[o].x + lay.scale.x * (p.x - po.x), poles[o].y + lay.scale.y * (p.y - po.y)};
+      q[i] = {poles[o].x + lay.scale[o].x * (p.x - po.x), poles[o].y + lay.scale[o].y * (p.y - po.y)};
     } else {
       const auto& v = lay.vertex_var[i];
       q[i] = {v[0] >= 0 ? x[v[0]] : lay.vertex_fixed[i].x, v[1] >= 0 ? x[v[1]] : lay.vertex_fixed[i].y};
@@ -191,6 +195,36 @@ double evaluate(const Problem& pb, const Layout& lay, const Eigen::VectorXd& x, 
     }
   }
 
+  // The rotation term (ours): ρ·Σ_t A⁰_t·r_t², r_t = A10 − A01 of the triangle's affine map A
+  // (source → target), the antisymmetric part that the closest rotation's angle grows with:
+  // θ = atan2(A10 − A01, A00 + A11). Linear in the positions, so its Hessian 2ρA⁰JJᵀ is exact;
+  // 0 with zero gradient at the identity and at the uniform stretch (A diagonal). Triangles
+  // inside one object are skipped (eq. 3 has no rotation).
+  if (pb.rotation_weight > 0) {
+    const auto& tris = m.mesh.triangles;
+    const auto& src = m.mesh.vertices;
+    for (size_t t = 0; t < tris.size(); ++t) {
+      const int i0 = tris[t][0], i1 = tris[t][1], i2 = tris[t][2];
+      if (pb.object_of[i0] >= 0 && pb.object_of[i0] == pb.object_of[i1] && pb.object_of[i0] == pb.object_of[i2])
+        continue;
+      const double s00 = src[i1].x - src[i0].x, s01 = src[i2].x - src[i0].x;
+      const double s10 = src[i1].y - src[i0].y, s11 = src[i2].y - src[i0].y;
+      const double det = s00 * s11 - s01 * s10, a0 = 0.5 * det;
+      // ∂r over (Q0.x, Q0.y, Q1.x, Q1.y, Q2.x, Q2.y).
+      Eigen::Matrix<double, 6, 1> J;
+      J << s00 - s01, s10 - s11, s01, s11, -s00, -s10;
+      J /= det;
+      const double r = J[0] * q[i0].x + J[1] * q[i0].y + J[2] * q[i1].x + J[3] * q[i1].y + J[4] * q[i2].x +
+                       J[5] * q[i2].y;
+      e += pb.rotation_weight * a0 * r * r;
+      if (!grad && !hess) continue;
+      const Eigen::Matrix<double, 6, 1> g = 2 * pb.rotation_weight * a0 * r * J;
+      const Eigen::Matrix<double, 6, 6> h = 2 * pb.rotation_weight * a0 * J * J.transpose();
+      const auto &va = lay.vertex_var[i0], &vb = lay.vertex_var[i1], &vc = lay.vertex_var[i2];
+      scatter<6>({va[0], va[1], vb[0], vb[1], vc[0], vc[1]}, g, h, grad, hess);
+    }
+  }
+
   // Rigidity as a penalty (the continuation's stages; the hard parametrization needs none).
   if (mu > 0 && !lay.hard) {
     for (size_t i = 0; i < q.size(); ++i) {
@@ -198,7 +232,8 @@ double evaluate(const Problem& pb, const Layout& lay, const Eigen::VectorXd& x, 
       if (o < 0) continue;
       const Point& p = m.mesh.vertices[i];
       const Point& po = m.objects[o].pole;
-      const double r[2] = {q[i].x - poles[o].x - pb.z * (p.x - po.x), q[i].y - poles[o].y - pb.z * (p.y - po.y)};
+      const Point& s = pb.object_scale[o];
+      const double r[2] = {q[i].x - poles[o].x - s.x * (p.x - po.x), q[i].y - poles[o].y - s.y * (p.y - po.y)};
       for (int c = 0; c < 2; ++c) {
         e += mu * r[c] * r[c];
         if (!grad && !hess) continue;
@@ -332,7 +367,7 @@ int newton(const Problem& pb, const Layout& lay, Eigen::VectorXd& x, double mu, 
 
 // The layout of one run: hard (eq. 3 substituted) or penalty (object vertices free), with the
 // boundary of eq. 1.
-Layout make_layout(const Problem& pb, bool hard, Point scale) {
+Layout make_layout(const Problem& pb, bool hard, const std::vector<Point>& scale) {
   const MpModel& m = *pb.model;
   const size_t n = m.mesh.vertices.size(), no = m.objects.size();
   Layout lay;
@@ -343,7 +378,8 @@ Layout make_layout(const Problem& pb, bool hard, Point scale) {
   lay.vertex_fixed.assign(n, {});
   lay.pole_fixed.assign(no, {});
   // Poles: an object touching a border pins that coordinate so that its border vertices land on
-  // the border under eq. 3 (two opposite borders are refused in mp_solve).
+  // the border under eq. 3 (on two opposite borders both pins agree: its scale across them is the
+  // target's, object_scale).
   for (size_t o = 0; o < no; ++o) {
     Borders touch;
     for (int i : m.objects[o].vertices) {
@@ -351,10 +387,10 @@ Layout make_layout(const Problem& pb, bool hard, Point scale) {
       touch.left |= b.left, touch.right |= b.right, touch.top |= b.top, touch.bottom |= b.bottom;
     }
     const Point& po = m.objects[o].pole;
-    if (touch.left) lay.pole_fixed[o].x = scale.x * po.x;
-    if (touch.right) lay.pole_fixed[o].x = pb.tw - scale.x * (m.width - po.x);
-    if (touch.top) lay.pole_fixed[o].y = scale.y * po.y;
-    if (touch.bottom) lay.pole_fixed[o].y = pb.th - scale.y * (m.height - po.y);
+    if (touch.left) lay.pole_fixed[o].x = scale[o].x * po.x;
+    if (touch.right && !touch.left) lay.pole_fixed[o].x = pb.tw - scale[o].x * (m.width - po.x);
+    if (touch.top) lay.pole_fixed[o].y = scale[o].y * po.y;
+    if (touch.bottom && !touch.top) lay.pole_fixed[o].y = pb.th - scale[o].y * (m.height - po.y);
     if (!touch.left && !touch.right) lay.pole_var[o][0] = lay.size++;
     if (!touch.top && !touch.bottom) lay.pole_var[o][1] = lay.size++;
   }
@@ -517,8 +553,9 @@ std::vector<Point> rigid_poles(const Problem& pb, const Layout& hard) {
       const Point& v = m.mesh.vertices[i];
       x0 = std::min(x0, v.x), x1 = std::max(x1, v.x), y0 = std::min(y0, v.y), y1 = std::max(y1, v.y);
     }
-    poles[o].x = hard.pole_var[o][0] < 0 ? hard.pole_fixed[o].x : rigid_pole(x0, x1, obj.pole.x, m.width, pb.tw, pb.z);
-    poles[o].y = hard.pole_var[o][1] < 0 ? hard.pole_fixed[o].y : rigid_pole(y0, y1, obj.pole.y, m.height, pb.th, pb.z);
+    const Point& s = pb.object_scale[o];
+    poles[o].x = hard.pole_var[o][0] < 0 ? hard.pole_fixed[o].x : rigid_pole(x0, x1, obj.pole.x, m.width, pb.tw, s.x);
+    poles[o].y = hard.pole_var[o][1] < 0 ? hard.pole_fixed[o].y : rigid_pole(y0, y1, obj.pole.y, m.height, pb.th, s.y);
   }
   return poles;
 }
@@ -535,7 +572,8 @@ std::vector<Point> rigid_start(const Problem& pb, const Extension& extend, const
     if (o < 0) continue;
     const Point& p = m.mesh.vertices[i];
     const Point& po = m.objects[o].pole;
-    q[i] = {poles[o].x + pb.z * (p.x - po.x), poles[o].y + pb.z * (p.y - po.y)};
+    const Point& s = pb.object_scale[o];
+    q[i] = {poles[o].x + s.x * (p.x - po.x), poles[o].y + s.y * (p.y - po.y)};
   }
   extend(false, q);
   return q;
@@ -585,6 +623,211 @@ double extent_bound(const MpModel& model, const std::vector<int>& object_of, boo
     if (l > 0) z = std::min(z, (target - beta * (target / source) * (source - l)) / l);
   }
   return z;
+}
+
+
+// The solve's fixed data (step 0): z (step 1), the edges eq. 10 prices, the lines' source
+// lengths, the stretch's triangle areas; the preconditions of mp_solve checked on the way.
+Problem make_problem(const MpModel& model, double target_w, double target_h, const MpSolveOptions& options) {
+  if (!(model.width > 0 && model.height > 0 && target_w > 0 && target_h > 0))
+    throw std::invalid_argument("mp_solve: sizes must be positive");
+  const size_t n = model.mesh.vertices.size();
+  Problem pb;
+  pb.model = &model;
+  pb.tw = target_w;
+  pb.th = target_h;
+  pb.line_weight = options.line_weight;
+  pb.z = mp_object_scale(model, target_w, target_h, options.beta);
+  pb.object_of.assign(n, -1);
+  for (size_t o = 0; o < model.objects.size(); ++o) {
+    Borders touch;
+    for (int i : model.objects[o].vertices) {
+      if (i < 0 || static_cast<size_t>(i) >= n || pb.object_of[i] >= 0)
+        throw std::invalid_argument("mp_solve: an object vertex out of range or in two objects");
+      pb.object_of[i] = static_cast<int>(o);
+      const Borders b = borders_of(model.mesh.vertices[i], model.width, model.height);
+      touch.left |= b.left, touch.right |= b.right, touch.top |= b.top, touch.bottom |= b.bottom;
+    }
+    // Ours: between two opposite borders eq. 1 fixes the object's scale across them; z ≤ W'/W
+    // (H'/H) there already (its bounding box spans the width), so the map stays a similarity
+    // whenever z reaches it, and is the least stretch of it otherwise.
+    pb.object_scale.push_back({touch.left && touch.right ? target_w / model.width : pb.z,
+                               touch.top && touch.bottom ? target_h / model.height : pb.z});
+  }
+  // An edge inside one object keeps its length z·|P_i − P_j| under eq. 3: skipped [Guo09 §3.4.1].
+  for (const MpEdge& e : mp_ideal_edges(model, target_w, target_h, pb.z))
+    if (pb.object_of[e.a] < 0 || pb.object_of[e.a] != pb.object_of[e.b]) pb.edges.push_back(e);
+  for (const MpLine& line : model.lines) {
+    for (int i : line.vertices)
+      if (i < 0 || static_cast<size_t>(i) >= n) throw std::invalid_argument("mp_solve: a line vertex out of range");
+    if (line.vertices.size() < 2 || line.vertices.front() == line.vertices.back())
+      throw std::invalid_argument("mp_solve: a line needs two distinct ends");
+    const Point& a = model.mesh.vertices[line.vertices.front()];
+    const Point& b = model.mesh.vertices[line.vertices.back()];
+    pb.line_length.push_back(std::hypot(b.x - a.x, b.y - a.y));
+  }
+  pb.barrier = options.fold_barrier;
+  pb.rotation_weight = options.rotation_weight;
+  for (const Triangle& t : model.mesh.triangles) {
+    const double a =
+        0.5 * signed_area2(model.mesh.vertices[t[0]], model.mesh.vertices[t[1]], model.mesh.vertices[t[2]]);
+    if (!(a > 0)) throw std::invalid_argument("mp_solve: a source triangle is not counter-clockwise");
+    pb.stretch_area.push_back(a * (target_w / model.width) * (target_h / model.height));
+  }
+  return pb;
+}
+
+// What the solve has done so far (its MpSolution) and the hard parametrization's Newton system,
+// shared by every run of that layout.
+struct Progress {
+  MpSolution sol;
+  NewtonSystem hard_system;
+  const StopToken* stop = nullptr;
+  // The steps the next run may take: kRunSteps, or fewer when the solve's kSolveSteps run out.
+  int budget() const { return std::clamp(kSolveSteps - sol.iterations, 0, kRunSteps); }
+};
+
+// The solution's fields at the variables x of a layout: positions, poles, energy without the
+// barrier, folds, rigidity residual.
+void finish(const Problem& pb, const Layout& lay, const Eigen::VectorXd& x, MpSolution& sol) {
+  const MpModel& model = *pb.model;
+  positions(pb, lay, x, sol.positions, sol.poles);
+  sol.rigid = lay.hard;
+  Problem plain = pb;
+  plain.barrier = 0;
+  sol.energy = evaluate(plain, lay, x, 0, nullptr, nullptr);
+  sol.folds = count_folds(model.mesh, sol.positions);
+  sol.rigidity_residual = 0;
+  for (size_t i = 0; i < sol.positions.size(); ++i) {
+    const int o = pb.object_of[i];
+    if (o < 0) continue;
+    const Point& p = model.mesh.vertices[i];
+    const Point& po = model.objects[o].pole;
+    const Point &q = sol.positions[i], &s = pb.object_scale[o];
+    sol.rigidity_residual = std::max(sol.rigidity_residual, std::hypot(q.x - sol.poles[o].x - s.x * (p.x - po.x),
+                                                                       q.y - sol.poles[o].y - s.y * (p.y - po.y)));
+  }
+}
+
+// Step 5: one run of the hard parametrization (eq. 3 substituted) from vertex and pole
+// positions, if eq. 3 applied to them folds nothing; false (and nothing run) otherwise.
+bool final_run(const Problem& pb, const Layout& hard, const std::vector<Point>& q0, const std::vector<Point>& poles0,
+               Progress& run) {
+  Eigen::VectorXd x = pack(pb, hard, q0, poles0);
+  std::vector<Point> qh, ph;
+  positions(pb, hard, x, qh, ph);
+  if (count_folds(pb.model->mesh, qh) > 0) return false;
+  run.sol.energy_history.emplace_back();
+  run.sol.iterations +=
+      newton(pb, hard, x, 0, 1e-12, run.budget(), run.stop, run.hard_system, run.sol.energy_history.back());
+  finish(pb, hard, x, run.sol);
+  return true;
+}
+
+// Every vertex and pole under the uniform stretch onto the target (the cold start; fold-free).
+std::pair<std::vector<Point>, std::vector<Point>> uniform_stretch(const Problem& pb) {
+  const MpModel& model = *pb.model;
+  const double kx = pb.tw / model.width, ky = pb.th / model.height;
+  std::vector<Point> q, poles;
+  for (const Point& p : model.mesh.vertices) q.push_back({p.x * kx, p.y * ky});
+  for (const MpObject& o : model.objects) poles.push_back({o.pole.x * kx, o.pole.y * ky});
+  return {q, poles};
+}
+
+// The warm start: the nearby solution mapped affinely onto the new rectangle (orientation kept,
+// the boundary exact), each pole the mean of its object's vertices (as Q_O is under eq. 3, P_O
+// being the mean of the P_i). Empty when the options hold none for this mesh.
+std::pair<std::vector<Point>, std::vector<Point>> warm_start(const Problem& pb, const MpSolveOptions& options) {
+  const MpModel& model = *pb.model;
+  const size_t n = model.mesh.vertices.size();
+  if (options.warm_start.empty() || options.warm_start.size() != n || !(options.warm_width > 0) ||
+      !(options.warm_height > 0))
+    return {};
+  const double kx = pb.tw / options.warm_width, ky = pb.th / options.warm_height;
+  std::vector<Point> q(n);
+  for (size_t i = 0; i < n; ++i) q[i] = {options.warm_start[i].x * kx, options.warm_start[i].y * ky};
+  std::vector<Point> poles(model.objects.size());
+  for (size_t o = 0; o < model.objects.size(); ++o) {
+    for (int i : model.objects[o].vertices) poles[o].x += q[i].x, poles[o].y += q[i].y;
+    const double k = 1.0 / std::max<size_t>(1, model.objects[o].vertices.size());
+    poles[o] = {poles[o].x * k, poles[o].y * k};
+  }
+  return {q, poles};
+}
+
+// Step 3, the shape continuation: the objects' map goes from the uniform stretch diag(W'/W, H'/H)
+// to eq. 3's z·I in stages, each a Newton run of the hard parametrization with that map (poles and
+// the rest free, the barrier holding every triangle open); a stage whose map would fold the mesh
+// as it stands is halved. Its last stage is eq. 3 itself, the final run (step 5). False when a
+// stage falls below kLeastShapeStage or the steps run out.
+bool shape_continuation(const Problem& pb, const Extension& extend, Progress& run) {
+  const MpModel& model = *pb.model;
+  const size_t n = model.mesh.vertices.size();
+  const Point stretch{pb.tw / model.width, pb.th / model.height};
+  auto layout_at = [&](double t) {
+    std::vector<Point> scale;
+    for (const Point& s : pb.object_scale)
+      scale.push_back({stretch.x + t * (s.x - stretch.x), stretch.y + t * (s.y - stretch.y)});
+    return make_layout(pb, true, scale);
+  };
+  Layout lay = layout_at(0);
+  auto [qs, ps] = uniform_stretch(pb);
+  Eigen::VectorXd x = pack(pb, lay, qs, ps);
+  Problem staged = pb;
+  staged.barrier = kStageBarrier * pb.barrier;
+  // Without the rotation term: a stage only hands a fold-free start to the next, and the term
+  // held the rim against the objects' changing map (interior_wine_djembe_tall.jpg with GBVS at
+  // 3:1: every stage stalled, and the penalty fallback ended 0.08 px from rigid).
+  staged.rotation_weight = 0;
+  double t = 0, dt = 0.25;
+  while (t < 1) {
+    if (dt < kLeastShapeStage || run.budget() == 0) return false;
+    const double t1 = std::min(1.0, t + dt);
+    const Layout next = layout_at(t1);
+    positions(pb, lay, x, qs, ps);
+    Eigen::VectorXd x1 = pack(pb, next, qs, ps);
+    std::vector<Point> q1, p1;
+    positions(pb, next, x1, q1, p1);
+    // The rest moves along with the objects (extended as in the rigid start).
+    std::vector<Point> delta(n);
+    for (size_t i = 0; i < n; ++i)
+      if (pb.object_of[i] >= 0) delta[i] = {q1[i].x - qs[i].x, q1[i].y - qs[i].y};
+    extend(true, delta);
+    for (size_t i = 0; i < n; ++i)
+      if (pb.object_of[i] < 0) q1[i] = {qs[i].x + delta[i].x, qs[i].y + delta[i].y};
+    x1 = pack(pb, next, q1, p1);
+    if (count_folds(model.mesh, q1) > 0) {
+      dt *= 0.5;
+      continue;
+    }
+    if (t1 == 1) return final_run(pb, next, q1, p1, run);
+    run.sol.energy_history.emplace_back();
+    run.sol.iterations +=
+        newton(staged, next, x1, 0, kStageTolerance, run.budget(), run.stop, run.hard_system, run.sol.energy_history.back());
+    t = t1, lay = next, x = x1, dt *= 2;
+  }
+  return false;
+}
+
+// Step 4, rigidity by a penalty, from the uniform stretch: μ up 10× per stage (more stalls the
+// line search against folds). Once the objects are within `rigid_enough` px of eq. 3 (ours), the
+// remaining stages would only creep toward what the hard parametrization reaches in a few steps:
+// the final run (step 5) then; if that folds, the stages go on, and the μ = 1e6 result stands.
+void penalty_continuation(const Problem& pb, const Layout& hard, double rigid_enough, Progress& run) {
+  const Layout soft = make_layout(pb, false, pb.object_scale);
+  NewtonSystem soft_system;
+  const auto [q0, p0] = uniform_stretch(pb);
+  Eigen::VectorXd x = pack(pb, soft, q0, p0);
+  for (double mu = 1; mu <= 1e6; mu *= 10) {
+    run.sol.energy_history.emplace_back();
+    run.sol.iterations +=
+        newton(pb, soft, x, mu, kStageTolerance, run.budget(), run.stop, soft_system, run.sol.energy_history.back());
+    finish(pb, soft, x, run.sol);
+    if (run.sol.rigidity_residual <= rigid_enough || mu == 1e6) {
+      const std::vector<Point> qs = run.sol.positions, ps = run.sol.poles;
+      if (final_run(pb, hard, qs, ps, run)) return;
+    }
+  }
 }
 
 }  // namespace
@@ -679,182 +922,28 @@ std::vector<MpEdge> mp_ideal_edges(const MpModel& model, double target_w, double
 }
 
 MpSolution mp_solve(const MpModel& model, double target_w, double target_h, const MpSolveOptions& options) {
-  if (!(model.width > 0 && model.height > 0 && target_w > 0 && target_h > 0))
-    throw std::invalid_argument("mp_solve: sizes must be positive");
-  const size_t n = model.mesh.vertices.size();
-  Problem pb;
-  pb.model = &model;
-  pb.tw = target_w;
-  pb.th = target_h;
-  pb.line_weight = options.line_weight;
-  pb.z = mp_object_scale(model, target_w, target_h, options.beta);
-  pb.object_of.assign(n, -1);
-  for (size_t o = 0; o < model.objects.size(); ++o) {
-    Borders touch;
-    for (int i : model.objects[o].vertices) {
-      if (i < 0 || static_cast<size_t>(i) >= n || pb.object_of[i] >= 0)
-        throw std::invalid_argument("mp_solve: an object vertex out of range or in two objects");
-      pb.object_of[i] = static_cast<int>(o);
-      const Borders b = borders_of(model.mesh.vertices[i], model.width, model.height);
-      touch.left |= b.left, touch.right |= b.right, touch.top |= b.top, touch.bottom |= b.bottom;
-    }
-    if ((touch.left && touch.right) || (touch.top && touch.bottom))
-      throw std::invalid_argument("mp_solve: an object touches two opposite borders");
+  const Problem pb = make_problem(model, target_w, target_h, options);  // step 1 within
+  Progress run;
+  run.stop = options.stop;
+  run.sol.object_scale = pb.z;
+  run.sol.object_scales = pb.object_scale;
+  const Layout hard = make_layout(pb, true, pb.object_scale);
+
+  if (const auto [q, poles] = warm_start(pb, options); !q.empty() && final_run(pb, hard, q, poles, run)) {
+    run.sol.warm_started = true;
+    return run.sol;
   }
-  // An edge inside one object keeps its length z·|P_i − P_j| under eq. 3: skipped [Guo09 §3.4.1].
-  for (const MpEdge& e : mp_ideal_edges(model, target_w, target_h, pb.z))
-    if (pb.object_of[e.a] < 0 || pb.object_of[e.a] != pb.object_of[e.b]) pb.edges.push_back(e);
-  for (const MpLine& line : model.lines) {
-    for (int i : line.vertices)
-      if (i < 0 || static_cast<size_t>(i) >= n) throw std::invalid_argument("mp_solve: a line vertex out of range");
-    if (line.vertices.size() < 2 || line.vertices.front() == line.vertices.back())
-      throw std::invalid_argument("mp_solve: a line needs two distinct ends");
-    const Point& a = model.mesh.vertices[line.vertices.front()];
-    const Point& b = model.mesh.vertices[line.vertices.back()];
-    pb.line_length.push_back(std::hypot(b.x - a.x, b.y - a.y));
-  }
-
-  pb.barrier = options.fold_barrier;
-  for (const Triangle& t : model.mesh.triangles) {
-    const double a =
-        0.5 * signed_area2(model.mesh.vertices[t[0]], model.mesh.vertices[t[1]], model.mesh.vertices[t[2]]);
-    if (!(a > 0)) throw std::invalid_argument("mp_solve: a source triangle is not counter-clockwise");
-    pb.stretch_area.push_back(a * (target_w / model.width) * (target_h / model.height));
-  }
-
-  MpSolution sol;
-  sol.object_scale = pb.z;
-  auto budget = [&] { return std::clamp(kSolveSteps - sol.iterations, 0, kRunSteps); };
-  NewtonSystem hard_system, soft_system;
-  const Layout hard = make_layout(pb, true, {pb.z, pb.z});
-  std::vector<Point> q, poles;
-
-  auto finish = [&](const Layout& lay, const Eigen::VectorXd& x) {
-    positions(pb, lay, x, q, poles);
-    sol.positions = q;
-    sol.poles = poles;
-    sol.rigid = lay.hard;
-    Problem plain = pb;
-    plain.barrier = 0;
-    sol.energy = evaluate(plain, lay, x, 0, nullptr, nullptr);
-    sol.folds = count_folds(model.mesh, q);
-    sol.rigidity_residual = 0;
-    for (size_t i = 0; i < n; ++i) {
-      const int o = pb.object_of[i];
-      if (o < 0) continue;
-      const Point& p = model.mesh.vertices[i];
-      const Point& po = model.objects[o].pole;
-      sol.rigidity_residual = std::max(sol.rigidity_residual, std::hypot(q[i].x - poles[o].x - pb.z * (p.x - po.x),
-                                                                         q[i].y - poles[o].y - pb.z * (p.y - po.y)));
-    }
-  };
-  // One hard run from vertex and pole positions, if they fold nothing.
-  auto try_hard = [&](const std::vector<Point>& q0, const std::vector<Point>& poles0) -> bool {
-    Eigen::VectorXd x = pack(pb, hard, q0, poles0);
-    std::vector<Point> qh, ph;
-    positions(pb, hard, x, qh, ph);
-    if (count_folds(model.mesh, qh) > 0) return false;
-    sol.energy_history.emplace_back();
-    sol.iterations += newton(pb, hard, x, 0, 1e-12, budget(), options.stop, hard_system, sol.energy_history.back());
-    finish(hard, x);
-    return true;
-  };
-
-  // The shape continuation: the objects' map goes from the uniform stretch diag(W'/W, H'/H) to
-  // eq. 3's z·I in stages, each a Newton run of the hard parametrization with that map (poles and
-  // the rest free, the barrier holding every triangle open); a stage whose map would fold the
-  // mesh as it stands is halved. Its last stage is eq. 3 itself.
-  auto shape_continuation = [&](const Extension& extend) -> bool {
-    const Point stretch{target_w / model.width, target_h / model.height};
-    auto layout_at = [&](double t) {
-      return make_layout(pb, true, {stretch.x + t * (pb.z - stretch.x), stretch.y + t * (pb.z - stretch.y)});
-    };
-    Layout lay = layout_at(0);
-    std::vector<Point> qs(n), ps(model.objects.size());
-    for (size_t i = 0; i < n; ++i) qs[i] = {model.mesh.vertices[i].x * stretch.x, model.mesh.vertices[i].y * stretch.y};
-    for (size_t o = 0; o < ps.size(); ++o) ps[o] = {model.objects[o].pole.x * stretch.x, model.objects[o].pole.y * stretch.y};
-    Eigen::VectorXd x = pack(pb, lay, qs, ps);
-    Problem staged = pb;
-    staged.barrier = kStageBarrier * pb.barrier;
-    double t = 0, dt = 0.25;
-    while (t < 1) {
-      if (dt < kLeastShapeStage || budget() == 0) return false;
-      const double t1 = std::min(1.0, t + dt);
-      const Layout next = layout_at(t1);
-      positions(pb, lay, x, qs, ps);
-      Eigen::VectorXd x1 = pack(pb, next, qs, ps);
-      std::vector<Point> q1, p1;
-      positions(pb, next, x1, q1, p1);
-      // The rest moves along with the objects (extended as in the rigid start).
-      std::vector<Point> delta(n);
-      for (size_t i = 0; i < n; ++i)
-        if (pb.object_of[i] >= 0) delta[i] = {q1[i].x - qs[i].x, q1[i].y - qs[i].y};
-      extend(true, delta);
-      for (size_t i = 0; i < n; ++i)
-        if (pb.object_of[i] < 0) q1[i] = {qs[i].x + delta[i].x, qs[i].y + delta[i].y};
-      x1 = pack(pb, next, q1, p1);
-      if (count_folds(model.mesh, q1) > 0) {
-        dt *= 0.5;
-        continue;
-      }
-      if (t1 == 1) return try_hard(q1, p1);
-      sol.energy_history.emplace_back();
-      sol.iterations += newton(staged, next, x1, 0, kStageTolerance, budget(), options.stop, hard_system, sol.energy_history.back());
-      t = t1, lay = next, x = x1, dt *= 2;
-    }
-    return false;
-  };
-
-  // Warm start: the nearby solution mapped affinely onto the new rectangle (orientation kept, the
-  // boundary exact), eq. 3 applied with the new z.
-  if (!options.warm_start.empty() && options.warm_start.size() == n && options.warm_width > 0 &&
-      options.warm_height > 0) {
-    const double kx = target_w / options.warm_width, ky = target_h / options.warm_height;
-    std::vector<Point> q0(n);
-    for (size_t i = 0; i < n; ++i) q0[i] = {options.warm_start[i].x * kx, options.warm_start[i].y * ky};
-    std::vector<Point> p0(model.objects.size());
-    for (size_t o = 0; o < model.objects.size(); ++o) {
-      // Q_O is the mean of the object's Q_i under eq. 3 (P_O is the mean of its P_i).
-      for (int i : model.objects[o].vertices) p0[o].x += q0[i].x, p0[o].y += q0[i].y;
-      const double k = 1.0 / std::max<size_t>(1, model.objects[o].vertices.size());
-      p0[o] = {p0[o].x * k, p0[o].y * k};
-    }
-    if (try_hard(q0, p0)) {
-      sol.warm_started = true;
-      return sol;
-    }
-  }
-
-  // Cold start: the uniform anisotropic stretch, fold-free.
-  const double kx = target_w / model.width, ky = target_h / model.height;
-  std::vector<Point> q0(n);
-  for (size_t i = 0; i < n; ++i) q0[i] = {model.mesh.vertices[i].x * kx, model.mesh.vertices[i].y * ky};
-  std::vector<Point> p0(model.objects.size());
-  for (size_t o = 0; o < model.objects.size(); ++o)
-    p0[o] = {model.objects[o].pole.x * kx, model.objects[o].pole.y * ky};
   if (model.objects.empty()) {
-    try_hard(q0, p0);
-    return sol;
+    const auto [q, poles] = uniform_stretch(pb);
+    final_run(pb, hard, q, poles, run);
+    return run.sol;
   }
-  const std::vector<Point> poles_r = rigid_poles(pb, hard);
+  const std::vector<Point> poles = rigid_poles(pb, hard);  // step 2
   const Extension extend(pb);
-  if (try_hard(rigid_start(pb, extend, poles_r), poles_r)) return sol;
-  if (shape_continuation(extend)) return sol;
-  // Rigidity by continuation: μ up 10× per stage (more stalls the line search against folds).
-  // Once the objects are within `rigid_enough` px of eq. 3 (ours), the remaining stages would only
-  // creep toward what the hard parametrization reaches in a few steps: substitute eq. 3 then.
-  const Layout soft = make_layout(pb, false, {pb.z, pb.z});
-  Eigen::VectorXd x = pack(pb, soft, q0, p0);
-  for (double mu = 1; mu <= 1e6; mu *= 10) {
-    sol.energy_history.emplace_back();
-    sol.iterations += newton(pb, soft, x, mu, kStageTolerance, budget(), options.stop, soft_system, sol.energy_history.back());
-    finish(soft, x);
-    if (sol.rigidity_residual <= options.rigid_enough || mu == 1e6) {
-      const std::vector<Point> qs = sol.positions, ps = sol.poles;
-      if (try_hard(qs, ps)) return sol;
-    }
-  }
-  return sol;  // the μ = 1e6 result, finished above: eq. 3 substituted would fold
+  if (final_run(pb, hard, rigid_start(pb, extend, poles), poles, run)) return run.sol;
+  if (shape_continuation(pb, extend, run)) return run.sol;  // step 3
+  penalty_continuation(pb, hard, options.rigid_enough, run);  // step 4
+  return run.sol;
 }
 
 }  // namespace zoomwarp::warp
