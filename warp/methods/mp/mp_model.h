@@ -28,7 +28,8 @@ struct MpObject {
   double area = 0;            // A_O, analysis px²
 };
 
-// A line kept straight: its vertex chain along the segment, in order (ends first and last).
+// A line kept straight: its vertices along the segment, in order (ends first and last) — chains of
+// mesh edges, with a gap wherever the line was cut back from one it crosses (mp_precompute.h).
 struct MpLine {
   std::vector<int> vertices;
 };

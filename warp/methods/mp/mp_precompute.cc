@@ -60,6 +60,7 @@ struct FeaturePoints {
   std::vector<Point> points;
   std::vector<std::array<int, 2>> constraints;
   std::vector<Segment> lines;  // the line pieces the points were placed on
+  std::vector<int> piece_line;  // per piece, which line (of the curator's, then detected) it is of
 };
 
 FeaturePoints feature_points(const MethodInput& input, double wa, double ha, double d) {
@@ -86,11 +87,12 @@ FeaturePoints feature_points(const MethodInput& input, double wa, double ha, dou
       for (const Segment& s : *set) candidates.push_back({{s.a.x * sx, s.a.y * sy}, {s.b.x * sx, s.b.y * sy}});
   }
   const double inset = d / 4;
-  for (const Segment& s : candidates) {
-    const auto c = clip_segment(s, inset, inset, wa - inset, ha - inset);
+  for (std::size_t line = 0; line < candidates.size(); ++line) {
+    const auto c = clip_segment(candidates[line], inset, inset, wa - inset, ha - inset);
     if (!c) continue;
     for (const Segment& piece : clear_pieces(*c, out.lines, d / 2, d)) {
       out.lines.push_back(piece);
+      out.piece_line.push_back(int(line));
       const int n = std::max(2, int(std::ceil(length(piece) / (d / 2))));
       for (int k = 0; k <= n; ++k) {
         if (k > 0) out.constraints.push_back({int(out.points.size()) - 1, int(out.points.size())});
@@ -277,9 +279,12 @@ MpModel build_mp_model(const MethodInput& input, const MpPrecomputeOptions& opti
   mesh_options.vertex_budget = int(std::lround(options.vertex_budget_factor * options.point_count));
   model.mesh = build_constrained_mesh(model.width, model.height, features.points, features.constraints, mesh_options);
 
-  // Each line's chain: refinement only splits constrained edges at their midpoints, which stay on
-  // the piece.
-  for (const Segment& piece : features.lines) model.lines.push_back({vertices_on_segment(model.mesh, piece)});
+  // Each line's chain: its pieces' chains in order (clear_pieces gives them from the line's start
+  // on); refinement only splits constrained edges at their midpoints, which stay on the piece.
+  for (std::size_t i = 0; i < features.lines.size(); ++i) {
+    if (i == 0 || features.piece_line[i] != features.piece_line[i - 1]) model.lines.emplace_back();
+    for (int v : vertices_on_segment(model.mesh, features.lines[i])) model.lines.back().vertices.push_back(v);
+  }
 
   add_objects(model, object_triangles(input, model.mesh, model.width, options), options);
   return model;

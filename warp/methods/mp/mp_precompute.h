@@ -12,7 +12,9 @@
 //   lines    [Guo09 §3.3.3] the curator's lines, then the detected ones (MethodInput), scaled to
 //            analysis px, clipped d/4 inside the border and cut back to their pieces ≥ d/2 from
 //            every line taken before (ours: crossing constraints cannot be meshed exactly), pieces
-//            shorter than d dropped; each kept piece is one MpLine, its vertex chain in order;
+//            shorter than d dropped; the kept pieces of one line are one MpLine, their vertex
+//            chains in order along it (ours, issue 30: held collinear as a whole, so that its
+//            pieces cannot shift against each other across the gaps where it was cut back);
 //   objects  [Guo09 §3.3.2 eq. 2] triangles whose mean saliency exceeds Sμ = 0.6 times the largest
 //            triangle mean (ours: 001's maps peak at 1, ours at 0.5–0.7 on photographs) — for
 //            saliency=gbvs instead [Kumar (004) §III-B] triangles with ≥ 50 % of their area in
