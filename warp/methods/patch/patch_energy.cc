@@ -3,6 +3,7 @@
 #include <Eigen/Sparse>
 #include <Eigen/SparseCholesky>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <set>
@@ -24,15 +25,31 @@ struct Residual {
 int x_of(int v) { return 2 * v; }
 int y_of(int v) { return 2 * v + 1; }
 
-// Bilinear weights of point p in its quad: the four corners and their weights.
-std::array<std::pair<int, double>, 4> bilinear(const PatchGrid& g, const Point& p) {
+// Point p written affinely in the triangle holding it, as patch_mesh splits each quad (along
+// its (top-left, bottom-right) diagonal) and the client draws it: the three corners and their
+// weights. A point on an edge gets the same weights from either side.
+std::array<std::pair<int, double>, 3> affine(const PatchGrid& g, const Point& p) {
   const double fx = std::clamp(p.x / g.width * g.nx, 0.0, double(g.nx)), fy = std::clamp(p.y / g.height * g.ny, 0.0, double(g.ny));
   const int i = std::min(g.nx - 1, int(fx)), j = std::min(g.ny - 1, int(fy));
   const double u = fx - i, v = fy - j;
-  return {{{g.vertex(i, j), (1 - u) * (1 - v)},
-           {g.vertex(i + 1, j), u * (1 - v)},
-           {g.vertex(i, j + 1), (1 - u) * v},
-           {g.vertex(i + 1, j + 1), u * v}}};
+  if (u >= v) return {{{g.vertex(i, j), 1 - u}, {g.vertex(i + 1, j), u - v}, {g.vertex(i + 1, j + 1), v}}};
+  return {{{g.vertex(i, j), 1 - v}, {g.vertex(i + 1, j + 1), u}, {g.vertex(i, j + 1), v - u}}};
+}
+
+// The fractions t ∈ (0, 1) at which segment l crosses an edge of the triangulation — in grid
+// units (fx, fy) = (x·nx/W, y·ny/H) the vertical sides are fx ∈ ℤ, the horizontal ones fy ∈ ℤ
+// and the diagonals fx − fy ∈ ℤ — ascending. Between two of them the warp is affine, so the
+// warped line is the polyline through the warped crossings.
+std::vector<double> crossings(const PatchGrid& g, const Segment& l) {
+  const double ax = l.a.x / g.width * g.nx, ay = l.a.y / g.height * g.ny;
+  const double bx = l.b.x / g.width * g.nx, by = l.b.y / g.height * g.ny;
+  std::vector<double> t;
+  for (const auto& [f0, f1] : {std::pair{ax, bx}, std::pair{ay, by}, std::pair{ax - ay, bx - by}}) {
+    if (f0 == f1) continue;
+    for (double k = std::floor(std::min(f0, f1)) + 1; k < std::max(f0, f1); ++k) t.push_back((k - f0) / (f1 - f0));
+  }
+  std::sort(t.begin(), t.end());
+  return t;
 }
 
 // The quad's four edges, each from its top/left end: top, bottom, left, right.
@@ -100,15 +117,12 @@ std::vector<Residual> residuals(const PatchGrid& g, const std::vector<Segment>& 
         out.push_back({{{x_of(a), 1}, {x_of(d), -1}}, 0, 0, o.orientation_weight});
         out.push_back({{{x_of(b), 1}, {x_of(c), -1}}, 0, 0, o.orientation_weight});
       }
-  // Lines (ours): samples stay at their fraction between the warped ends.
+  // Lines (ours): every crossing with a triangle edge stays at its fraction between the warped ends.
   for (const Segment& l : lines) {
-    const double len = std::hypot(l.b.x - l.a.x, l.b.y - l.a.y);
-    const int n = int(std::ceil(len / o.quad_size));
-    if (n < 2 || o.line_weight <= 0) continue;
-    const auto qa = bilinear(g, l.a), qb = bilinear(g, l.b);
-    for (int k = 1; k < n; ++k) {
-      const double t = double(k) / n;
-      const auto qk = bilinear(g, {l.a.x + t * (l.b.x - l.a.x), l.a.y + t * (l.b.y - l.a.y)});
+    if (o.line_weight <= 0) continue;
+    const auto qa = affine(g, l.a), qb = affine(g, l.b);
+    for (double t : crossings(g, l)) {
+      const auto qk = affine(g, {l.a.x + t * (l.b.x - l.a.x), l.a.y + t * (l.b.y - l.a.y)});
       for (auto coord : {x_of, y_of}) {
         Residual r;
         r.weight = o.line_weight;

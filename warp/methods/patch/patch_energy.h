@@ -19,9 +19,13 @@
 //   D_OR     [eq. 5] per quad (a, b its top edge, d, c its bottom): (y'_a − y'_b)² + (y'_d − y'_c)²
 //            + (x'_a − x'_d)² + (x'_b − x'_c)² — grid lines stay axis-aligned;
 //   lines    (ours: [Lin13] keeps structure lines through its significance only) each curator or
-//            detected line sampled every quad side; a sample p_k at fraction t_k along it,
-//            written bilinearly in its quad's corners, stays at t_k between the line's warped
-//            ends: λ·|Q(p_k) − (1 − t_k)·Q(a) − t_k·Q(b)|² — linear, so the line stays straight;
+//            detected line sampled where it crosses an edge of the triangulation the client
+//            draws (patch_mesh: quad sides and diagonals), p_k at fraction t_k along it; p_k,
+//            and the ends a, b, written affinely in their triangle's corners, so the warped line
+//            is exactly the polyline through the warped samples; each stays at t_k between the
+//            warped ends: λ·|Q(p_k) − (1 − t_k)·Q(a) − t_k·Q(b)|² — linear, and the line stays
+//            straight between samples too (held only every 20 px, it kinked between them by up
+//            to 4 screen px on a 4:1 panorama shown on a phone);
 //   ε        ε·|V' − V'_stretch|², ε = 1e-8 (ours: positive definite, still linear);
 //   boundary hard: x' = 0 / W' on the left / right column, y' = 0 / H' on the top / bottom row
 //            ([Lin13]'s soft boundary rows, re-solved until nothing moves, tend to this).
