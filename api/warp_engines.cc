@@ -37,7 +37,12 @@ std::shared_ptr<warp::Icaz> WarpEngines::load_icaz(const tiles::ImageEntry& imag
   const std::string& id = image.manifest.id;
   warp::LoadedModel loaded;
   try {
-    loaded = warp::load_image_model(image, reader_, options_.significance, {saliency, lines});
+    // Another line set than the curator's is derived from the curator's engine of the same kind,
+    // so that the version's files are read — and a damaged one rebuilt and reported — once.
+    if (lines != warp::LineSet::kCurator)
+      loaded = warp::with_line_set(icaz_now(image, saliency, warp::LineSet::kCurator)->model(), image, reader_, lines);
+    else
+      loaded = warp::load_image_model(image, reader_, options_.significance, {saliency, lines});
   } catch (const warp::ModelFileError& e) {
     if (log_)
       log_("error", "warp model damaged, curator edits unreadable",
@@ -72,7 +77,7 @@ std::shared_ptr<warp::Retargeter> WarpEngines::load_retargeter(const tiles::Imag
   // Every method reads the version's model (size, lines, significance): a default-saliency ICAZ
   // engine's, loaded once and shared — the stored one (the curator's lines), or the line set's
   // for a method that loads its lines (method_files.h load_retargeter).
-  const auto icaz = icaz_now(image, method.loads_lines ? lines : warp::LineSet::kCurator);
+  const auto icaz = icaz_now(image, warp::Saliency::kDefault, method.loads_lines ? lines : warp::LineSet::kCurator);
   warp::LoadedRetargeter loaded = warp::load_retargeter(image, reader_, icaz->model(), method, saliency, lines);
   (loaded.source == warp::MethodSource::kStored || loaded.source == warp::MethodSource::kNoFile ? read_ : computed_)++;
   const nlohmann::json fields = {{"image", image.manifest.id},
@@ -93,10 +98,11 @@ std::shared_ptr<warp::Retargeter> WarpEngines::load_retargeter(const tiles::Imag
   return std::move(loaded.engine);
 }
 
-std::shared_ptr<warp::Icaz> WarpEngines::icaz_now(const tiles::ImageEntry& image, warp::LineSet lines) {
-  const std::string key = icaz_key(image, warp::Saliency::kDefault, lines);
+std::shared_ptr<warp::Icaz> WarpEngines::icaz_now(const tiles::ImageEntry& image, warp::Saliency saliency,
+                                                  warp::LineSet lines) {
+  const std::string key = icaz_key(image, saliency, lines);
   return std::get<std::shared_ptr<warp::Icaz>>(
-      engines_.get(key, [&] { return Engine(load_icaz(image, warp::Saliency::kDefault, lines)); }).value);
+      engines_.get(key, [&] { return Engine(load_icaz(image, saliency, lines)); }).value);
 }
 
 WarpEngines::Engine WarpEngines::await(const tiles::BackgroundFlights<Engine>::Future& flight,

@@ -100,10 +100,11 @@ class WarpEngines {
   Engine engine(const std::string& key, std::function<Engine()> load, const warp::StopToken* stop);
   // Waits for a background flight as long as `stop` allows (see get()).
   Engine await(const tiles::BackgroundFlights<Engine>::Future& flight, const warp::StopToken* stop);
-  // On a background thread: the default-saliency ICAZ engine of a line set, whose model every
-  // method reads, loaded here (waiting for another background flight from a background thread
-  // could wait for itself).
-  std::shared_ptr<warp::Icaz> icaz_now(const tiles::ImageEntry& image, warp::LineSet lines);
+  // On a background thread: an ICAZ engine — the default-saliency one of a line set, whose model
+  // every method reads; the curator's one of a kind, which the other line sets derive from —
+  // loaded here (waiting for another background flight from a background thread could wait for
+  // itself).
+  std::shared_ptr<warp::Icaz> icaz_now(const tiles::ImageEntry& image, warp::Saliency saliency, warp::LineSet lines);
   std::shared_ptr<warp::Icaz> load_icaz(const tiles::ImageEntry& image, warp::Saliency saliency, warp::LineSet lines);
   std::shared_ptr<warp::Retargeter> load_retargeter(const tiles::ImageEntry& image, const warp::RetargetingMethod& method,
                                                     warp::Saliency saliency, warp::LineSet lines);

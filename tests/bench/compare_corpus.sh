@@ -56,7 +56,8 @@ for image in "${images[@]}"; do
 done
 # The overview, one row per image (the table of docs/compare.md): per method but traditional zoom,
 # in the order compared, the salient-region gain at z = 0 and 0.5, the salient anisotropy at z = 0
-# beside the uniform stretch's, the folds over every cell, precompute and z = 0.5 viewport times.
+# beside the uniform stretch's, the salient rotation p95 and the worst line bend at z = 0 (issue
+# 30), the folds over every cell, precompute and z = 0.5 viewport times.
 overview='
 def fixed(d): if . == null then "n/a" else (. * pow(10; d) | round | tostring) as $s
   | if d == 0 then $s else ("0" * ([0, d + 1 - ($s | length)] | max) + $s) as $p
@@ -69,6 +70,8 @@ def cell(m; z; f): [.rows[] | select(.method == m and .zoom == z) | f][0];
       ([$ms[] as $m | $r | cell($m; 0.5; .scale_gain) | fixed(2)] | join(" / ")),
       ((if $a < 1 then 1 / $a else $a end) | fixed(2)) + " · "
         + ([$ms[] as $m | $r | cell($m; 0; .anisotropy_salient) | fixed(2)] | join(" / ")),
+      ([$ms[] as $m | $r | cell($m; 0; .rotation_p95) | fixed(1)] | join(" / ")),
+      ([$ms[] as $m | $r | cell($m; 0; .line_px) | fixed(2)] | join(" / ")),
       ([$r.rows[] | .folds // 0] | add | tostring),
       ([$ms[] as $m | $r.methods[] | select(.name == $m) | .precompute_ms | fixed(0)] | join(" / ")),
       ([$ms[] as $m | $r | cell($m; 0.5; .viewport_ms) | fixed(0)] | join(" / "))] | join(" | ")) + " |"'
@@ -79,10 +82,10 @@ if [ ${#metrics[@]} -gt 0 ]; then
     echo
     echo "## Overview"
     echo
-    echo "Per method ($methods): gain z=0 | gain z=0.5 | salient anisotropy z=0 (the uniform stretch's · each method's) | folds, all cells | precompute ms | viewport ms z=0.5"
+    echo "Per method ($methods): gain z=0 | gain z=0.5 | salient anisotropy z=0 (the uniform stretch's · each method's) | salient rotation p95 z=0 (°) | worst line bend z=0 (px, detected and curator lines ≥ 8 px) | folds, all cells | precompute ms | viewport ms z=0.5"
     echo
-    echo "| image | size | gain z=0 | gain z=0.5 | aniso. z=0: stretch · methods | folds | precompute ms | viewport ms z=0.5 |"
-    echo "|---|---|---|---|---|---|---|---|"
+    echo "| image | size | gain z=0 | gain z=0.5 | aniso. z=0: stretch · methods | rotation p95 z=0 | line px z=0 | folds | precompute ms | viewport ms z=0.5 |"
+    echo "|---|---|---|---|---|---|---|---|---|---|"
     for m in "${metrics[@]}"; do jq -r "$overview" "$m"; done
   } >> "$summary"
 fi

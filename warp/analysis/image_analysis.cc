@@ -287,16 +287,24 @@ LoadedModel load_image_model(const tiles::ImageEntry& image, tiles::PyramidReade
     if (!map.damaged.empty() && loaded.source == ModelSource::kStored)
       loaded = {std::move(loaded.model), ModelSource::kRebuiltWithEdits, kGbvsFile, map.damaged};
   }
-  if (variant.lines == LineSet::kAuto) {
+  if (variant.lines == LineSet::kCurator) return loaded;
+  LoadedModel lined = with_line_set(std::move(loaded.model), image, reader, variant.lines);
+  lined.source = loaded.source, lined.damaged_file = loaded.damaged_file, lined.reason = loaded.reason;
+  return lined;
+}
+
+LoadedModel with_line_set(ImageModel model, const tiles::ImageEntry& image, tiles::PyramidReader& reader,
+                          LineSet lines) {
+  LoadedModel out{std::move(model), ModelSource::kStored, "", ""};
+  if (lines == LineSet::kAuto) {
     // [ICAZ §4.3] The detected lines [Guo09 §3.3.3] constrain the warp like the curator's: the
     // coarsest mesh, the forest and its node means are rebuilt with them, in memory.
-    const auto lines = auto_line_set(loaded.model, suggested_lines(image, reader, loaded.model),
-                                     &loaded.unmeshable_suggestions);
-    set_lines(loaded.model, lines);
-  } else if (variant.lines == LineSet::kNone && !loaded.model.lines.empty()) {
-    set_lines(loaded.model, {});
+    const auto set = auto_line_set(out.model, suggested_lines(image, reader, out.model), &out.unmeshable_suggestions);
+    set_lines(out.model, set);
+  } else if (lines == LineSet::kNone && !out.model.lines.empty()) {
+    set_lines(out.model, {});
   }
-  return loaded;
+  return out;
 }
 
 void validate(const ModelEdit& edit) {

@@ -114,6 +114,12 @@ struct ModelVariant {
 LoadedModel load_image_model(const tiles::ImageEntry& image, tiles::PyramidReader& reader,
                              const SignificanceOptions& significance = {}, const ModelVariant& variant = {});
 
+// `model` (a version's model with the curator's lines, as load_image_model gives it for kCurator)
+// with the line set `lines` instead: the same rebuild as load_image_model's, on a copy, so that a
+// server derives every line set from the one model it read (a damaged file is rebuilt, and
+// reported, once). kCurator gives the copy as it is.
+LoadedModel with_line_set(ImageModel model, const tiles::ImageEntry& image, tiles::PyramidReader& reader, LineSet lines);
+
 // An edit over one of warp/core/limits.h's limits; `limit` names which, as api/ reports it
 // ("too_many_lines", "too_many_regions", "too_many_points", "too_many_stored_regions").
 class LimitExceeded : public std::invalid_argument {

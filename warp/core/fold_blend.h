@@ -17,8 +17,9 @@ namespace zoomwarp::warp {
 std::vector<int> folded_triangles(const Mesh& mesh, const std::vector<Point>& positions);
 
 // Replaces `positions` by the blend with the smallest t ∈ (0, 1] (20 bisection steps) that folds
-// nothing, and returns t; 0 (positions unchanged) if nothing folds. `fold_free` must fold
-// nothing. Checks `stop` between steps (throws Stopped).
+// nothing — every triangle keeping at least a thousandth of its area under `fold_free`, so that
+// none is left a sliver a rounding could turn over — and returns t; 0 (positions unchanged) if
+// nothing folds. `fold_free` must fold nothing. Checks `stop` between steps (throws Stopped).
 double blend_out_folds(const Mesh& mesh, std::vector<Point>& positions, const std::vector<Point>& fold_free,
                        const StopToken* stop = nullptr);
 
