@@ -1,7 +1,8 @@
 // method=mp, the per-target half: MpModel × target (W', H') → warped vertex positions, by
 // minimising [Guo09 eq. 15] — the stretch energy toward ideal edge lengths [Guo09 eqs 8–10], the
 // line term in cross-product form (eq. 7 corrected: printed with +b for −b, and its slope form
-// cannot hold a vertical line), rigid objects through their poles [Guo09 eq. 3] and the hard boundary [Guo09
+// cannot hold a vertical line) over each line's points, mesh vertices or (ours, issue 30) points
+// between them written barycentrically in their source triangles, rigid objects through their poles [Guo09 eq. 3] and the hard boundary [Guo09
 // eq. 1] — with Newton [Guo09 §3.4.2] on a per-edge PSD-projected Hessian and a line search that
 // never lets a triangle flip.
 //
@@ -138,7 +139,7 @@ MpSym2 mp_edge_hessian(Point d, double l);
 
 // The solve above. Preconditions (the precompute guarantees them; std::invalid_argument
 // otherwise): positive sizes, boundary vertices on the rectangle, CCW triangles, no vertex in two
-// objects, lines with two distinct ends.
+// objects, lines of points with vertices in range, finite weights and two distinct ends.
 MpSolution mp_solve(const MpModel& model, double target_w, double target_h, const MpSolveOptions& options = {});
 
 }  // namespace zoomwarp::warp
