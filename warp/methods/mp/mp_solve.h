@@ -87,7 +87,7 @@ struct MpSolveOptions {
   // corpus photographs; ρ = 10 / 30 / 100 left at most 18.8 / 15.4 / 12.2° (the 4:1 panorama on
   // a 9:16 screen), ≤ 6.8° on every other photograph at ρ = 100, the gain over traditional zoom
   // within 10 % except on the two panoramas (−12 %, −15 %).
-  double rotation_weight = 100;
+  double rotation_weight = 300;
   // The rigidity residual (px) at which the continuation hands over to the hard parametrization.
   double rigid_enough = 0.5;
   // The positions of every mesh vertex for another target (a cached solve of the same model), or
