@@ -210,18 +210,25 @@ void expect_valid_model(const warp::MpModel& m) {
     }
   EXPECT_EQ(m.row_object_length.size(), std::size_t(std::lround(m.height)));
   EXPECT_EQ(m.column_object_length.size(), std::size_t(std::lround(m.width)));
-  // Every line lies on its segment, in order along it: chains of mesh edges, with a gap where it
-  // was cut back from a line it crosses.
-  const auto edges = edges_of(m.mesh);
+  // Every line's points lie on its segment, in order along it, each written in a triangle holding
+  // it (weights ≥ 0 up to rounding, summing to 1).
   for (const warp::MpLine& l : m.lines) {
-    ASSERT_GE(l.vertices.size(), 3u);
-    const Point a = m.mesh.vertices[l.vertices.front()], b = m.mesh.vertices[l.vertices.back()];
-    for (std::size_t k = 0; k < l.vertices.size(); ++k) {
-      const Point p = m.mesh.vertices[l.vertices[k]];
+    ASSERT_GE(l.points.size(), 2u);
+    const Point a = position(l.points.front(), m.mesh.vertices), b = position(l.points.back(), m.mesh.vertices);
+    ASSERT_GT(std::hypot(b.x - a.x, b.y - a.y), 0) << "two distinct ends";
+    for (std::size_t k = 0; k < l.points.size(); ++k) {
+      const warp::MpLinePoint& point = l.points[k];
+      for (int i = 0; i < 3; ++i) {
+        ASSERT_GE(point.vertices[i], 0);
+        ASSERT_LT(point.vertices[i], int(m.mesh.vertices.size()));
+        EXPECT_GE(point.weights[i], -1e-9);
+      }
+      EXPECT_NEAR(point.weights[0] + point.weights[1] + point.weights[2], 1, 1e-9);
+      const Point p = position(point, m.mesh.vertices);
       EXPECT_LT(std::abs((b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x)) / std::hypot(b.x - a.x, b.y - a.y), 1e-6);
       if (k > 0) {
-        const Point q = m.mesh.vertices[l.vertices[k - 1]];
-        EXPECT_GT((p.x - q.x) * (b.x - a.x) + (p.y - q.y) * (b.y - a.y), 0) << "in order along the line, vertex " << k;
+        const Point q = position(l.points[k - 1], m.mesh.vertices);
+        EXPECT_GE((p.x - q.x) * (b.x - a.x) + (p.y - q.y) * (b.y - a.y), -1e-9) << "in order along the line, point " << k;
       }
     }
   }
@@ -341,36 +348,61 @@ TEST(MpPrecompute, TablesAreTheObjectMasks) {
   EXPECT_NEAR(total, area, 0.02 * area);  // pixel centres against exact areas
 }
 
-TEST(MpPrecompute, LinesAreConstrainedChains) {
+TEST(MpPrecompute, LinesAreConstrainedChainsHeldWhole) {
   // Image px at half the analysis resolution: the lines must be scaled.
   Input in(800, 500, 0.5);
-  in.model.lines = {{{100, 600}, {1500, 400}}};                       // the curator's
-  in.detected = {{{200, 100}, {200, 900}}, {{300, 610}, {1400, 410}}};  // the second along the first
+  in.model.lines = {{{100, 600}, {1500, 400}}};                        // the curator's
+  in.detected = {{{200, -100}, {200, 900}}, {{300, 610}, {1400, 410}}};  // the second along the first
   const warp::MpModel m = warp::build_mp_model(in.get());
-  expect_valid_model(m);  // every line a straight chain of mesh edges
-  // The vertical line is cut back where it crosses the curator's, and stays one line (held
-  // collinear across the gap); the third, along the curator's, has nothing clear of it.
-  ASSERT_EQ(m.lines.size(), 2u);
+  expect_valid_model(m);
+  // Every line is held over its whole segment clipped to the image (issue 30): the vertical one
+  // from the top border, across the gap where its chain is cut back from the curator's; the
+  // third, along the curator's, with no chain at all (nothing of it is clear of the curator's).
+  ASSERT_EQ(m.lines.size(), 3u);
   const double d = std::sqrt(800.0 * 500 / 300);
   const auto edges = edges_of(m.mesh);
+  const auto is_vertex = [](const warp::MpLinePoint& p) { return p.vertices[0] == p.vertices[1] && p.vertices[1] == p.vertices[2]; };
   int gaps = 0;
-  for (const warp::MpLine& l : m.lines)
-    for (std::size_t k = 1; k < l.vertices.size(); ++k) {
-      const Point p = m.mesh.vertices[l.vertices[k]], q = m.mesh.vertices[l.vertices[k - 1]];
-      if (edges.count(std::minmax(l.vertices[k - 1], l.vertices[k]))) {
-        EXPECT_LE(std::hypot(p.x - q.x, p.y - q.y), d / 2 + 1e-9) << "line points every d/2 [Guo09 §3.2]";
-      } else {
-        ++gaps;
-        EXPECT_GE(std::hypot(p.x - q.x, p.y - q.y), d) << "a gap is the crossing, d/2 clear on either side";
+  std::vector<int> chain_points(m.lines.size(), 0);
+  for (std::size_t l = 0; l < m.lines.size(); ++l) {
+    const auto& points = m.lines[l].points;
+    int previous = -1;  // the last mesh vertex of the line so far
+    for (std::size_t k = 0; k < points.size(); ++k) {
+      const Point p = position(points[k], m.mesh.vertices);
+      if (k > 0) {
+        const Point q = position(points[k - 1], m.mesh.vertices);
+        EXPECT_LE(std::hypot(p.x - q.x, p.y - q.y), d / 4 + 1e-9) << "points every ≤ d/4, line " << l;
       }
+      if (!is_vertex(points[k])) continue;
+      ++chain_points[l];
+      const int v = points[k].vertices[0];
+      if (previous >= 0) {
+        const Point q = m.mesh.vertices[previous];
+        if (edges.count(std::minmax(previous, v))) {
+          EXPECT_LE(std::hypot(p.x - q.x, p.y - q.y), d / 2 + 1e-9) << "chains' points every d/2 [Guo09 §3.2]";
+        } else {
+          ++gaps;
+          EXPECT_GE(std::hypot(p.x - q.x, p.y - q.y), d) << "a gap is the crossing, d/2 clear on either side";
+        }
+      }
+      previous = v;
     }
+  }
   EXPECT_EQ(gaps, 1) << "one crossing";
-  // The curator's line, scaled to analysis px and clipped d/4 inside the border.
-  const Point a = m.mesh.vertices[m.lines[0].vertices.front()], b = m.mesh.vertices[m.lines[0].vertices.back()];
-  EXPECT_NEAR(a.x, 50, 1e-9);
-  EXPECT_NEAR(a.y, 300, 1e-9);
-  EXPECT_NEAR(b.x, 750, 1e-9);
-  EXPECT_NEAR(b.y, 200, 1e-9);
+  EXPECT_GT(chain_points[0], 0);
+  EXPECT_GT(chain_points[1], 0);
+  EXPECT_EQ(chain_points[2], 0) << "the third line is held by its samples alone";
+  // The lines' ends: scaled to analysis px and clipped to the image, not inset.
+  const auto expect_ends = [&](const warp::MpLine& l, Point a, Point b) {
+    const Point p = position(l.points.front(), m.mesh.vertices), q = position(l.points.back(), m.mesh.vertices);
+    EXPECT_NEAR(p.x, a.x, 1e-9);
+    EXPECT_NEAR(p.y, a.y, 1e-9);
+    EXPECT_NEAR(q.x, b.x, 1e-9);
+    EXPECT_NEAR(q.y, b.y, 1e-9);
+  };
+  expect_ends(m.lines[0], {50, 300}, {750, 200});
+  expect_ends(m.lines[1], {100, 0}, {100, 450});
+  expect_ends(m.lines[2], {150, 305}, {700, 205});
 }
 
 TEST(MpPrecompute, DegenerateImagesGiveATinyValidMesh) {
@@ -439,8 +471,8 @@ void write_figure(const std::string& path, const warp::MpModel& m, const tiles::
     for (int k = 0; k < 3; ++k) segment(m.mesh.vertices[t[k]], m.mesh.vertices[t[(k + 1) % 3]], {255, 255, 255});
   }
   for (const warp::MpLine& l : m.lines)
-    for (std::size_t k = 1; k < l.vertices.size(); ++k)
-      segment(m.mesh.vertices[l.vertices[k - 1]], m.mesh.vertices[l.vertices[k]], {255, 0, 0});
+    for (std::size_t k = 1; k < l.points.size(); ++k)
+      segment(position(l.points[k - 1], m.mesh.vertices), position(l.points[k], m.mesh.vertices), {255, 0, 0});
   for (const warp::MpObject& o : m.objects)
     for (int dy = -4; dy <= 4; ++dy)
       for (int dx = -4; dx <= 4; ++dx) paint(int(o.pole.x) + dx, int(o.pole.y) + dy, {0, 0, 255}, 1);
@@ -470,7 +502,7 @@ TEST(MpPrecompute, Samples) {
                                                      {m.mesh.vertices[t[1]].x / f, m.mesh.vertices[t[1]].y / f},
                                                      {m.mesh.vertices[t[2]].x / f, m.mesh.vertices[t[2]].y / f}));
       std::size_t chain = 0;
-      for (const auto& l : m.lines) chain += l.vertices.size();
+      for (const auto& l : m.lines) chain += l.points.size();
       std::printf("%-32s %-7s %4dx%-4d %4zu vertices %4zu triangles, min angle %5.2f°, %zu objects, %zu lines "
                   "(%zu vertices) of %zu detected, largest triangle mean %.2f, %.1f ms\n",
                   file, std::string(warp::saliency_name(kind)).c_str(), small.width, small.height,

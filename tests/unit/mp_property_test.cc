@@ -161,7 +161,11 @@ double object_residual(const MpModel& m, const warp::MpObject& o, const std::vec
 
 double largest_bend(const MpModel& m, const std::vector<Point>& q) {
   double worst = 0;
-  for (const warp::MpLine& l : m.lines) worst = std::max(worst, warp::chord_deviation(at(q, l.vertices)));
+  for (const warp::MpLine& l : m.lines) {
+    std::vector<Point> points;
+    for (const warp::MpLinePoint& p : l.points) points.push_back(warp::position(p, q));
+    worst = std::max(worst, warp::chord_deviation(points));
+  }
   return worst;
 }
 

@@ -18,6 +18,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "warp/core/uniform_zoom.h"
 #include "warp/methods/mp/mp_model.h"
 
 namespace zoomwarp {
@@ -48,6 +49,8 @@ MpModel grid(double w, double h, int nx, int ny) {
 }
 
 int grid_id(int nx, int i, int j) { return j * (nx + 1) + i; }
+
+warp::MpLinePoint vertex_point(int i) { return {{i, i, i}, {1, 0, 0}}; }
 
 // Adds the object made of the grid's vertices in columns i0…i1 and rows j0…j1, with its tables.
 void add_object(MpModel& m, int nx, int ny, int i0, int i1, int j0, int j1) {
@@ -80,9 +83,21 @@ MpModel object_model() {
 MpModel line_model() {
   MpModel m = object_model();
   warp::MpLine line;
-  for (int k = 0; k <= 6; ++k) line.vertices.push_back(grid_id(16, 9 + k, 1 + k));
+  for (int k = 0; k <= 6; ++k) line.points.push_back(vertex_point(grid_id(16, 9 + k, 1 + k)));
   m.lines.push_back(line);
   return m;
+}
+
+// The line from a to b written as points every `step` px, each in the triangle holding it.
+warp::MpLine located_line(const MpModel& m, Point a, Point b, double step) {
+  warp::MpLine line;
+  const int n = static_cast<int>(std::ceil(std::hypot(b.x - a.x, b.y - a.y) / step));
+  for (int k = 0; k <= n; ++k) {
+    const warp::MeshPoint where = warp::locate_in(m.mesh, {a.x + (b.x - a.x) * k / n, a.y + (b.y - a.y) * k / n});
+    const auto& t = m.mesh.triangles[where.triangle];
+    line.points.push_back({{t[0], t[1], t[2]}, where.barycentric});
+  }
+  return line;
 }
 
 // Area-preserving targets at aspects 1:4 … 4:1.
@@ -131,14 +146,17 @@ Fit similarity_fit(const MpModel& m, const warp::MpObject& o, const std::vector<
 }
 
 // A line's largest distance from the chord of its warped ends, px.
-double bend(const MpModel& m, const std::vector<Point>& q) {
-  const auto& c = m.lines[0].vertices;
-  const Point a = q[c.front()], b = q[c.back()];
+double bend(const warp::MpLine& line, const std::vector<Point>& q) {
+  const Point a = warp::position(line.points.front(), q), b = warp::position(line.points.back(), q);
   const double len = std::hypot(b.x - a.x, b.y - a.y);
   double worst = 0;
-  for (int i : c) worst = std::max(worst, std::abs((b.x - a.x) * (q[i].y - a.y) - (b.y - a.y) * (q[i].x - a.x)) / len);
+  for (const warp::MpLinePoint& point : line.points) {
+    const Point p = warp::position(point, q);
+    worst = std::max(worst, std::abs((b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x)) / len);
+  }
   return worst;
 }
+double bend(const MpModel& m, const std::vector<Point>& q) { return bend(m.lines[0], q); }
 
 TEST(MpSolve, IdentityAtTheImagesOwnSize) {
   for (const MpModel& m : {grid(320, 240, 16, 12), object_model(), line_model()}) {
@@ -282,7 +300,7 @@ TEST(MpSolve, ObjectsSharingRowsOutsideTheirMasksFitSideBySideAndStayRigid) {
   for (int v : b.vertices) b.pole = {b.pole.x + m.mesh.vertices[v].x, b.pole.y + m.mesh.vertices[v].y};
   b.pole = {b.pole.x / b.vertices.size(), b.pole.y / b.vertices.size()};
   warp::MpLine horizon;
-  for (int i = 0; i <= 16; ++i) horizon.vertices.push_back(grid_id(16, i, 5));
+  for (int i = 0; i <= 16; ++i) horizon.points.push_back(vertex_point(grid_id(16, i, 5)));
   m.lines.push_back(horizon);
   for (double aspect : {0.25, 1.0 / 3, 0.5, 9.0 / 16}) {
     const double tw = std::sqrt(m.width * m.height * aspect), th = std::sqrt(m.width * m.height / aspect);
@@ -329,6 +347,25 @@ TEST(MpSolve, LineStraighterWithTheLineTermThanWithout) {
                 kept);
     EXPECT_GT(bent, 0.1) << "the object must bend the line when nothing holds it";
     EXPECT_LT(kept, bent) << tw << " x " << th;
+  }
+}
+
+// Issue 30: a line held by points inside triangles, not by mesh vertices, stays straight over its
+// whole length — measured every pixel along it, between the points the term holds.
+TEST(MpSolve, LineThroughTrianglesStaysStraight) {
+  MpModel m = object_model();
+  const Point a{170, 10}, b{310, 230};  // beside the object, across cells and their diagonals
+  m.lines.push_back(located_line(m, a, b, 10));
+  const warp::MpLine measured = located_line(m, a, b, 1);
+  for (auto [tw, th] : {std::pair{160.0, 480.0}, std::pair{480.0, 160.0}, std::pair{138.6, 554.3}}) {
+    MpSolveOptions without;
+    without.line_weight = 0;
+    const double bent = bend(measured, warp::mp_solve(m, tw, th, without).positions);
+    const double kept = bend(measured, warp::mp_solve(m, tw, th).positions);
+    std::printf("[ line     ] %.1f x %.1f: across triangles, bend %.4f px with lambda = 0, %.4f px with the default\n",
+                tw, th, bent, kept);
+    EXPECT_GT(bent, 1) << "the object must bend the line when nothing holds it";
+    EXPECT_LE(kept, 0.5) << tw << " x " << th;
   }
 }
 

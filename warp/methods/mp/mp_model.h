@@ -3,17 +3,18 @@
 // shared by the two halves of the method:
 //
 //   mp_precompute.h   MethodInput → MpModel: feature points, the constrained Delaunay mesh
-//                     (meshing/), rigid objects, line chains, object-length tables; serialised
+//                     (meshing/), rigid objects, lines, object-length tables; serialised
 //                     as mp.<saliency>.bin
 //   mp_solve.h        MpModel × target size → warped vertex positions: the stretch energy with
 //                     ideal edge lengths [Guo09 eqs 8–10, 15], rigid objects [eq. 3], the line
-//                     term (cross-product form, METHODS §1), Newton with a per-edge PSD-projected
-//                     Hessian and a fold-free line search
+//                     term (cross-product form, METHODS §1; ours: over the whole line), Newton
+//                     with a per-edge PSD-projected Hessian and a fold-free line search
 //
 // Everything is in analysis pixels (the analysis image, long side ≤ 1024 px); the Retargeter
 // scales by 1/σa (every energy is homogeneous of degree 2, so this is exact).
 #pragma once
 
+#include <array>
 #include <vector>
 
 #include "warp/core/mesh.h"
@@ -28,11 +29,30 @@ struct MpObject {
   double area = 0;            // A_O, analysis px²
 };
 
-// A line kept straight: its vertices along the segment, in order (ends first and last) — chains of
-// mesh edges, with a gap wherever the line was cut back from one it crosses (mp_precompute.h).
-struct MpLine {
-  std::vector<int> vertices;
+// A point of a line, written in the source triangle that holds it: Q(p) = Σ_k weights[k]·Q_{vertices[k]},
+// the piecewise-affine warp at p (ours, issue 30). A mesh vertex of the line is {i, i, i}, {1, 0, 0}.
+struct MpLinePoint {
+  std::array<int, 3> vertices{};
+  std::array<double, 3> weights{};
 };
+
+// A line kept straight: points along its whole segment, in order, its two ends first and last —
+// samples every ≤ d/4 and the vertices of its chains of mesh edges, which stop short of the border
+// and of the lines it crosses (mp_precompute.h). Ours, issue 30: the points between the chains,
+// written barycentrically, hold the line where no edge does.
+struct MpLine {
+  std::vector<MpLinePoint> points;
+};
+
+// Where a line point lands for the vertex positions q.
+inline Point position(const MpLinePoint& p, const std::vector<Point>& q) {
+  Point r;
+  for (int k = 0; k < 3; ++k) {
+    r.x += p.weights[k] * q[std::size_t(p.vertices[k])].x;
+    r.y += p.weights[k] * q[std::size_t(p.vertices[k])].y;
+  }
+  return r;
+}
 
 struct MpModel {
   double width = 0, height = 0;  // the analysis image, Wa × Ha

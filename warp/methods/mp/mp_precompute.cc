@@ -10,6 +10,7 @@
 #include <unordered_map>
 #include <opencv2/imgproc.hpp>
 
+#include "warp/core/triangle_locator.h"
 #include "warp/lines/line_detection.h"
 #include "warp/meshing/constrained_mesh.h"
 #include "warp/methods/model_bytes.h"
@@ -61,6 +62,7 @@ struct FeaturePoints {
   std::vector<std::array<int, 2>> constraints;
   std::vector<Segment> lines;  // the line pieces the points were placed on
   std::vector<int> piece_line;  // per piece, which line (of the curator's, then detected) it is of
+  std::vector<std::optional<Segment>> whole;  // per line, clipped to the image (none: outside it)
 };
 
 FeaturePoints feature_points(const MethodInput& input, double wa, double ha, double d) {
@@ -88,6 +90,7 @@ FeaturePoints feature_points(const MethodInput& input, double wa, double ha, dou
   }
   const double inset = d / 4;
   for (std::size_t line = 0; line < candidates.size(); ++line) {
+    out.whole.push_back(clip_segment(candidates[line], 0, 0, wa, ha));
     const auto c = clip_segment(candidates[line], inset, inset, wa - inset, ha - inset);
     if (!c) continue;
     for (const Segment& piece : clear_pieces(*c, out.lines, d / 2, d)) {
@@ -263,6 +266,34 @@ void add_objects(MpModel& model, const std::vector<bool>& salient, const MpPreco
       }
 }
 
+// One line's points (mp_model.h): its ends and samples every ≤ d/4 along `whole`, located in the
+// mesh, and the vertices of its chains `pieces` (clear_pieces gives them from the line's start on;
+// refinement only splits constrained edges at their midpoints, which stay on the piece), all in
+// order along it.
+MpLine line_points(const Mesh& mesh, const TriangleLocator& locator, const Segment& whole,
+                   const std::vector<Segment>& pieces, double d) {
+  const Point e{whole.b.x - whole.a.x, whole.b.y - whole.a.y};
+  const double len2 = e.x * e.x + e.y * e.y;
+  std::vector<std::pair<double, MpLinePoint>> along;  // (parameter along `whole`, point)
+  const int n = std::max(1, int(std::ceil(length(whole) / (d / 4))));
+  for (int k = 0; k <= n; ++k) {
+    // The ends exactly, so that the line's ends are its segment's.
+    const Point p = k == n ? whole.b : Point{whole.a.x + e.x * k / n, whole.a.y + e.y * k / n};
+    const MeshPoint where = locator.find(p);
+    const Triangle& t = mesh.triangles[std::size_t(where.triangle)];
+    along.push_back({double(k) / n, {{t[0], t[1], t[2]}, where.barycentric}});
+  }
+  for (const Segment& piece : pieces)
+    for (int v : vertices_on_segment(mesh, piece)) {
+      const Point& p = mesh.vertices[std::size_t(v)];
+      along.push_back({((p.x - whole.a.x) * e.x + (p.y - whole.a.y) * e.y) / len2, {{v, v, v}, {1, 0, 0}}});
+    }
+  std::stable_sort(along.begin(), along.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  MpLine line;
+  for (const auto& [t, point] : along) line.points.push_back(point);
+  return line;
+}
+
 }  // namespace
 
 MpModel build_mp_model(const MethodInput& input, const MpPrecomputeOptions& options) {
@@ -279,11 +310,15 @@ MpModel build_mp_model(const MethodInput& input, const MpPrecomputeOptions& opti
   mesh_options.vertex_budget = int(std::lround(options.vertex_budget_factor * options.point_count));
   model.mesh = build_constrained_mesh(model.width, model.height, features.points, features.constraints, mesh_options);
 
-  // Each line's chain: its pieces' chains in order (clear_pieces gives them from the line's start
-  // on); refinement only splits constrained edges at their midpoints, which stay on the piece.
-  for (std::size_t i = 0; i < features.lines.size(); ++i) {
-    if (i == 0 || features.piece_line[i] != features.piece_line[i - 1]) model.lines.emplace_back();
-    for (int v : vertices_on_segment(model.mesh, features.lines[i])) model.lines.back().vertices.push_back(v);
+  // Every line inside the image, also one that clear_pieces left nothing of: its whole segment.
+  const TriangleLocator locator(model.mesh);
+  for (std::size_t line = 0; line < features.whole.size(); ++line) {
+    const std::optional<Segment>& whole = features.whole[line];
+    if (!whole || length(*whole) <= 0) continue;
+    std::vector<Segment> pieces;
+    for (std::size_t i = 0; i < features.lines.size(); ++i)
+      if (features.piece_line[i] == int(line)) pieces.push_back(features.lines[i]);
+    model.lines.push_back(line_points(model.mesh, locator, *whole, pieces, d));
   }
 
   add_objects(model, object_triangles(input, model.mesh, model.width, options), options);
@@ -307,8 +342,11 @@ std::string mp_model_bytes(const MpModel& model) {
   }
   out.put_count(model.lines.size());
   for (const MpLine& l : model.lines) {
-    out.put_count(l.vertices.size());
-    for (int v : l.vertices) out.put(std::int32_t(v));
+    out.put_count(l.points.size());
+    for (const MpLinePoint& p : l.points) {
+      for (int v : p.vertices) out.put(std::int32_t(v));
+      for (double w : p.weights) out.put(w);
+    }
   }
   out.put_count(model.row_object_length.size());
   for (double v : model.row_object_length) out.put(v);
@@ -337,8 +375,11 @@ MpModel parse_mp_model(std::string_view bytes) {
   }
   m.lines.resize(in.count(4));
   for (MpLine& l : m.lines) {
-    l.vertices.resize(in.count(4));
-    for (int& v : l.vertices) v = in.index(nv);
+    l.points.resize(in.count(36));
+    for (MpLinePoint& p : l.points) {
+      for (int& v : p.vertices) v = in.index(nv);
+      for (double& w : p.weights) w = in.number();
+    }
   }
   m.row_object_length.resize(in.count(8));
   for (double& v : m.row_object_length) v = in.number();

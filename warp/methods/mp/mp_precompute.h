@@ -10,11 +10,13 @@
 //            refined to a 20° minimum angle within a budget of 1.3·N vertices (ours: slivers make
 //            the Newton solve ill-conditioned) — meshing/constrained_mesh.h;
 //   lines    [Guo09 §3.3.3] the curator's lines, then the detected ones (MethodInput), scaled to
-//            analysis px, clipped d/4 inside the border and cut back to their pieces ≥ d/2 from
-//            every line taken before (ours: crossing constraints cannot be meshed exactly), pieces
-//            shorter than d dropped; the kept pieces of one line are one MpLine, their vertex
-//            chains in order along it (ours, issue 30: held collinear as a whole, so that its
-//            pieces cannot shift against each other across the gaps where it was cut back);
+//            analysis px; as constraints of the mesh, clipped d/4 inside the border and cut back
+//            to their pieces ≥ d/2 from every line taken before (ours: crossing constraints cannot
+//            be meshed exactly), pieces shorter than d dropped. Each line inside the image is one
+//            MpLine over its whole segment clipped to the image (ours, issue 30: what was cut
+//            away bent 2.5–10 px on the samples): its ends and samples every ≤ d/4, each written
+//            barycentrically in the triangle holding it, and its pieces' vertices, in order along
+//            it — also a line clear_pieces left nothing of;
 //   objects  [Guo09 §3.3.2 eq. 2] triangles whose mean saliency exceeds Sμ = 0.6 times the largest
 //            triangle mean (ours: 001's maps peak at 1, ours at 0.5–0.7 on photographs) — for
 //            saliency=gbvs instead [Kumar (004) §III-B] triangles with ≥ 50 % of their area in

@@ -78,7 +78,7 @@ std::size_t MpRetargeting::memory_bytes() {
   std::size_t bytes = 2 * mesh_bytes(mesh_) +
                       (model_.row_object_length.capacity() + model_.column_object_length.capacity()) * sizeof(double);
   for (const MpObject& o : model_.objects) bytes += o.vertices.capacity() * sizeof(int);
-  for (const MpLine& l : model_.lines) bytes += l.vertices.capacity() * sizeof(int);
+  for (const MpLine& l : model_.lines) bytes += l.points.capacity() * sizeof(MpLinePoint);
   return bytes + cache_.bytes();
 }
 
@@ -89,9 +89,9 @@ const RetargetingMethod& mp_method() {
                  "per-row and per-column lengths, detected and curator lines kept straight, then zoomed uniformly",
       .zoom = kZoomIntoTheRetargetedImage,
       .has_mesh = true,
-      .lines = "lines are chains of mesh edges held collinear by [Guo09 eq. 7]'s structure term (cross-product "
-               "form, weight 1e5), cut back where they cross",
-      .magic = {'Z', 'W', 'M', 'P', 'M', 'D', 'L', '2'},
+      .lines = "lines are held collinear over their whole length by [Guo09 eq. 7]'s structure term (cross-product "
+               "form, weight 1e5), as chains of mesh edges cut back where they cross and points between them",
+      .magic = {'Z', 'W', 'M', 'P', 'M', 'D', 'L', '3'},
       .reads_lines = true,
       .precompute = [](const MethodInput& input) { return mp_model_bytes(build_mp_model(input)); },
       .precompute_bytes_per_pixel = 4,  // under 2 MB at 996×934

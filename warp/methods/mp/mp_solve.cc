@@ -141,31 +141,39 @@ double evaluate(const Problem& pb, const Layout& lay, const Eigen::VectorXd& x, 
     scatter<4>({va[0], va[1], vb[0], vb[1]}, ge, H, grad, hess);
   }
 
-  // Lines (cross-product form of eq. 7): r = cross(B − A, Q_i − A)/L, Gauss–Newton Hessian 2λJJᵀ.
+  // Lines (cross-product form of eq. 7): r = cross(B − A, P − A)/L for every point P between the
+  // ends A and B, each a barycentric combination of mesh vertices (ours, issue 30: the whole line,
+  // not only its chains), Gauss–Newton Hessian 2λJJᵀ.
   if (pb.line_weight > 0) {
     for (size_t k = 0; k < m.lines.size(); ++k) {
-      const auto& chain = m.lines[k].vertices;
-      if (chain.size() < 3) continue;
-      const int ia = chain.front(), ib = chain.back();
-      const Point A = q[ia], B = q[ib];
+      const auto& points = m.lines[k].points;
+      const MpLinePoint &first = points.front(), &last = points.back();
+      const Point A = position(first, q), B = position(last, q);
       const double L = pb.line_length[k];
       const double ex = B.x - A.x, ey = B.y - A.y;
-      for (size_t c = 1; c + 1 < chain.size(); ++c) {
-        const int i = chain[c];
-        const double wx = q[i].x - A.x, wy = q[i].y - A.y;
+      for (size_t c = 1; c + 1 < points.size(); ++c) {
+        const Point P = position(points[c], q);
+        const double wx = P.x - A.x, wy = P.y - A.y;
         const double r = (ex * wy - ey * wx) / L;
         e += pb.line_weight * r * r;
         if (!grad && !hess) continue;
-        // ∂r over (Q_i, A, B); they sum to 0 (translation invariance).
-        Eigen::Matrix<double, 6, 1> J;
-        J << -ey, ex, ey - wy, wx - ex, wy, -wx;
-        J /= L;
-        const Eigen::Matrix<double, 6, 1> g = 2 * pb.line_weight * r * J;
-        const Eigen::Matrix<double, 6, 6> h = 2 * pb.line_weight * J * J.transpose();
-        const auto& vi = lay.vertex_var[i];
-        const auto& va = lay.vertex_var[ia];
-        const auto& vb = lay.vertex_var[ib];
-        scatter<6>({vi[0], vi[1], va[0], va[1], vb[0], vb[1]}, g, h, grad, hess);
+        // ∂r over P, A and B (they sum to 0: translation invariance), onto their triangles'
+        // vertices by the weights; a vertex of weight 0 (a mesh vertex's other two) is left out,
+        // the same ones at every step, so the sparsity pattern stays fixed.
+        const Point dP{-ey / L, ex / L}, dA{(ey - wy) / L, (wx - ex) / L}, dB{wy / L, -wx / L};
+        std::array<int, 18> var;
+        Eigen::Matrix<double, 18, 1> J;
+        int at = 0;
+        for (const auto& [point, d] : {std::pair{&points[c], dP}, std::pair{&first, dA}, std::pair{&last, dB}})
+          for (int j = 0; j < 3; ++j, at += 2) {
+            const auto& v = lay.vertex_var[point->vertices[j]];
+            const bool held = point->weights[j] != 0;
+            var[at] = held ? v[0] : -1, var[at + 1] = held ? v[1] : -1;
+            J[at] = point->weights[j] * d.x, J[at + 1] = point->weights[j] * d.y;
+          }
+        const Eigen::Matrix<double, 18, 1> g = 2 * pb.line_weight * r * J;
+        const Eigen::Matrix<double, 18, 18> h = 2 * pb.line_weight * J * J.transpose();
+        scatter<18>(var, g, h, grad, hess);
       }
     }
   }
@@ -658,13 +666,15 @@ Problem make_problem(const MpModel& model, double target_w, double target_h, con
   for (const MpEdge& e : mp_ideal_edges(model, target_w, target_h, pb.z))
     if (pb.object_of[e.a] < 0 || pb.object_of[e.a] != pb.object_of[e.b]) pb.edges.push_back(e);
   for (const MpLine& line : model.lines) {
-    for (int i : line.vertices)
-      if (i < 0 || static_cast<size_t>(i) >= n) throw std::invalid_argument("mp_solve: a line vertex out of range");
-    if (line.vertices.size() < 2 || line.vertices.front() == line.vertices.back())
-      throw std::invalid_argument("mp_solve: a line needs two distinct ends");
-    const Point& a = model.mesh.vertices[line.vertices.front()];
-    const Point& b = model.mesh.vertices[line.vertices.back()];
+    for (const MpLinePoint& p : line.points)
+      for (int k = 0; k < 3; ++k)
+        if (p.vertices[k] < 0 || static_cast<size_t>(p.vertices[k]) >= n || !std::isfinite(p.weights[k]))
+          throw std::invalid_argument("mp_solve: a line point's vertex out of range or weight not finite");
+    if (line.points.size() < 2) throw std::invalid_argument("mp_solve: a line needs two distinct ends");
+    const Point a = position(line.points.front(), model.mesh.vertices);
+    const Point b = position(line.points.back(), model.mesh.vertices);
     pb.line_length.push_back(std::hypot(b.x - a.x, b.y - a.y));
+    if (!(pb.line_length.back() > 0)) throw std::invalid_argument("mp_solve: a line needs two distinct ends");
   }
   pb.barrier = options.fold_barrier;
   pb.rotation_weight = options.rotation_weight;
