@@ -274,18 +274,17 @@ TEST_F(Lines, EveryMeshMethodKeepsTheDetectedLinesStraightByDefault) {
 // lines=none is the meshes served before issue 30 made the detected lines the default: the
 // bundled boats photograph (no curator lines) at zoom 0 against meshes recorded then
 // (golden/boats_meshes_before_issue30.json: every k-th vertex, source and screen position, to the
-// thousandth of a pixel the JSON carries). patch read the detected lines before, so its default is
-// the recorded one. mp is not here: issue 30 changed how it keeps large objects rigid.
+// thousandth of a pixel the JSON carries). mp and patch are not here: they read the detected lines
+// before, and issue 30 changed how they hold them (and how mp keeps large objects rigid).
 TEST_F(Lines, LinesNoneServesTheMeshesOfBeforeIssue30) {
   const json golden = json::parse(testing::read_file(testing::samples_dir() + "/../tests/http/golden/boats_meshes_before_issue30.json"));
   ASSERT_EQ(http().request("POST", "/v1/images?id=boats", testing::read_file(testing::samples_dir() + "/boats_lake_sunset.jpg")).status, 201);
-  ASSERT_EQ(golden["meshes"].size(), 8u);
+  ASSERT_EQ(golden["meshes"].size(), 6u);
   for (const auto& [name, want] : golden["meshes"].items()) {
     const std::size_t dash = name.rfind('-');
     const std::string method = name.substr(0, dash), size = name.substr(dash + 1);
     const std::string w = size.substr(0, size.find('x')), h = size.substr(size.find('x') + 1);
-    std::string view = "/v1/images/boats/mesh?zoom=0&w=" + w + "&h=" + h + "&method=" + method;
-    if (method != "patch") view += "&lines=none";
+    const std::string view = "/v1/images/boats/mesh?zoom=0&w=" + w + "&h=" + h + "&method=" + method + "&lines=none";
     testing::HttpResponse r;
     for (int attempt = 0; attempt < 60; ++attempt) {  // a first view may answer 503 while its analysis is computed
       r = http().get(view);
