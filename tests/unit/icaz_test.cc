@@ -275,7 +275,7 @@ std::vector<Point> coarse_warp(const warp::ImageModel& m, const warp::ZoomGeomet
   options.tolerance = 0.05 / g.screen_scale;
   options.fixed_line_normals = true;
   const warp::ShapeWarp coarse(m.coarse.mesh, warp::triangle_weights(m.coarse.mesh, m.significance, m.w_min), m.width,
-                               m.height, m.coarse.line_vertices);
+                               m.height, m.straight_lines);
   return coarse.solve(g.target_width, g.target_height, options).positions;
 }
 
@@ -412,7 +412,7 @@ TEST(IcazCoarseStart, AZoomActionStartsNearItsAnswerAndEndsWhereTheAffineStartDo
     warp::Icaz icaz(engine(file, false)->model());
     const warp::ImageModel& m = icaz.model();
     const warp::ShapeWarp coarse(m.coarse.mesh, warp::triangle_weights(m.coarse.mesh, m.significance, m.w_min), m.width,
-                                 m.height, m.coarse.line_vertices);
+                                 m.height, m.straight_lines);
     for (auto [sw, sh] : {std::pair{480, 360}, std::pair{360, 640}, std::pair{500, 500}, std::pair{800, 450},
                           std::pair{300, 600}}) {
       warp::ViewRequest r;

@@ -232,6 +232,7 @@ ImageModel read_image_model(const tiles::ImageEntry& image) {
   ModelEdit stored = read_model_json(image);
   ImageModel m;
   m.lines = std::move(*stored.lines);
+  m.straight_lines = m.lines;
   m.edits = std::move(stored.significance);
   m.dismissed_lines = std::move(*stored.dismissed_lines);
   m.significance = read_significance(image);
@@ -299,8 +300,11 @@ LoadedModel with_line_set(ImageModel model, const tiles::ImageEntry& image, tile
   if (lines == LineSet::kAuto) {
     // [ICAZ §4.3] The detected lines [Guo09 §3.3.3] constrain the warp like the curator's: the
     // coarsest mesh, the forest and its node means are rebuilt with them, in memory.
-    const auto set = auto_line_set(out.model, suggested_lines(image, reader, out.model), &out.unmeshable_suggestions);
-    set_lines(out.model, set);
+    const auto suggested = suggested_lines(image, reader, out.model);
+    std::vector<Segment> straight = out.model.lines;
+    straight.insert(straight.end(), suggested.begin(), suggested.end());
+    set_lines(out.model, auto_line_set(out.model, suggested, &out.unmeshable_suggestions));
+    out.model.straight_lines = std::move(straight);
   } else if (lines == LineSet::kNone && !out.model.lines.empty()) {
     set_lines(out.model, {});
   }

@@ -103,9 +103,10 @@ struct LoadedModel {
 // forest; the map and the node means are the kind's, from method_files.h saliency_map: a
 // damaged gbvs.bin is computed again in memory and reported as kRebuiltWithEdits) or with
 // another line set (line_set.h) than the stored curator's: for kAuto the detected lines added to
-// the curator's — the suggestions not dismissed (detected_lines.h suggested_lines), within the
-// curator's limits, minus any CGAL cannot mesh (auto_line_set) —, for kNone no lines; the mesh
-// and forest are then rebuilt in memory (set_lines). kNone of a version without curator lines is
+// the curator's — the suggestions not dismissed (detected_lines.h suggested_lines): the mesh
+// follows their pieces within the curator's limits, minus any CGAL cannot mesh (auto_line_set),
+// and the warp holds each of them whole (ImageModel::straight_lines) —, for kNone no lines; the
+// mesh and forest are then rebuilt in memory (set_lines). kNone of a version without curator lines is
 // the stored model itself.
 struct ModelVariant {
   Saliency saliency = Saliency::kDefault;

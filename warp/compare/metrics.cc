@@ -7,6 +7,7 @@
 #include <numbers>
 #include <numeric>
 
+#include "warp/core/segment_pieces.h"
 #include "warp/core/uniform_zoom.h"
 
 namespace zoomwarp::warp {
@@ -43,11 +44,6 @@ std::optional<std::array<double, 4>> linear_part(const Point& a, const Point& b,
   return std::array<double, 4>{(f11 * e22 - f12 * e21) / det, (f12 * e11 - f11 * e12) / det,
                                (f21 * e22 - f22 * e21) / det, (f22 * e11 - f21 * e12) / det};
 }
-
-// A centre whose smallest barycentric coordinate is at least this is in the triangle: on a shared
-// edge rounding leaves every triangle's coordinate a hair (~1e-16 × extent / height) below 0;
-// anything further out is not drawn by the view.
-constexpr double kOnEdge = -1e-9;
 
 // What one view shows of the map: the salient region's on-screen area, the two weighted means of
 // the triangles' anisotropy, and per triangle the weights of the rotation statistics.
@@ -223,41 +219,18 @@ std::vector<int> map_pixel_triangles(const Mesh& mesh, int width, int height, do
   return holder;
 }
 
-// The line's screen image is affine within each visible triangle: its piece there (the interval
-// of u on which s(u) = a + u·(b − a) has every barycentric coordinate ≥ 0, the coordinates being
-// affine in u; a line along an edge, whose coordinate for it is 0 but for rounding, lies in the
-// triangles on both sides) maps to a straight segment, which is cut to the screen. The polyline through
+// The line's screen image is affine within each visible triangle: its piece there
+// (segment_pieces) maps to a straight segment, which is cut to the screen. The polyline through
 // the kept pieces' ends, in order of u, is the line on screen; its farthest point from a line is
 // one of those ends.
 std::optional<LineBend> line_bend(const View& view, const Segment& s, int sw, int sh) {
   const Mesh& mesh = view.source;
-  const Point d{s.b.x - s.a.x, s.b.y - s.a.y};
   std::vector<std::pair<double, Point>> shown;  // (u, screen point)
-  const double sx0 = std::min(s.a.x, s.b.x), sx1 = std::max(s.a.x, s.b.x);
-  const double sy0 = std::min(s.a.y, s.b.y), sy1 = std::max(s.a.y, s.b.y);
-  for (int f : view.visible) {
-    const Triangle& t = mesh.triangles[f];
-    const Point &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]], &c = mesh.vertices[t[2]];
-    if (std::max({a.x, b.x, c.x}) < sx0 || std::min({a.x, b.x, c.x}) > sx1 || std::max({a.y, b.y, c.y}) < sy0 ||
-        std::min({a.y, b.y, c.y}) > sy1 || signed_area2(a, b, c) == 0)
-      continue;
-    const auto l0 = barycentric(s.a, a, b, c), l1 = barycentric(s.b, a, b, c);
-    double lo = 0, hi = 1;
-    for (int k = 0; k < 3 && lo <= hi; ++k) {
-      if (std::max(std::abs(l0[k]), std::abs(l1[k])) <= -kOnEdge) continue;  // along edge k: on both sides
-      const double slope = l1[k] - l0[k];  // l_k(u) = l0[k] + u·slope ≥ 0
-      if (slope == 0) {
-        if (l0[k] < 0) hi = -1;
-      } else if (slope > 0) {
-        lo = std::max(lo, -l0[k] / slope);
-      } else {
-        hi = std::min(hi, -l0[k] / slope);
-      }
-    }
-    if (lo > hi) continue;
+  for (const SegmentPiece& piece : segment_pieces(mesh, s, view.visible)) {
+    const double lo = piece.lo, hi = piece.hi;
     auto screen_at = [&](double u) {
-      const Point p{s.a.x + u * d.x, s.a.y + u * d.y};
-      return locate(mesh, view.screen, p, {f, barycentric(p, a, b, c)});
+      const Point p{s.a.x + u * (s.b.x - s.a.x), s.a.y + u * (s.b.y - s.a.y)};
+      return locate(mesh, view.screen, p, piece_point(mesh, s, piece, u));
     };
     const Point q0 = screen_at(lo), q1 = screen_at(hi);
     double v0 = 0, v1 = 1;  // the screen segment q0 + v·(q1 − q0) cut to the screen

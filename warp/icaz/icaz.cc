@@ -53,15 +53,6 @@ void make_room(Cache& cache) {
   }));
 }
 
-// Vertex chains of each line in a refined mesh (its end points are those of the coarse chain).
-std::vector<std::vector<int>> line_chains(const Mesh& mesh, const CoarseMesh& coarse) {
-  std::vector<std::vector<int>> out;
-  for (const auto& ids : coarse.line_vertices)
-    if (ids.size() >= 2)
-      out.push_back(vertices_on_segment(mesh, {coarse.mesh.vertices[ids.front()], coarse.mesh.vertices[ids.back()]}));
-  return out;
-}
-
 // The triangles whose warped bounding box meets `box` (x0, y0, x1, y1).
 std::vector<char> triangles_near(const Mesh& mesh, const std::vector<Point>& warped, const std::array<double, 4>& box) {
   std::vector<char> out(mesh.triangles.size(), 0);
@@ -110,33 +101,6 @@ Submesh submesh(const Mesh& mesh, const std::vector<char>& chosen) {
   return out;
 }
 
-// The parts of each line inside a local solve: maximal runs (≥ 2 vertices) of consecutive chain
-// vertices the submesh has, in its numbering. Only these are solved — a line is not solved whole
-// [ICAZ §5.2: the fine level only near the viewing area]: the rest of it lies outside the solved
-// region, pinned on the coarse warp's (straight) line, and a run's pinned ends are on that line
-// too, so the visible part stays straight while the cost of a view no longer grows with the
-// total length of the lines.
-std::vector<std::vector<int>> local_line_runs(const std::vector<std::vector<int>>& chains, const Submesh& local) {
-  std::vector<std::vector<int>> runs;
-  if (chains.empty()) return runs;
-  FlatMap<int> index;  // mesh vertex → submesh vertex
-  index.reserve(local.vertex.size());
-  for (int i = 0; i < int(local.vertex.size()); ++i) index.emplace(std::uint32_t(local.vertex[i]), i);
-  for (const auto& chain : chains) {
-    std::vector<int> run;
-    for (std::size_t k = 0; k <= chain.size(); ++k) {
-      const int* found = k < chain.size() ? index.find(std::uint32_t(chain[k])) : nullptr;
-      if (found) {
-        run.push_back(*found);
-        continue;
-      }
-      if (run.size() >= 2) runs.push_back(run);
-      run.clear();
-    }
-  }
-  return runs;
-}
-
 }  // namespace
 
 struct Icaz::CoarseWarp {
@@ -148,7 +112,7 @@ Icaz::Icaz(ImageModel model, const IcazOptions& options)
     : model_(std::move(model)),
       options_(options),
       coarse_(model_.coarse.mesh, triangle_weights(model_.coarse.mesh, model_.significance, model_.w_min),
-              model_.width, model_.height, model_.coarse.line_vertices),
+              model_.width, model_.height, model_.straight_lines),
       forest_(model_.forest),
       root_cut_(forest_) {
   node_mean_.assign(model_.node_mean.begin(), model_.node_mean.end());
@@ -445,8 +409,12 @@ View Icaz::view_in(const ViewRequest& req, bool grow) {
     for (int f : local.triangle) weights.push_back(node_weight(out.nodes[f], grow));
     check_stop(req.stop);
     for (int v : local.vertex) initial.push_back(out.warped[v]);
-    const ShapeWarp fine(local.mesh, std::move(weights), model_.width, model_.height,
-                         local_line_runs(line_chains(out.source, model_.coarse), local), local.pinned);
+    // Each line is held only in its parts inside the solved region — a line is not solved whole
+    // [ICAZ §5.2: the fine level only near the viewing area]: the rest of it lies outside,
+    // pinned on the coarse warp's (straight) line, and so do a part's pinned ends, so the visible
+    // part stays straight while the cost of a view does not grow with the lines' total length.
+    const ShapeWarp fine(local.mesh, std::move(weights), model_.width, model_.height, model_.straight_lines,
+                         local.pinned);
     out.fine_stats = fine.solve(g.target_width, g.target_height, tolerance_for(g, req.stop), initial);
     for (std::size_t i = 0; i < local.vertex.size(); ++i) out.warped[local.vertex[i]] = out.fine_stats.positions[i];
   }

@@ -46,7 +46,7 @@ ImageModel make_image_model(const tiles::Raster& reduced, double width, double h
 
 void set_lines(ImageModel& m, const std::vector<Segment>& lines, const CoarseMeshOptions& mesh,
                const ForestOptions& forest) {
-  m.lines = lines;
+  m.lines = m.straight_lines = lines;
   m.coarse = build_coarse_mesh(m.width, m.height, lines, mesh);
   m.forest = Forest(m.coarse.mesh);
   m.forest.build_levels(forest.min_area, forest.max_nodes);

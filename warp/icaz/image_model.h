@@ -28,7 +28,12 @@ struct ForestOptions {
 
 struct ImageModel {
   double width = 0, height = 0;
-  std::vector<Segment> lines;          // line constraints, image pixels
+  std::vector<Segment> lines;          // line constraints, image pixels; the coarsest mesh follows them
+  // The lines the warp keeps straight, each whole [ICAZ §4.3]: `lines`, but for the lines=auto
+  // variant (image_analysis.h) the curator's and every whole detected line, of which the mesh
+  // follows only the pieces CGAL can mesh (auto_line_set) — the rest of a line is held through the
+  // triangles it crosses (shape_warp.h; issue 30).
+  std::vector<Segment> straight_lines;
   SignificanceMap significance;        // with `edits` painted in
   std::vector<SignificanceEdit> edits;  // in the order they were made
   // Automatically detected lines (lines/) the curator dropped: kept in warp.json so that they are
@@ -45,7 +50,8 @@ ImageModel make_image_model(const tiles::Raster& reduced, double width, double h
                             const std::vector<Segment>& lines = {}, const CoarseMeshOptions& mesh = {},
                             const ForestOptions& forest = {}, const SignificanceOptions& significance = {});
 
-// Replaces the line constraints: the coarsest mesh, the forest and the node means are rebuilt.
+// Replaces the line constraints (and straight_lines by them): the coarsest mesh, the forest and
+// the node means are rebuilt.
 void set_lines(ImageModel& model, const std::vector<Segment>& lines, const CoarseMeshOptions& mesh = {},
                const ForestOptions& forest = {});
 

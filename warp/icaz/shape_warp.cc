@@ -11,6 +11,7 @@
 #include <variant>
 
 #include "warp/core/fold_blend.h"
+#include "warp/core/segment_pieces.h"
 #include "warp/icaz/spring_matrix.h"
 
 namespace zoomwarp::warp {
@@ -61,17 +62,77 @@ class AxisFactor {
 
 enum class LineKind { kHorizontal, kVertical, kOblique };
 
+// A line constraint as the solver sees it: points along it, each a vertex or a point of a triangle
+// written in its corners (vertex, weight), start first, end last.
+struct LinePoint {
+  std::array<int, 3> vertex{-1, -1, -1};
+  std::array<double, 3> weight{};
+  int corners = 0;  // 1 when the point is a vertex
+};
+
 struct Line {
-  std::vector<int> vertices;  // start first, end last
+  std::vector<LinePoint> points;
   LineKind kind;
 };
+
+Point position(const LinePoint& p, const std::vector<Point>& positions) {
+  Point r;
+  for (int k = 0; k < p.corners; ++k)
+    r.x += p.weight[k] * positions[p.vertex[k]].x, r.y += p.weight[k] * positions[p.vertex[k]].y;
+  return r;
+}
+
+// A point of a piece as a LinePoint: a corner whose weight is 1 but for rounding is the vertex
+// itself (a line the mesh follows is held at its vertices, as [ICAZ §4.3] holds it).
+LinePoint line_point(const Mesh& mesh, const MeshPoint& p) {
+  LinePoint out;
+  for (int k = 0; k < 3; ++k)
+    if (p.barycentric[k] > 1 - 1e-9) {
+      out.vertex[0] = mesh.triangles[p.triangle][k], out.weight[0] = 1, out.corners = 1;
+      return out;
+    }
+  for (int k = 0; k < 3; ++k)
+    if (std::abs(p.barycentric[k]) > 1e-12) {
+      out.vertex[out.corners] = mesh.triangles[p.triangle][k], out.weight[out.corners] = p.barycentric[k];
+      ++out.corners;
+    }
+  return out;
+}
+
+// The parts of s on the mesh, each as its points in order: the ends of every piece (segment_pieces),
+// which are its crossings with triangle edges; a point shared by two pieces once. A part needs
+// two distinct points to constrain anything.
+std::vector<std::vector<LinePoint>> held_parts(const Mesh& mesh, const Segment& s) {
+  const double length = std::hypot(s.b.x - s.a.x, s.b.y - s.a.y);
+  std::vector<std::vector<LinePoint>> parts;
+  if (!(length > 0)) return parts;
+  const double same = 1e-9 / std::max(1.0, length);  // in u: a nanopixel
+  std::vector<std::pair<double, LinePoint>> part;     // (u, point)
+  double covered = -1;
+  auto close = [&]() {
+    std::sort(part.begin(), part.end(), [](const auto& p, const auto& q) { return p.first < q.first; });
+    std::vector<LinePoint> points;
+    double last = -1;
+    for (const auto& [u, p] : part)
+      if (points.empty() || u > last + same) points.push_back(p), last = u;
+    if (points.size() >= 2) parts.push_back(std::move(points));
+    part.clear();
+  };
+  for (const SegmentPiece& piece : segment_pieces(mesh, s)) {
+    if (piece.lo > covered + same) close();
+    covered = std::max(covered, piece.hi);
+    for (double u : {piece.lo, piece.hi}) part.emplace_back(u, line_point(mesh, piece_point(mesh, s, piece, u)));
+  }
+  close();
+  return parts;
+}
 
 // The unit normal n of a line's orientation form ((v'_i − v'_s)·n)² [ICAZ §4.3]: fixed for
 // horizontal and vertical lines, else perpendicular to the chord of its end points in `positions`.
 Point line_normal(const Line& l, const std::vector<Point>& positions) {
   if (l.kind == LineKind::kHorizontal) return {0, 1};
   if (l.kind == LineKind::kVertical) return {1, 0};
-  const Point &s = positions[l.vertices.front()], &e = positions[l.vertices.back()];
+  const Point s = position(l.points.front(), positions), e = position(l.points.back(), positions);
   const double dx = e.x - s.x, dy = e.y - s.y, len = std::hypot(dx, dy);
   return len > 0 ? Point{-dy / len, dx / len} : Point{0, 1};
 }
@@ -93,6 +154,7 @@ struct ShapeWarp::Impl {
   std::vector<double> weights;
   double width, height;
   std::vector<Line> lines;
+  // Oblique lines, or horizontal/vertical ones held between vertices: the joint path.
   bool has_oblique = false;
 
   // Boundary constraints: which vertices have a fixed x (left/right edge) or y (top/bottom).
@@ -166,8 +228,9 @@ struct ShapeWarp::Impl {
                      std::vector<Coupling>& coupling) {
       const std::size_t shape_springs = springs.size();
       for (const Line& l : lines)
-        if (l.kind == kind)
-          for (std::size_t k = 1; k < l.vertices.size(); ++k) springs.push_back({l.vertices[k], l.vertices[0], alpha});
+        if (l.kind == kind)  // the fast path has only lines held at vertices
+          for (std::size_t k = 1; k < l.points.size(); ++k)
+            springs.push_back({l.points[k].vertex[0], l.points[0].vertex[0], alpha});
       const bool with_lines = springs.size() > shape_springs;
       // Every vertex of this axis fixed (a coarsest mesh with no interior vertex: images whose
       // short side is under ~110 px, see shape_warp.h): the axis is determined and there is
@@ -337,23 +400,31 @@ struct ShapeWarp::Impl {
     auto vx = [&](int i) { return free_x[i]; };
     auto vy = [&](int i) { return free_y[i] < 0 ? -1 : n_free_x + free_y[i]; };
     // Only the lower triangle: the solvers read the matrix as selfadjointView<Lower>. Reserved
-    // for the most a term adds (2 axes × 3 edges × 3 per triangle; 12 per line vertex), which on
-    // retarget-zoom's 48k-triangle mesh spares ~20 reallocations of the list per factorization.
+    // for the most a term adds (2 axes × 3 edges × 3 per triangle; per line point, its corners'
+    // coordinates and the start's, squared), which on retarget-zoom's 48k-triangle mesh spares
+    // ~20 reallocations of the list per factorization.
     Triplets t;
-    std::size_t line_vertices = 0;
-    for (const Line& l : lines) line_vertices += l.vertices.size();
-    t.reserve(18 * mesh.triangles.size() + 12 * line_vertices);
+    std::size_t line_terms = 0;
+    for (const Line& l : lines)
+      for (const LinePoint& p : l.points) line_terms += std::size_t(2 * (p.corners + l.points.front().corners)) *
+                                                        std::size_t(2 * (p.corners + l.points.front().corners));
+    t.reserve(18 * mesh.triangles.size() + line_terms);
     Eigen::VectorXd b = Eigen::VectorXd::Zero(n);
-    // Adds w·(Σ a_k u_k − c)² where some u_k may be fixed (index −1, value known).
-    auto add = [&](std::array<int, 4> var, std::array<double, 4> a, std::array<double, 4> known, double w) {
+    // Adds w·(Σ c_k u_k)² over `count` coordinates; a fixed one (unknown −1) has its value known.
+    struct Term {
+      int unknown;
+      double c, known;
+    };
+    auto add = [&](const Term* terms, int count, double w) {
       double k0 = 0;
-      for (int p = 0; p < 4; ++p)
-        if (var[p] < 0) k0 += a[p] * known[p];
-      for (int p = 0; p < 4; ++p) {
-        if (var[p] < 0) continue;
-        b[var[p]] -= w * a[p] * k0;
-        for (int q = 0; q < 4; ++q)
-          if (var[q] >= 0 && var[q] <= var[p]) t.emplace_back(var[p], var[q], w * a[p] * a[q]);
+      for (int p = 0; p < count; ++p)
+        if (terms[p].unknown < 0) k0 += terms[p].c * terms[p].known;
+      for (int p = 0; p < count; ++p) {
+        const int u = terms[p].unknown;
+        if (u < 0) continue;
+        b[u] -= w * terms[p].c * k0;
+        for (int q = 0; q < count; ++q)
+          if (terms[q].unknown >= 0 && terms[q].unknown <= u) t.emplace_back(u, terms[q].unknown, w * terms[p].c * terms[q].c);
       }
     };
     const auto fixed = fixed_positions(cur, tw, th);
@@ -361,26 +432,43 @@ struct ShapeWarp::Impl {
       for (int k = 0; k < 3; ++k) {
         const int i = mesh.triangles[f][k], j = mesh.triangles[f][(k + 1) % 3];
         // The shape RHS is already in b; add the matrix, with fixed ends moved to the RHS.
-        add({vx(i), vx(j), -1, -1}, {1, -1, 0, 0}, {fixed[i].x, fixed[j].x, 0, 0}, w[f]);
-        add({vy(i), vy(j), -1, -1}, {1, -1, 0, 0}, {fixed[i].y, fixed[j].y, 0, 0}, w[f]);
+        const Term x[2] = {{vx(i), 1, fixed[i].x}, {vx(j), -1, fixed[j].x}};
+        const Term y[2] = {{vy(i), 1, fixed[i].y}, {vy(j), -1, fixed[j].y}};
+        add(x, 2, w[f]);
+        add(y, 2, w[f]);
       }
+    // Line terms: each point's coordinates are its corners' (LinePoint), so a term has up to 18.
+    std::array<Term, 18> terms;
+    int count = 0;
+    auto put = [&](const LinePoint& p, double c, bool along_x) {
+      for (int j = 0; j < p.corners; ++j) {
+        const int v = p.vertex[j];
+        terms[count++] = {along_x ? vx(v) : vy(v), c * p.weight[j], along_x ? fixed[v].x : fixed[v].y};
+      }
+    };
     for (const Line& l : lines) {
-      const int st = l.vertices.front(), en = l.vertices.back();
+      const LinePoint &st = l.points.front(), &en = l.points.back();
       const auto [nx, ny] = line_normal(l, normals);
       const bool direction_form = l.kind == LineKind::kOblique && direction_form_step;
-      const double ex = cur[en].x - cur[st].x, ey = cur[en].y - cur[st].y, e2 = ex * ex + ey * ey;
+      const Point ps = position(st, cur), pe = position(en, cur);
+      const double ex = pe.x - ps.x, ey = pe.y - ps.y, e2 = ex * ex + ey * ey;
       // The direction form says nothing about the end point itself (r = 1); the orientation form
       // keeps it on the line too.
-      const std::size_t last = direction_form ? l.vertices.size() - 1 : l.vertices.size();
+      const std::size_t last = direction_form ? l.points.size() - 1 : l.points.size();
       for (std::size_t k = 1; k < last; ++k) {
-        const int i = l.vertices[k];
+        const LinePoint& q = l.points[k];
         if (direction_form) {  // ‖v'_i − (1 − r) v'_s − r v'_e‖², per axis
-          const double r = e2 > 0 ? ((cur[i].x - cur[st].x) * ex + (cur[i].y - cur[st].y) * ey) / e2 : 0;
-          add({vx(i), vx(st), vx(en), -1}, {1, -(1 - r), -r, 0}, {fixed[i].x, fixed[st].x, fixed[en].x, 0}, alpha);
-          add({vy(i), vy(st), vy(en), -1}, {1, -(1 - r), -r, 0}, {fixed[i].y, fixed[st].y, fixed[en].y, 0}, alpha);
+          const Point pq = position(q, cur);
+          const double r = e2 > 0 ? ((pq.x - ps.x) * ex + (pq.y - ps.y) * ey) / e2 : 0;
+          for (bool along_x : {true, false}) {
+            count = 0;
+            put(q, 1, along_x), put(st, -(1 - r), along_x), put(en, -r, along_x);
+            add(terms.data(), count, alpha);
+          }
         } else {  // ((v'_i − v'_s)·n)²
-          add({vx(i), vx(st), vy(i), vy(st)}, {nx, -nx, ny, -ny}, {fixed[i].x, fixed[st].x, fixed[i].y, fixed[st].y},
-              alpha);
+          count = 0;
+          put(q, nx, true), put(st, -nx, true), put(q, ny, false), put(st, -ny, false);
+          add(terms.data(), count, alpha);
         }
       }
     }
@@ -393,10 +481,11 @@ struct ShapeWarp::Impl {
   double line_energy(const std::vector<Point>& p, const std::vector<Point>& normals, double alpha) const {
     double e = 0;
     for (const Line& l : lines) {
-      const int st = l.vertices.front();
+      const Point st = position(l.points.front(), p);
       const auto [nx, ny] = line_normal(l, normals);
-      for (int i : l.vertices) {
-        const double d = (p[i].x - p[st].x) * nx + (p[i].y - p[st].y) * ny;
+      for (const LinePoint& q : l.points) {
+        const Point pq = position(q, p);
+        const double d = (pq.x - st.x) * nx + (pq.y - st.y) * ny;
         e += alpha * d * d;
       }
     }
@@ -417,7 +506,7 @@ struct ConstantJoint {
 }  // namespace
 
 ShapeWarp::ShapeWarp(Mesh mesh, std::vector<double> weights, double width, double height,
-                     std::vector<std::vector<int>> lines, const std::vector<int>& pinned)
+                     const std::vector<Segment>& lines, const std::vector<int>& pinned)
     : impl_(std::make_unique<Impl>()) {
   if (weights.size() != mesh.triangles.size()) throw std::invalid_argument("one weight per triangle");
   // The systems are SPD only with positive weights (and a fixed vertex per connected part, which
@@ -430,16 +519,16 @@ ShapeWarp::ShapeWarp(Mesh mesh, std::vector<double> weights, double width, doubl
   impl_->weights = std::move(weights);
   impl_->width = width;
   impl_->height = height;
-  for (auto& ids : lines) {
-    if (ids.size() < 2) continue;
-    const Point& a = impl_->mesh.vertices[ids.front()];
-    const Point& b = impl_->mesh.vertices[ids.back()];
-    const double len = std::hypot(b.x - a.x, b.y - a.y);
-    LineKind kind = std::abs(b.y - a.y) <= 1e-9 * len   ? LineKind::kHorizontal
-                    : std::abs(b.x - a.x) <= 1e-9 * len ? LineKind::kVertical
-                                                        : LineKind::kOblique;
-    impl_->has_oblique |= kind == LineKind::kOblique;
-    impl_->lines.push_back({std::move(ids), kind});
+  for (const Segment& s : lines) {
+    const double len = std::hypot(s.b.x - s.a.x, s.b.y - s.a.y);
+    const LineKind kind = std::abs(s.b.y - s.a.y) <= 1e-9 * len   ? LineKind::kHorizontal
+                          : std::abs(s.b.x - s.a.x) <= 1e-9 * len ? LineKind::kVertical
+                                                                  : LineKind::kOblique;
+    for (auto& points : held_parts(impl_->mesh, s)) {
+      const bool on_vertices = std::all_of(points.begin(), points.end(), [](const LinePoint& p) { return p.corners == 1; });
+      impl_->has_oblique |= kind == LineKind::kOblique || !on_vertices;
+      impl_->lines.push_back({std::move(points), kind});
+    }
   }
   impl_->classify(pinned);
   if (!impl_->has_oblique) impl_->factor_axes(WarpOptions{}.alpha);

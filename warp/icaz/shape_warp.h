@@ -11,8 +11,8 @@
 //
 // Structure exploited: the shape term's matrix is a weighted graph Laplacian that depends only on
 // the mesh and the weights, never on s_f or on the target size (those only change the right-hand
-// side), and x and y decouple. With no lines, or only horizontal/vertical ones (orientation form
-// D_Line_O with a fixed normal), each axis system is factored once in the constructor and every
+// side), and x and y decouple. With no lines, or only horizontal/vertical ones held at vertices
+// (orientation form D_Line_O with a fixed normal), each axis system is factored once in the constructor and every
 // iteration — for any target size — is two back-substitutions. Oblique lines couple x and y and
 // change the matrix every iteration (alternating D_Line_D / D_Line_O forms); then the joint
 // system's pattern is analysed once and refactored numerically per iteration.
@@ -67,10 +67,17 @@ struct WarpOptions {
 class ShapeWarp {
  public:
   // `mesh` lies in [0, width] × [0, height]; `weights` has one entry per triangle (significance,
-  // > 0); `lines` lists, per line constraint, its vertices in order along it; `pinned` vertices
-  // keep their initial positions in both axes (solve() must then be given a fold-free `initial`).
-  ShapeWarp(Mesh mesh, std::vector<double> weights, double width, double height,
-            std::vector<std::vector<int>> lines = {}, const std::vector<int>& pinned = {});
+  // > 0); `lines` are the line constraints in source pixels; `pinned` vertices keep their initial
+  // positions in both axes (solve() must then be given a fold-free `initial`).
+  //
+  // A line is held at every point where it crosses a triangle edge, and at its ends, each written
+  // in its triangle's corners: the warp is affine between two such points, so the warped line is
+  // straight exactly when they are collinear. On a mesh built with the line as a constraint these
+  // points are its vertices [ICAZ §4.3]; a line the mesh does not follow (a detected line cut back
+  // where it nears another, issue 30) is held all the same. A line partly off the mesh (a local
+  // solve) is held in each part it has on it.
+  ShapeWarp(Mesh mesh, std::vector<double> weights, double width, double height, const std::vector<Segment>& lines = {},
+            const std::vector<int>& pinned = {});
   ~ShapeWarp();
   ShapeWarp(ShapeWarp&&) noexcept;
 
@@ -81,7 +88,8 @@ class ShapeWarp {
                    const std::vector<Point>& initial = {}) const;
 
   const Mesh& mesh() const;
-  // Whether the fast path applies (no oblique lines: matrices factored once).
+  // Whether the fast path applies (no oblique lines, and every horizontal or vertical one held at
+  // vertices only: matrices factored once).
   bool factored_once() const;
 
  private:

@@ -23,7 +23,7 @@ CoarseMesh uniform_mesh(const ImageModel& model) {
 ShapeWarp make_warp(const ImageModel& model, const SignificanceMap& saliency) {
   CoarseMesh m = uniform_mesh(model);
   std::vector<double> weights = triangle_weights(m.mesh, saliency, model.w_min);
-  return ShapeWarp(std::move(m.mesh), std::move(weights), model.width, model.height, std::move(m.line_vertices));
+  return ShapeWarp(std::move(m.mesh), std::move(weights), model.width, model.height, model.straight_lines);
 }
 
 }  // namespace
