@@ -46,7 +46,7 @@ struct PatchEnergyOptions {
   double quad_size = 20;            // px [Lin13 §IV]
   double orientation_weight = 1;    // D_OR's weight (1 in [Lin13]; 0 in tests that drop it)
   double similarity_weight = 1;     // D_ST's weight (1 in [Lin13]; 0 in tests that drop it)
-  double line_weight = 100;         // λ (ours)
+  double line_weight = 1000;        // λ (ours)
   double regularisation = 1e-8;     // ε (ours)
 };
 

@@ -69,7 +69,7 @@ const RetargetingMethod& patch_method() {
       .has_mesh = true,
       .lines = "each line sampled where it crosses a triangle edge, each sample held on the chord of the "
                "line's warped ends (a linear term of ours, weight 100)",
-      .magic = {'Z', 'W', 'P', 'A', 'T', 'C', 'H', '2'},
+      .magic = {'Z', 'W', 'P', 'A', 'T', 'C', 'H', '3'},
       .reads_lines = true,
       .precompute = [](const MethodInput& input) { return patch_model_bytes(build_patch_model(input)); },
       .precompute_bytes_per_pixel = 52,  // the sorted grid edges and the union-find: 39-51 MB at 996×934
