@@ -420,6 +420,31 @@ TEST(ShapeWarp, ALineTheMeshDoesNotFollowIsHeldThroughItsTriangles) {
   }
 }
 
+// CGAL can leave a vertex in no triangle (64 curator lines crossing near the border: 2 of the
+// coarsest mesh's 1920 in icaz_bench's Lines/photo). Nothing holds it — no shape term, and lines
+// are held through triangles — so the solve keeps it where it starts instead of factoring a
+// singular system ("CHOLMOD could not factor the warp system" before), and the rest of the warp
+// is the one without it.
+TEST(ShapeWarp, AVertexInNoTriangleStaysWhereItStarts) {
+  const double w = 4000, h = 2000, tw = 1800, th = 1600;
+  const std::vector<warp::Segment> lines = {{{600, 200}, {3400, 1900}}};
+  const auto cm = warp::build_coarse_mesh(w, h, lines);
+  const auto weights = disc_weights(cm.mesh, {1000, 600}, 500);
+  warp::WarpOptions fixed_normals;
+  fixed_normals.fixed_line_normals = true;
+  const auto plain = warp::ShapeWarp(cm.mesh, weights, w, h, lines).solve(tw, th, fixed_normals);
+  warp::Mesh with_orphan = cm.mesh;
+  with_orphan.vertices.push_back({1234, 567});
+  const auto r = warp::ShapeWarp(with_orphan, weights, w, h, lines).solve(tw, th, fixed_normals);
+  ASSERT_EQ(r.positions.size(), plain.positions.size() + 1);
+  EXPECT_NEAR(r.positions.back().x, 1234 * tw / w, 1e-9);
+  EXPECT_NEAR(r.positions.back().y, 567 * th / h, 1e-9);
+  double largest = 0;
+  for (std::size_t i = 0; i < plain.positions.size(); ++i)
+    largest = std::max(largest, std::hypot(r.positions[i].x - plain.positions[i].x, r.positions[i].y - plain.positions[i].y));
+  EXPECT_LT(largest, 1e-6);
+}
+
 // segment_pieces: a segment's piece in each triangle it crosses, from which both the line term
 // and compare's bend are built. The unit square split along its diagonal (0,0)–(1,1).
 TEST(SegmentPieces, APieceInEveryTriangleCrossedAlongAnEdgeOnBothSides) {

@@ -158,7 +158,7 @@ struct ShapeWarp::Impl {
   bool has_oblique = false;
 
   // Boundary constraints: which vertices have a fixed x (left/right edge) or y (top/bottom).
-  std::vector<signed char> fixed_x, fixed_y;  // 0 free, 1 at 0, 2 at the far side, 3 pinned
+  std::vector<signed char> fixed_x, fixed_y;  // 0 free, 1 at 0, 2 at the far side, 3 pinned (or in no triangle)
   bool has_pinned = false;
   // Per axis, the index of each free vertex among the free unknowns, or -1.
   std::vector<int> free_x, free_y;
@@ -185,6 +185,16 @@ struct ShapeWarp::Impl {
       fixed_x[v] = fixed_y[v] = 3;
       has_pinned = true;
     }
+    // A vertex in no triangle — CGAL leaves one where crossing lines meet the border outside the
+    // domain — has no shape term, and no line term holds it (lines are held through triangles):
+    // it stays where the start puts it, or its unknowns would make the system singular.
+    std::vector<char> in_triangle(n, 0);
+    for (const Triangle& t : mesh.triangles)
+      for (int v : t) in_triangle[std::size_t(v)] = 1;
+    for (std::size_t i = 0; i < n; ++i)
+      if (!in_triangle[i] && !fixed_x[i]) fixed_x[i] = 3;
+    for (std::size_t i = 0; i < n; ++i)
+      if (!in_triangle[i] && !fixed_y[i]) fixed_y[i] = 3;
     std::vector<int> order(n);
     for (std::size_t i = 0; i < n; ++i) order[i] = int(i);
     number_unknowns(order);
