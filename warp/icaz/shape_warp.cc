@@ -192,9 +192,10 @@ struct ShapeWarp::Impl {
     for (const Triangle& t : mesh.triangles)
       for (int v : t) in_triangle[std::size_t(v)] = 1;
     for (std::size_t i = 0; i < n; ++i)
-      if (!in_triangle[i] && !fixed_x[i]) fixed_x[i] = 3;
-    for (std::size_t i = 0; i < n; ++i)
-      if (!in_triangle[i] && !fixed_y[i]) fixed_y[i] = 3;
+      if (!in_triangle[i]) {
+        if (!fixed_x[i]) fixed_x[i] = 3;
+        if (!fixed_y[i]) fixed_y[i] = 3;
+      }
     std::vector<int> order(n);
     for (std::size_t i = 0; i < n; ++i) order[i] = int(i);
     number_unknowns(order);
