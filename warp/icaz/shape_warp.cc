@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <variant>
 
+#include "warp/core/corner_point.h"
 #include "warp/core/fold_blend.h"
 #include "warp/core/segment_pieces.h"
 #include "warp/icaz/spring_matrix.h"
@@ -62,56 +63,42 @@ class AxisFactor {
 
 enum class LineKind { kHorizontal, kVertical, kOblique };
 
-// A line constraint as the solver sees it: points along it, each a vertex or a point of a triangle
-// written in its corners (vertex, weight), start first, end last.
-struct LinePoint {
-  std::array<int, 3> vertex{-1, -1, -1};
-  std::array<double, 3> weight{};
-  int corners = 0;  // 1 when the point is a vertex
-};
-
+// A line constraint as the solver sees it: points along it (core/corner_point.h), start first,
+// end last.
 struct Line {
-  std::vector<LinePoint> points;
+  std::vector<CornerPoint> points;
   LineKind kind;
 };
 
-Point position(const LinePoint& p, const std::vector<Point>& positions) {
-  Point r;
-  for (int k = 0; k < p.corners; ++k)
-    r.x += p.weight[k] * positions[p.vertex[k]].x, r.y += p.weight[k] * positions[p.vertex[k]].y;
-  return r;
-}
-
-// A point of a piece as a LinePoint: a corner whose weight is 1 but for rounding is the vertex
-// itself (a line the mesh follows is held at its vertices, as [ICAZ §4.3] holds it).
-LinePoint line_point(const Mesh& mesh, const MeshPoint& p) {
-  LinePoint out;
+// A point of a piece as a CornerPoint: a corner whose weight is 1 but for rounding is the vertex
+// itself (a line the mesh follows is held at its vertices, as [ICAZ §4.3] holds it), and a weight
+// that is 0 but for rounding is 0 (the line terms leave such corners out).
+CornerPoint line_point(const Mesh& mesh, const MeshPoint& p) {
+  const Triangle& t = mesh.triangles[std::size_t(p.triangle)];
   for (int k = 0; k < 3; ++k)
-    if (p.barycentric[k] > 1 - 1e-9) {
-      out.vertex[0] = mesh.triangles[p.triangle][k], out.weight[0] = 1, out.corners = 1;
-      return out;
-    }
-  for (int k = 0; k < 3; ++k)
-    if (std::abs(p.barycentric[k]) > 1e-12) {
-      out.vertex[out.corners] = mesh.triangles[p.triangle][k], out.weight[out.corners] = p.barycentric[k];
-      ++out.corners;
-    }
+    if (p.barycentric[k] > 1 - 1e-9) return {{t[k], t[k], t[k]}, {1, 0, 0}};
+  CornerPoint out{{t[0], t[1], t[2]}, p.barycentric};
+  for (double& w : out.weights)
+    if (std::abs(w) <= 1e-12) w = 0;
   return out;
 }
+
+// How many corners a line term reads of p (those of weight 0 are left out).
+int corners(const CornerPoint& p) { return int(std::count_if(p.weights.begin(), p.weights.end(), [](double w) { return w != 0; })); }
 
 // The parts of s on the mesh, each as its points in order: the ends of every piece (segment_pieces),
 // which are its crossings with triangle edges; a point shared by two pieces once. A part needs
 // two distinct points to constrain anything.
-std::vector<std::vector<LinePoint>> held_parts(const Mesh& mesh, const Segment& s) {
+std::vector<std::vector<CornerPoint>> held_parts(const Mesh& mesh, const Segment& s) {
   const double length = std::hypot(s.b.x - s.a.x, s.b.y - s.a.y);
-  std::vector<std::vector<LinePoint>> parts;
+  std::vector<std::vector<CornerPoint>> parts;
   if (!(length > 0)) return parts;
   const double same = 1e-9 / std::max(1.0, length);  // in u: a nanopixel
-  std::vector<std::pair<double, LinePoint>> part;     // (u, point)
+  std::vector<std::pair<double, CornerPoint>> part;   // (u, point)
   double covered = -1;
   auto close = [&]() {
     std::sort(part.begin(), part.end(), [](const auto& p, const auto& q) { return p.first < q.first; });
-    std::vector<LinePoint> points;
+    std::vector<CornerPoint> points;
     double last = -1;
     for (const auto& [u, p] : part)
       if (points.empty() || u > last + same) points.push_back(p), last = u;
@@ -241,7 +228,7 @@ struct ShapeWarp::Impl {
       for (const Line& l : lines)
         if (l.kind == kind)  // the fast path has only lines held at vertices
           for (std::size_t k = 1; k < l.points.size(); ++k)
-            springs.push_back({l.points[k].vertex[0], l.points[0].vertex[0], alpha});
+            springs.push_back({l.points[k].vertices[0], l.points[0].vertices[0], alpha});
       const bool with_lines = springs.size() > shape_springs;
       // Every vertex of this axis fixed (a coarsest mesh with no interior vertex: images whose
       // short side is under ~110 px, see shape_warp.h): the axis is determined and there is
@@ -417,8 +404,8 @@ struct ShapeWarp::Impl {
     Triplets t;
     std::size_t line_terms = 0;
     for (const Line& l : lines)
-      for (const LinePoint& p : l.points) line_terms += std::size_t(2 * (p.corners + l.points.front().corners)) *
-                                                        std::size_t(2 * (p.corners + l.points.front().corners));
+      for (const CornerPoint& p : l.points) line_terms += std::size_t(2 * (corners(p) + corners(l.points.front()))) *
+                                                          std::size_t(2 * (corners(p) + corners(l.points.front())));
     t.reserve(18 * mesh.triangles.size() + line_terms);
     Eigen::VectorXd b = Eigen::VectorXd::Zero(n);
     // Adds w·(Σ c_k u_k)² over `count` coordinates; a fixed one (unknown −1) has its value known.
@@ -448,17 +435,18 @@ struct ShapeWarp::Impl {
         add(x, 2, w[f]);
         add(y, 2, w[f]);
       }
-    // Line terms: each point's coordinates are its corners' (LinePoint), so a term has up to 18.
+    // Line terms: each point's coordinates are its corners' (CornerPoint), so a term has up to 18.
     std::array<Term, 18> terms;
     int count = 0;
-    auto put = [&](const LinePoint& p, double c, bool along_x) {
-      for (int j = 0; j < p.corners; ++j) {
-        const int v = p.vertex[j];
-        terms[count++] = {along_x ? vx(v) : vy(v), c * p.weight[j], along_x ? fixed[v].x : fixed[v].y};
+    auto put = [&](const CornerPoint& p, double c, bool along_x) {
+      for (int j = 0; j < 3; ++j) {
+        if (p.weights[j] == 0) continue;
+        const int v = p.vertices[j];
+        terms[count++] = {along_x ? vx(v) : vy(v), c * p.weights[j], along_x ? fixed[v].x : fixed[v].y};
       }
     };
     for (const Line& l : lines) {
-      const LinePoint &st = l.points.front(), &en = l.points.back();
+      const CornerPoint &st = l.points.front(), &en = l.points.back();
       const auto [nx, ny] = line_normal(l, normals);
       const bool direction_form = l.kind == LineKind::kOblique && direction_form_step;
       const Point ps = position(st, cur), pe = position(en, cur);
@@ -467,7 +455,7 @@ struct ShapeWarp::Impl {
       // keeps it on the line too.
       const std::size_t last = direction_form ? l.points.size() - 1 : l.points.size();
       for (std::size_t k = 1; k < last; ++k) {
-        const LinePoint& q = l.points[k];
+        const CornerPoint& q = l.points[k];
         if (direction_form) {  // ‖v'_i − (1 − r) v'_s − r v'_e‖², per axis
           const Point pq = position(q, cur);
           const double r = e2 > 0 ? ((pq.x - ps.x) * ex + (pq.y - ps.y) * ey) / e2 : 0;
@@ -494,7 +482,7 @@ struct ShapeWarp::Impl {
     for (const Line& l : lines) {
       const Point st = position(l.points.front(), p);
       const auto [nx, ny] = line_normal(l, normals);
-      for (const LinePoint& q : l.points) {
+      for (const CornerPoint& q : l.points) {
         const Point pq = position(q, p);
         const double d = (pq.x - st.x) * nx + (pq.y - st.y) * ny;
         e += alpha * d * d;
@@ -536,7 +524,7 @@ ShapeWarp::ShapeWarp(Mesh mesh, std::vector<double> weights, double width, doubl
                           : std::abs(s.b.x - s.a.x) <= 1e-9 * len ? LineKind::kVertical
                                                                   : LineKind::kOblique;
     for (auto& points : held_parts(impl_->mesh, s)) {
-      const bool on_vertices = std::all_of(points.begin(), points.end(), [](const LinePoint& p) { return p.corners == 1; });
+      const bool on_vertices = std::all_of(points.begin(), points.end(), [](const CornerPoint& p) { return is_vertex(p); });
       impl_->has_oblique |= kind == LineKind::kOblique || !on_vertices;
       impl_->lines.push_back({std::move(points), kind});
     }

@@ -14,9 +14,9 @@
 // scales by 1/σa (every energy is homogeneous of degree 2, so this is exact).
 #pragma once
 
-#include <array>
 #include <vector>
 
+#include "warp/core/corner_point.h"
 #include "warp/core/mesh.h"
 
 namespace zoomwarp::warp {
@@ -29,12 +29,9 @@ struct MpObject {
   double area = 0;            // A_O, analysis px²
 };
 
-// A point of a line, written in the source triangle that holds it: Q(p) = Σ_k weights[k]·Q_{vertices[k]},
-// the piecewise-affine warp at p (ours, issue 30). A mesh vertex of the line is {i, i, i}, {1, 0, 0}.
-struct MpLinePoint {
-  std::array<int, 3> vertices{};
-  std::array<double, 3> weights{};
-};
+// A point of a line, written in the source triangle that holds it (core/corner_point.h; ours,
+// issue 30).
+using MpLinePoint = CornerPoint;
 
 // A line kept straight: points along its whole segment, in order, its two ends first and last —
 // samples every ≤ d/4 and the vertices of its chains of mesh edges, which stop short of the border
@@ -43,16 +40,6 @@ struct MpLinePoint {
 struct MpLine {
   std::vector<MpLinePoint> points;
 };
-
-// Where a line point lands for the vertex positions q.
-inline Point position(const MpLinePoint& p, const std::vector<Point>& q) {
-  Point r;
-  for (int k = 0; k < 3; ++k) {
-    r.x += p.weights[k] * q[std::size_t(p.vertices[k])].x;
-    r.y += p.weights[k] * q[std::size_t(p.vertices[k])].y;
-  }
-  return r;
-}
 
 struct MpModel {
   double width = 0, height = 0;  // the analysis image, Wa × Ha
