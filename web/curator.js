@@ -8,6 +8,8 @@
 // localStorage (it would outlive the session), in a URL (it would reach logs and history) or on
 // the console.
 
+import { retryingRead } from './retry.js';
+
 // Points per side of a marked rectangle: under a warp a screen rectangle is a curved region of
 // the source, so its outline is sent as a polygon, not as the bounding box of its corners.
 const OUTLINE_POINTS_PER_SIDE = 8;
@@ -140,8 +142,15 @@ export const curatorKey = new CuratorKey(sessionStorage);
 // 403 to a request that carried the key means the server does not take it (unknown, rotated
 // away, or without the role the request needs): the key is forgotten, and the listeners told why.
 // Requests without a key change nothing, so a private image refused to a reader does not touch
-// the key.
+// the key. A read the server asks to repeat later (503 or 429 with Retry-After: an analysis
+// being made on first use) is sent again after the wait it asks for (retry.js).
 export async function authorizedFetch(url, init = {}) {
+  const method = (init.method ?? 'GET').toUpperCase();
+  if (method === 'GET' || method === 'HEAD') return retryingRead(url, () => sendWithKey(url, init));
+  return sendWithKey(url, init);
+}
+
+async function sendWithKey(url, init) {
   const key = curatorKey.get();
   if (key === null || new URL(url, location.href).origin !== location.origin) return fetch(url, init);
   const response = await fetch(url, { ...init, headers: { ...init.headers, Authorization: `Bearer ${key}` } });

@@ -20,6 +20,7 @@ import { SuggestionPanel } from './suggestions.js';
 import { Overlay } from './overlay.js';
 import { Pane, VIEW_DIGITS } from './pane.js';
 import { Renderer } from './renderer.js';
+import { onRetryWait } from './retry.js';
 import { formatState, parseState, withoutView } from './state.js';
 
 // Zoom per wheel notch; a notch is 100 pixels or 3 lines of deltaY, so a touchpad's many small
@@ -64,6 +65,8 @@ class Viewer {
     this.gesture = null;        // the pan/pinch or the sketch under way
     this.waiters = [];          // setView() promises waiting for the viewer to be idle
     this.frameRequested = false;
+    this.waitNotice = null;      // the status line while a read waits to be repeated
+    onRetryWait((wait) => this.waiting(wait));
     let firstFrame;
     this.ready = new Promise((resolve) => { firstFrame = resolve; });
     this.firstFrame = firstFrame;
@@ -168,7 +171,16 @@ class Viewer {
   paneChanged() {
     const failed = this.panes.find((pane) => pane.failure);
     if (failed) this.say(failed.failure.error.message);
+    else if (this.status.textContent === this.waitNotice) this.say('');
     this.requestFrame();
+  }
+
+  // A read the server asked to repeat (retry.js): said until a pane has loaded.
+  waiting({ code, seconds }) {
+    const why = code === 'analysis_pending' ? "the server is preparing this image's analysis"
+              : code ? `the server answered ${code}` : 'the server is busy';
+    this.waitNotice = `${why}; trying again in ${seconds} s…`;
+    this.say(this.waitNotice);
   }
 
   // --- drawing ----------------------------------------------------------------------------

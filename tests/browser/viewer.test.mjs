@@ -108,6 +108,41 @@ for (const view of VIEWS) {
   });
 }
 
+// A first view that outlasts --request-timeout while the image's analysis is made is answered
+// 503 analysis_pending with Retry-After (api/warp_engines.h); on a busy machine that is the
+// viewer's first mesh. The viewer waits as asked, says why, and asks again. The answer is the
+// server's own, replayed by routing the page's first mesh and lines reads, so that the test
+// does not depend on how loaded the machine is.
+test('a view the server asks to retry (503 analysis_pending, Retry-After) is retried and drawn', { timeout: 60_000 }, async (t) => {
+  const refused = [];
+  let statusSeen;
+  const page = await openViewer(t, `/?image=${IMAGE_ID}`, async (page) => {
+    const pending = async (route) => {
+      if (refused.some((url) => url === route.request().url())) return route.continue();
+      refused.push(route.request().url());
+      await route.fulfill({
+        status: 503,
+        headers: { 'Retry-After': '1', 'Content-Type': 'application/json' },
+        body: JSON.stringify({ error: { code: 'analysis_pending', message: "this image's analysis is being computed" } }),
+      });
+    };
+    await page.route(/\/mesh\?/, pending);
+    await page.route(/\/lines$/, pending);
+    page.on('load', () => {
+      statusSeen = page.waitForFunction(() => document.getElementById('status').textContent, null, { polling: 50 })
+        .then((handle) => handle.jsonValue());
+    });
+  });
+  assert.equal(refused.filter((url) => url.includes('/mesh?')).length, 1, 'the first mesh read was answered 503');
+  assert.equal(refused.filter((url) => url.endsWith('/lines')).length, 1, 'the first lines read was answered 503');
+  assert.match(await statusSeen, /preparing this image's analysis; trying again in 1 s/);
+  assert.ok(spread(await canvasPixels(page)) > 20, 'the retried view is drawn');
+  assert.equal(await page.textContent('#status'), '', 'the notice is gone once the view is drawn');
+  const { suggested } = await getJson(`/v1/images/${IMAGE_ID}/lines`);
+  assert.ok(suggested.length > 0);
+  await page.waitForFunction((n) => document.querySelectorAll('#suggestions li').length === n, suggested.length);
+});
+
 test('marking a region important with the mouse publishes a new version', { timeout: 60_000 }, async (t) => {
   const page = await openViewer(t, `/?image=${EDITED_ID}`);
   const { version, width, height } = await getJson(`/v1/images/${EDITED_ID}`);
@@ -274,7 +309,8 @@ async function drag(page) {
 
 // A page of the viewer in its own context (480×360 CSS pixels, one device pixel each), ready:
 // the first frame is drawn. Page errors fail the test; the context is closed after it.
-async function openViewer(t, url) {
+// `prepare(page)` runs before the page loads (to route its requests).
+async function openViewer(t, url, prepare = async () => {}) {
   const context = await browser.newContext({ viewport: VIEWPORT, deviceScaleFactor: 1 });
   const page = await context.newPage();
   const errors = [];
@@ -283,6 +319,7 @@ async function openViewer(t, url) {
     await context.close();
     assert.deepEqual(errors, [], 'errors in the page');
   });
+  await prepare(page);
   await page.goto(base + url);
   await page.evaluate(() => window.zoomwarp.ready);
   return page;
