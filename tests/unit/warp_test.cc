@@ -10,6 +10,7 @@
 #include <random>
 #include <unordered_map>
 
+#include "warp/compare/metrics.h"
 #include "warp/core/segment_pieces.h"
 #include "warp/core/uniform_zoom.h"
 #include "warp/meshing/coarse_mesh.h"
@@ -443,6 +444,53 @@ TEST(ShapeWarp, AVertexInNoTriangleStaysWhereItStarts) {
   for (std::size_t i = 0; i < plain.positions.size(); ++i)
     largest = std::max(largest, std::hypot(r.positions[i].x - plain.positions[i].x, r.positions[i].y - plain.positions[i].y));
   EXPECT_LT(largest, 1e-6);
+}
+
+// The rotation term (WarpOptions::rotation_weight, issue 30): a salient band across the image's
+// diagonal, squeezed from 3:1 to 9:16, cannot stay a scaled copy without turning — the shape
+// term turns it. With ρ = 1 it turns less and shears instead; at the identity the term (0 with
+// zero gradient at any stretch along the axes) changes nothing.
+double band_rotation_p95(const warp::Mesh& m, const std::vector<double>& w, const std::vector<Point>& q) {
+  std::vector<double> angles;
+  for (std::size_t f = 0; f < m.triangles.size(); ++f) {
+    if (w[f] < 1) continue;
+    const auto& t = m.triangles[f];
+    angles.push_back(std::abs(warp::rotation_degrees(m.vertices[t[0]], m.vertices[t[1]], m.vertices[t[2]], q[t[0]],
+                                                     q[t[1]], q[t[2]])));
+  }
+  std::sort(angles.begin(), angles.end());
+  return angles[std::size_t(0.95 * double(angles.size() - 1))];
+}
+
+TEST(ShapeWarp, TheRotationTermTurnsASalientDiagonalBandLessAndLeavesStretchesExact) {
+  const double w = 3000, h = 1000, tw = 1000, th = 1800;
+  const auto cm = warp::build_coarse_mesh(w, h, {});
+  std::vector<double> band;  // 1 within 150 px of the diagonal (0, 0)–(w, h), 0.1 elsewhere
+  for (const auto& t : cm.mesh.triangles) {
+    const Point &a = cm.mesh.vertices[t[0]], &b = cm.mesh.vertices[t[1]], &c = cm.mesh.vertices[t[2]];
+    const Point g{(a.x + b.x + c.x) / 3, (a.y + b.y + c.y) / 3};
+    band.push_back(std::abs(g.x * h - g.y * w) / std::hypot(w, h) < 150 ? 1.0 : 0.1);
+  }
+  const warp::ShapeWarp warp(cm.mesh, band, w, h);
+  warp::WarpOptions paper, rotation;
+  paper.fixed_line_normals = rotation.fixed_line_normals = true;
+  rotation.rotation_weight = 1;
+  const auto turned = warp.solve(tw, th, paper), held = warp.solve(tw, th, rotation);
+  EXPECT_TRUE(turned.converged && held.converged);
+  EXPECT_EQ(held.inverted, 0);
+  expect_valid_warp(cm.mesh, held.positions, w, h, tw, th);
+  const double before = band_rotation_p95(cm.mesh, band, turned.positions);
+  const double after = band_rotation_p95(cm.mesh, band, held.positions);
+  std::printf("[ rotation ] band p95 %.2f deg without the term, %.2f deg with rho = 1\n", before, after);
+  EXPECT_GT(before, 5) << "the band turns under the paper's energy";
+  EXPECT_LT(after, 0.85 * before);
+
+  const auto identity = warp.solve(w, h, rotation);
+  double off_identity = 0;
+  for (std::size_t i = 0; i < identity.positions.size(); ++i)
+    off_identity = std::max(off_identity, std::hypot(identity.positions[i].x - cm.mesh.vertices[i].x,
+                                                     identity.positions[i].y - cm.mesh.vertices[i].y));
+  EXPECT_LT(off_identity, 1e-6) << "the image's own size: the identity, term or not";
 }
 
 // segment_pieces: a segment's piece in each triangle it crosses, from which both the line term

@@ -264,6 +264,13 @@ struct ShapeWarp::Impl {
   std::vector<std::array<Point, 3>> edge;
   std::vector<double> edge_norm2;
   std::vector<std::array<int, 6>> corner_unknowns;
+  // The rotation term's row per triangle: r_f = A_f,10 − A_f,01 = Σ_k rx_k x'_k + ry_k y'_k over
+  // its corners (WarpOptions::rotation_weight), and the triangle's source area A_f.
+  struct RotationRow {
+    std::array<double, 3> rx, ry;
+    double area;
+  };
+  std::vector<RotationRow> rotation_row;
 
   void measure_edges() {
     edge.resize(mesh.triangles.size()), edge_norm2.resize(mesh.triangles.size());
@@ -279,6 +286,37 @@ struct ShapeWarp::Impl {
       }
       edge_norm2[f] = den;
     }
+    // A = D S⁻¹ with S = [v1 − v0, v2 − v0] in the source and D the same on the target, so
+    // r = (d1·s2 − d2·s1)/det S over the edges' x and y parts (d, s from v0): linear in v'.
+    rotation_row.resize(mesh.triangles.size());
+    for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+      const Triangle& t = mesh.triangles[f];
+      const Point &v0 = mesh.vertices[t[0]], &v1 = mesh.vertices[t[1]], &v2 = mesh.vertices[t[2]];
+      const Point s1{v1.x - v0.x, v1.y - v0.y}, s2{v2.x - v0.x, v2.y - v0.y};
+      const double det = s1.x * s2.y - s2.x * s1.y;
+      RotationRow& row = rotation_row[f];
+      row.area = 0.5 * std::abs(det);
+      if (det == 0) {  // a degenerate triangle has no affine map to turn
+        row = {{0, 0, 0}, {0, 0, 0}, 0};
+        continue;
+      }
+      row.rx = {(s1.x - s2.x) / det, s2.x / det, -s1.x / det};
+      row.ry = {(s1.y - s2.y) / det, s2.y / det, -s1.y / det};
+    }
+  }
+
+  // ρ Σ_f w_f A_f r_f² of positions p.
+  double rotation_energy(const std::vector<Point>& p, const std::vector<double>& w, double rho) const {
+    if (rho == 0) return 0;
+    double e = 0;
+    for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+      const Triangle& t = mesh.triangles[f];
+      const RotationRow& row = rotation_row[f];
+      double r = 0;
+      for (int k = 0; k < 3; ++k) r += row.rx[k] * p[t[k]].x + row.ry[k] * p[t[k]].y;
+      e += rho * w[f] * row.area * r * r;
+    }
+    return e;
   }
 
   // The optimal isotropic scale s_f of each triangle for positions p (the "local" step) and, if
@@ -361,11 +399,11 @@ struct ShapeWarp::Impl {
   // One global step with oblique lines: x and y are solved jointly. Unknowns: free x first, then
   // free y. Even iterations use the direction form D_Line_D (ratios r_i fixed), odd ones the
   // orientation form D_Line_O (normal fixed), as [ICAZ §4.2] prescribes.
-  void solve_joint(std::vector<Point>& cur, double tw, double th, double alpha, int iteration,
+  void solve_joint(std::vector<Point>& cur, double tw, double th, double alpha, double rho, int iteration,
                    const std::vector<double>& w) const {
     const int n = n_free_x + n_free_y;
     if (n == 0) return;  // every coordinate fixed: nothing to solve, and nothing CHOLMOD accepts
-    auto [a, b] = joint_system(cur, tw, th, alpha, iteration % 2 == 0, w, cur);
+    auto [a, b] = joint_system(cur, tw, th, alpha, rho, iteration % 2 == 0, w, cur);
     b += joint_shape_rhs(scales(cur, w), w);
     Solver solver;
     solver.compute(a);
@@ -392,7 +430,7 @@ struct ShapeWarp::Impl {
   // form (`direction_form`, ratios from `cur`) or the orientation form (normal from `normals`) —
   // with fixed coordinates moved to the right.
   std::pair<SpMat, Eigen::VectorXd> joint_system(const std::vector<Point>& cur, double tw, double th, double alpha,
-                                                 bool direction_form_step, const std::vector<double>& w,
+                                                 double rho, bool direction_form_step, const std::vector<double>& w,
                                                  const std::vector<Point>& normals) const {
     const int n = n_free_x + n_free_y;
     auto vx = [&](int i) { return free_x[i]; };
@@ -406,7 +444,7 @@ struct ShapeWarp::Impl {
     for (const Line& l : lines)
       for (const CornerPoint& p : l.points) line_terms += std::size_t(2 * (corners(p) + corners(l.points.front()))) *
                                                           std::size_t(2 * (corners(p) + corners(l.points.front())));
-    t.reserve(18 * mesh.triangles.size() + line_terms);
+    t.reserve((rho > 0 ? 39 : 18) * mesh.triangles.size() + line_terms);
     Eigen::VectorXd b = Eigen::VectorXd::Zero(n);
     // Adds w·(Σ c_k u_k)² over `count` coordinates; a fixed one (unknown −1) has its value known.
     struct Term {
@@ -434,6 +472,17 @@ struct ShapeWarp::Impl {
         const Term y[2] = {{vy(i), 1, fixed[i].y}, {vy(j), -1, fixed[j].y}};
         add(x, 2, w[f]);
         add(y, 2, w[f]);
+      }
+    if (rho > 0)
+      for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+        const Triangle& tri = mesh.triangles[f];
+        const RotationRow& row = rotation_row[f];
+        Term r[6];
+        for (int k = 0; k < 3; ++k) {
+          r[k] = {vx(tri[k]), row.rx[k], fixed[tri[k]].x};
+          r[3 + k] = {vy(tri[k]), row.ry[k], fixed[tri[k]].y};
+        }
+        add(r, 6, rho * w[f] * row.area);
       }
     // Line terms: each point's coordinates are its corners' (CornerPoint), so a term has up to 18.
     std::array<Term, 18> terms;
@@ -552,8 +601,9 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
     for (std::size_t i = 0; i < r.positions.size(); ++i)
       r.positions[i] = {m.mesh.vertices[i].x * tw / m.width, m.mesh.vertices[i].y * th / m.height};
   }
-  // The fast path's factorization was made with the default α; another α needs the joint path.
-  const bool fast = !m.has_oblique && options.alpha == WarpOptions{}.alpha;
+  // The fast path's factorization was made with the default α and no rotation term; anything
+  // else needs the joint path.
+  const bool fast = !m.has_oblique && options.alpha == WarpOptions{}.alpha && options.rotation_weight == 0;
   // Anderson acceleration (window 5) of the fixed-point map u ← G(u) of a constant system (the
   // fast path, or the joint one with fixed line normals): local–global converges linearly, and
   // extrapolating from the last few steps cuts the iterations several times. Safeguard [Peng et
@@ -588,12 +638,13 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
     int history = 0, next_column = 0;
     Eigen::VectorXd g_prev, f_prev;
     // What an accelerated step must lower: the shape energy (the fast path's H/V line terms are
-    // nearly met by construction), plus the line energy when oblique lines are in the system.
+    // nearly met by construction), plus the line and rotation energies of the joint system.
     // The scales of p come with it: the next step starts from whichever positions are kept.
     auto objective = [&](const std::vector<Point>& p, std::vector<double>& scales_of_p) {
       double shape = 0;
       scales_of_p = m.scales(p, w, &shape);
-      return joint ? shape + m.line_energy(p, normals, options.alpha) : shape;
+      if (!joint) return shape;
+      return shape + m.line_energy(p, normals, options.alpha) + m.rotation_energy(p, w, options.rotation_weight);
     };
     std::vector<double> scales;  // of r.positions, when `scales_current`
     double energy = 0;           // objective of r.positions, likewise
@@ -643,7 +694,7 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
   // fill-reducing ordering and symbolic analysis were ~10 % of a guard round.
   auto constant_joint = [&](const std::vector<Point>& from, const std::vector<double>& w,
                             std::unique_ptr<ConstantJoint> joint) {
-    auto [a, b] = m.joint_system(from, tw, th, options.alpha, false, w, from);
+    auto [a, b] = m.joint_system(from, tw, th, options.alpha, options.rotation_weight, false, w, from);
     if (joint) {
       joint->solver.factorize(a);
     } else {
@@ -664,7 +715,7 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
     for (r.iterations = 0; r.iterations < options.max_iterations;) {
       check_stop(options.stop);
       const std::vector<Point> before = r.positions;
-      m.solve_joint(r.positions, tw, th, options.alpha, r.iterations, m.weights);
+      m.solve_joint(r.positions, tw, th, options.alpha, options.rotation_weight, r.iterations, m.weights);
       ++r.iterations;
       // Oblique lines alternate two forms: judge convergence after a pair of iterations.
       if (largest_move(before, r.positions) < options.tolerance && r.iterations % 2 == 0) {
@@ -707,7 +758,7 @@ WarpResult ShapeWarp::solve(double tw, double th, const WarpOptions& options, co
       for (int k = 0; k < options.max_guard_iterations; ++k) {
         check_stop(options.stop);
         const std::vector<Point> before = r.positions;
-        m.solve_joint(r.positions, tw, th, options.alpha, r.iterations++, w);
+        m.solve_joint(r.positions, tw, th, options.alpha, options.rotation_weight, r.iterations++, w);
         if (largest_move(before, r.positions) < options.tolerance && k % 2 == 1) break;
       }
     }

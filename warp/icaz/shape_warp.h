@@ -1,6 +1,6 @@
 // Mesh warping by the local–global minimisation of [ICAZ §4.2–4.3]:
 //
-//   D = Σ_f w_f Σ_{e_ij ∈ f} ‖(v'_i − v'_j) − s_f (v_i − v_j)‖²  +  α D_Line
+//   D = Σ_f w_f Σ_{e_ij ∈ f} ‖(v'_i − v'_j) − s_f (v_i − v_j)‖²  +  α D_Line  [+ ρ D_Rot, ours]
 //
 // subject to boundary constraints: vertices on the left/top edges of the source rectangle stay at
 // x' = 0 / y' = 0, those on the right/bottom edges go to x' = W' / y' = H'; pinned vertices (a
@@ -38,6 +38,13 @@ namespace zoomwarp::warp {
 
 struct WarpOptions {
   double alpha = 100;  // line energy weight [ICAZ §4.3]
+  // ρ of a rotation term ρ Σ_f w_f A_f (A_f,10 − A_f,01)² (ours, issue 30; 0: the paper's energy),
+  // A_f the triangle's affine map source → target and A_f its source area: the antisymmetric
+  // part that the angle of A_f's closest rotation grows with, 0 for any stretch along the axes.
+  // The shape term keeps each triangle a scaled copy and lets it turn; a salient structure
+  // spanning the image diagonally must turn or shear when the image is squeezed, and this term
+  // makes it shear instead. Not 0 needs the joint path (it couples x and y): no fast path.
+  double rotation_weight = 0;
   // Plain local–global converges linearly (2000 vertices, 8:3 squeezed to 1:1: 12 px from the
   // optimum after 10 iterations, 0.4 px after 40); the fast path's Anderson acceleration brings
   // that to 0.07 px after 10 and 0.0002 px after 20.

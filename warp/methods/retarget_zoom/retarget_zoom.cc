@@ -47,6 +47,7 @@ RetargetZoom::Positions RetargetZoom::warped(double tw, double th, WarpResult* s
   WarpOptions options;
   options.tolerance = 0.05;
   options.fixed_line_normals = true;
+  options.rotation_weight = kRotationWeight;
   options.stop = stop;
   *stats = warp_.solve(tw, th, options);
   Positions solved = std::make_shared<const std::vector<Point>>(std::move(stats->positions));
@@ -123,7 +124,7 @@ const RetargetingMethod& retarget_zoom_method() {
   static const RetargetingMethod kMethod{
       .name = "retarget-zoom",
       .summary = "the whole image warped once to the screen's aspect ratio on a uniform fine mesh (ICAZ's shape "
-                 "energy), then zoomed uniformly",
+                 "energy, with a rotation term that keeps salient shapes upright), then zoomed uniformly",
       .zoom = kZoomIntoTheRetargetedImage,
       .has_mesh = true,
       .lines = "the line set's lines are edges of its uniform mesh and keep their normal from the affine "
