@@ -32,6 +32,8 @@ build_pkgs=(
   # pyramid levels written by tiles/level_file.cc: libtiff directly, tiles compressed by ISA-L
   # (zip:1) and libdeflate (other zip levels)
   libtiff-dev libdeflate-dev libisal-dev
+  # sources' ICC profiles converted to sRGB at ingest (tiles/icc_to_srgb.h)
+  liblcms2-dev
   # the S3 store's client (tiles/s3_client.cc): libcurl (OpenSSL flavour) signs and sends requests,
   # expat parses S3's XML answers
   libcurl4-openssl-dev libexpat1-dev
@@ -51,7 +53,10 @@ dev_pkgs=(git ca-certificates libgtest-dev libgmock-dev libbenchmark-dev liblbfg
 # (tests/support/swift_s3/): OpenStack Swift with its s3api middleware (python3-swift, which pulls
 # in python3-xattr and eventlet; the server scripts need no swift-* package) and the memcached its
 # tempauth needs; the data folder must have user xattrs, which start.sh checks.
-test_pkgs=(chromium nodejs npm nginx-light wrk curl jq procps python3-yaml python3-swift memcached)
+test_pkgs=(chromium nodejs npm nginx-light wrk curl jq procps python3-yaml python3-swift memcached
+  # the source formats' tests make JPEG 2000, HEIF/AVIF and TIFF variants with Debian's own
+  # encoders and decode them with its own decoders (tests/unit/source_formats_test.cc)
+  libopenjp2-tools libheif-examples libtiff-tools)
 pkgs=("${build_pkgs[@]}")
 if [ "$build_only" -eq 0 ]; then pkgs+=("${dev_pkgs[@]}" "${test_pkgs[@]}"); fi
 

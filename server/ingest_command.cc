@@ -21,8 +21,8 @@ namespace {
 constexpr const char* kHelp =
     "usage: zoomwarp ingest FILE|FOLDER|-... [OPTIONS]\n"
     "\n"
-    "Decodes each image (JPEG, PNG, TIFF or WebP; 8 or 16 bit; grey, RGB or RGBA; EXIF\n"
-    "orientation applied) and publishes its tile pyramid in the store, named after its file name\n"
+    "Decodes each image (JPEG, PNG, TIFF or BigTIFF, WebP, JPEG 2000, HEIF or AVIF; 8 or 16\n"
+    "bit; grey, RGB or RGBA; EXIF orientation applied) and publishes its tile pyramid in the store, named after its file name\n"
     "without the extension (--id names a single FILE's). Re-ingesting an id replaces the image\n"
     "atomically, also while a server is serving it.\n"
     "\n"

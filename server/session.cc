@@ -330,7 +330,7 @@ std::optional<api::Response> Session::refuse_upload_head(bool whole_body) const 
   const tiles::SourceLimits& limits = state_.router.config().ingest.limits;
   switch (h.status) {
     case Status::kUnknownFormat:
-      return api::error_response(415, "unsupported_format", "the upload is not a JPEG, PNG, TIFF or WebP image");
+      return api::error_response(415, "unsupported_format", "the upload is not a JPEG, PNG, TIFF, WebP, JPEG 2000, HEIF or AVIF image");
     case Status::kCorrupt:
       return api::error_response(422, "corrupt_image", "the image header is unreadable: " + h.problem);
     case Status::kIncomplete:

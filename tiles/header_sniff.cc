@@ -1,6 +1,8 @@
 #include "tiles/header_sniff.h"
 
+#include <algorithm>
 #include <cstring>
+#include <string>
 
 #include "tiles/source_format.h"
 
@@ -146,6 +148,96 @@ SniffedHeader sniff_tiff(Bytes b) {
   return dimensions(width, height);
 }
 
+// A JPEG 2000 codestream (ISO 15444-1 §A.5.1): SOC, then SIZ: Lsiz, Rsiz, Xsiz, Ysiz, XOsiz,
+// YOsiz — the image area is [XOsiz, Xsiz) × [YOsiz, Ysiz) of the reference grid.
+SniffedHeader sniff_codestream(Bytes b, std::uint64_t at) {
+  if (!b.has(at, 4 + 2 + 2 + 16)) return make(Status::kIncomplete);
+  if (b.uint(at, 2) != 0xFF4F || b.uint(at + 2, 2) != 0xFF51)
+    return make(Status::kCorrupt, "the JPEG 2000 codestream does not start with SOC and SIZ");
+  const std::uint64_t x = b.uint(at + 8, 4), y = b.uint(at + 12, 4), x0 = b.uint(at + 16, 4), y0 = b.uint(at + 20, 4);
+  if (x0 >= x || y0 >= y) return make(Status::kCorrupt, "the JPEG 2000 image area is empty");
+  return dimensions(x - x0, y - y0);
+}
+
+// ISO BMFF boxes (ISO 14496-12 §4.2), as JP2 (15444-1 §I.4) and HEIF use them: a 32-bit size
+// (1: a 64-bit one follows the type; 0: to the end of the file) and a 4-character type. Calls
+// box(type, payload start, end) for each box in [from, to) until it returns false; stops with
+// kIncomplete where a box's header lies beyond the bytes given, kCorrupt where a size is impossible.
+template <typename Visit>
+Status walk_boxes(Bytes b, std::uint64_t from, std::uint64_t to, Visit&& box) {
+  for (std::uint64_t at = from; at < to;) {
+    if (!b.has(at, 8)) return Status::kIncomplete;
+    std::uint64_t size = b.uint(at, 4), header = 8;
+    if (size == 1) {
+      if (!b.has(at + 8, 8)) return Status::kIncomplete;
+      size = b.uint(at + 8, 8), header = 16;
+    } else if (size == 0) {
+      size = to - at;
+    }
+    if (size < header || size > to - at) return Status::kCorrupt;
+    const std::string type(reinterpret_cast<const char*>(b.at(at + 4)), 4);
+    if (!box(type, at + header, at + size)) return Status::kOk;
+    at += size;
+  }
+  return Status::kOk;
+}
+
+constexpr std::uint64_t kWholeFile = ~std::uint64_t(0) >> 1;
+
+// JP2 (ISO 15444-1 §I.5.3): the JP2 Header box 'jp2h' holds the Image Header box 'ihdr' first:
+// HEIGHT, WIDTH (4 bytes each), then NC, BPC, C, UnkC, IPR. It must come before the codestream.
+SniffedHeader sniff_jp2(Bytes b) {
+  SniffedHeader found = make(Status::kIncomplete);
+  bool codestream_first = false;
+  const Status walked = walk_boxes(b, 0, kWholeFile, [&](const std::string& type, std::uint64_t begin, std::uint64_t end) {
+    if (type == "jp2c") return codestream_first = true, false;
+    if (type != "jp2h") return true;
+    if (!b.has(begin, 8 + 8)) return false;  // kIncomplete
+    if (b.uint(begin, 4) < 8 + 14 || std::memcmp(b.at(begin + 4), "ihdr", 4) != 0 || end - begin < 8 + 14) {
+      found = make(Status::kCorrupt, "the JP2 header box does not start with an image header");
+      return false;
+    }
+    found = dimensions(b.uint(begin + 12, 4), b.uint(begin + 8, 4));
+    return false;
+  });
+  if (codestream_first) return make(Status::kCorrupt, "the JP2 has no header box before its codestream");
+  if (walked == Status::kCorrupt) return make(Status::kCorrupt, "the JP2 has a box of impossible size");
+  return found;
+}
+
+// HEIF (ISO 23008-12 §6) and AVIF: the 'meta' box's item properties ('iprp' → 'ipco') hold an
+// Image Spatial Extents property 'ispe' (version and flags, width, height) for every image item —
+// the primary image, the tiles of a grid, thumbnails. The largest extents bound what decoding
+// can produce, which is all the limits need; without them (a 'meta' after the media data, beyond
+// the bytes given) the decoder decides.
+SniffedHeader sniff_heif(Bytes b) {
+  std::uint64_t width = 0, height = 0;
+  bool corrupt = false;
+  // Descends into the first box of `type` in [begin, end) and calls inside(payload begin, end).
+  auto first = [&](std::uint64_t begin, std::uint64_t end, const char* type, auto&& inside) {
+    corrupt |= walk_boxes(b, begin, end, [&](const std::string& t, std::uint64_t b1, std::uint64_t e1) {
+                 if (t != type) return true;
+                 inside(b1, e1);
+                 return false;
+               }) == Status::kCorrupt;
+  };
+  first(0, kWholeFile, "meta", [&](std::uint64_t meta, std::uint64_t meta_end) {
+    // 'meta' is a full box: version and flags before its children.
+    first(meta + 4, meta_end, "iprp", [&](std::uint64_t iprp, std::uint64_t iprp_end) {
+      first(iprp, iprp_end, "ipco", [&](std::uint64_t ipco, std::uint64_t ipco_end) {
+        corrupt |= walk_boxes(b, ipco, ipco_end, [&](const std::string& t, std::uint64_t p, std::uint64_t) {
+                     if (t == "ispe" && b.has(p, 12))
+                       width = std::max(width, b.uint(p + 4, 4)), height = std::max(height, b.uint(p + 8, 4));
+                     return true;
+                   }) == Status::kCorrupt;
+      });
+    });
+  });
+  if (corrupt) return make(Status::kCorrupt, "the HEIF has a box of impossible size");
+  if (width > 0 && height > 0) return dimensions(width, height);
+  return make(Status::kIncomplete);  // no extents in the bytes given: the decoder decides
+}
+
 }  // namespace
 
 SniffedHeader sniff_image_header(const std::uint8_t* head, std::size_t n) {
@@ -155,6 +247,9 @@ SniffedHeader sniff_image_header(const std::uint8_t* head, std::size_t n) {
   else if (format == "png") h = sniff_png(Bytes(head, n));
   else if (format == "webp") h = sniff_webp(Bytes(head, n, true));
   else if (format == "tiff") h = sniff_tiff(Bytes(head, n, head[0] == 'I'));
+  else if (format == "jp2") h = sniff_jp2(Bytes(head, n));
+  else if (format == "j2k") h = sniff_codestream(Bytes(head, n), 0);
+  else if (format == "heif" || format == "avif") h = sniff_heif(Bytes(head, n));
   h.format = format;
   return h;
 }

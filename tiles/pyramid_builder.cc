@@ -6,9 +6,16 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <cstring>
+#include <fstream>
 #include <memory>
+#include <optional>
+#include <string>
+#include <utility>
 #include <vector>
 
+#include "tiles/header_sniff.h"
+#include "tiles/icc_to_srgb.h"
 #include "tiles/level_file.h"
 #include "tiles/manifest.h"
 #include "tiles/source_compression.h"
@@ -169,10 +176,32 @@ LevelCompression choose_compression(const PyramidOptions& options, const std::st
   return {"jpeg", jpeg};
 }
 
+bool over_limits(std::uint64_t width, std::uint64_t height, const SourceLimits& limits) {
+  const auto side = std::uint64_t(limits.max_dimension);
+  return width > side || height > side || width * height > limits.max_pixels;
+}
+
+std::string too_large_message(std::uint64_t width, std::uint64_t height, const SourceLimits& limits) {
+  return "image is " + std::to_string(width) + "x" + std::to_string(height) + " pixels, over the limit of " +
+         std::to_string(limits.max_pixels) + " pixels";
+}
+
+// The width and height the file's header declares (tiles/header_sniff.h), if its first bytes say.
+std::optional<std::pair<std::uint64_t, std::uint64_t>> declared_size(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::vector<std::uint8_t> head(kHeaderSniffBytes);
+  in.read(reinterpret_cast<char*>(head.data()), std::streamsize(head.size()));
+  const SniffedHeader h = sniff_image_header(head.data(), std::size_t(in.gcount()));
+  if (h.status != SniffedHeader::Status::kOk) return std::nullopt;
+  return std::make_pair(h.width, h.height);
+}
+
 struct OpenSource {
   std::unique_ptr<OIIO::ImageInput> input;
   PyramidInfo info;
   int read_channels = 3;  // source channels we read (≤ 4)
+  int subimage = 0;       // the page read: the largest (a pyramidal TIFF's full resolution)
+  std::unique_ptr<IccToSrgb> icc;  // the embedded profile's conversion to sRGB, if it needs one
 };
 
 OpenSource open_source(const std::string& path, const SourceLimits& limits) {
@@ -180,21 +209,44 @@ OpenSource open_source(const std::string& path, const SourceLimits& limits) {
   s.info.source_format = sniff_image_file(path);
   if (s.info.source_format.empty())
     throw IngestError(Kind::kUnsupportedFormat,
-                      "unsupported image format (JPEG, PNG, TIFF and WebP are accepted)");
+                      "unsupported image format (JPEG, PNG, TIFF, WebP, JPEG 2000, HEIF and AVIF are accepted)");
+  // The size the header declares, checked before any decoder runs: OpenImageIO's JPEG 2000
+  // reader decodes the whole image when it opens it, so a small file declaring a huge one would
+  // be decoded before the limits below could refuse it.
+  if (const auto declared = declared_size(path); declared && over_limits(declared->first, declared->second, limits))
+    throw IngestError(Kind::kTooLarge, too_large_message(declared->first, declared->second, limits));
   OIIO::ImageSpec config;
   config.attribute("oiio:UnassociatedAlpha", 1);  // keep alpha straight, as the file has it
   s.input = OIIO::ImageInput::open(path, &config);
   if (!s.input) throw IngestError(Kind::kCorrupt, "cannot decode image: " + OIIO::geterror());
+  // A pyramidal or multi-page TIFF: its largest page is the image (usually the first; an
+  // overview stored first would otherwise be taken for it). Only TIFF's pages are looked at: a
+  // WebP's reader, asked for a frame past the last, cannot decode its first one afterwards.
+  if (s.info.source_format == "tiff") {
+    const auto pixels = [&] {
+      return std::uint64_t(std::max(0, s.input->spec().width)) * std::uint64_t(std::max(0, s.input->spec().height));
+    };
+    std::uint64_t largest = pixels();
+    for (int i = 1; s.input->seek_subimage(i, 0); ++i)
+      if (pixels() > largest) largest = pixels(), s.subimage = i;
+    if (!s.input->seek_subimage(s.subimage, 0)) throw IngestError(Kind::kCorrupt, "cannot decode image: " + s.input->geterror());
+    // Looking for a page past the last leaves libtiff's message ("Out of memory"), which
+    // check_read() would take for a decoding error.
+    s.input->geterror();
+  }
   const OIIO::ImageSpec& spec = s.input->spec();
   if (spec.width <= 0 || spec.height <= 0 || spec.depth != 1 || spec.nchannels <= 0)
     throw IngestError(Kind::kCorrupt, "image has no usable pixels");
-  if (spec.width > limits.max_dimension || spec.height > limits.max_dimension ||
-      std::uint64_t(spec.width) * std::uint64_t(spec.height) > limits.max_pixels)
-    throw IngestError(Kind::kTooLarge, "image is " + std::to_string(spec.width) + "x" +
-                                           std::to_string(spec.height) +
-                                           " pixels, over the limit of " +
-                                           std::to_string(limits.max_pixels) + " pixels");
+  if (over_limits(std::uint64_t(spec.width), std::uint64_t(spec.height), limits))
+    throw IngestError(Kind::kTooLarge, too_large_message(std::uint64_t(spec.width), std::uint64_t(spec.height), limits));
   s.read_channels = std::min(spec.nchannels, 4);
+  if (const OIIO::ParamValue* icc = spec.find_attribute("ICCProfile")) {
+    try {
+      s.icc = IccToSrgb::for_profile(static_cast<const std::uint8_t*>(icc->data()), icc->type().size(), s.read_channels);
+    } catch (const std::runtime_error& e) {
+      throw IngestError(Kind::kCorrupt, std::string("the image cannot be shown in sRGB: ") + e.what());
+    }
+  }
   s.info.channels = stored_channels(spec);
   s.info.source_channels = spec.nchannels;
   s.info.source_bits = int(spec.format.size() * 8);
@@ -207,18 +259,53 @@ OpenSource open_source(const std::string& path, const SourceLimits& limits) {
   return s;
 }
 
-// Rows [y0, y1) of the source's first `channels` channels as 8-bit, packed. A source that is
-// already that (8-bit JPEGs, PNGs, TIFFs with all their channels) is decoded straight into `out`
-// by the format's reader: OpenImageIO 2.4's read_scanlines takes its converting path even then,
-// allocating a 64 MB buffer per call (mapped afresh, so its pages fault in again every 16 rows)
-// and copying the rows out of it — for the 127 MP test image, 529 such calls moved 380 MB
-// through fresh pages on the decoding thread, the pyramid's critical path (tiles/README.md).
-bool read_rows(OIIO::ImageInput& in, int y0, int y1, int channels, std::uint8_t* out) {
-  const OIIO::ImageSpec& spec = in.spec();
-  if (spec.format == OIIO::TypeDesc::UINT8 && spec.channelformats.empty() && channels == spec.nchannels)
-    return in.read_native_scanlines(0, 0, y0, y1, 0, out);
-  return in.read_scanlines(0, 0, y0, y1, 0, 0, channels, OIIO::TypeDesc::UINT8, out);
-}
+// Rows [y0, y1) of the source's first `channels` channels as 8-bit, packed, read in order. A
+// source that is already that (8-bit JPEGs, PNGs, TIFFs with all their channels) is decoded
+// straight into `out` by the format's reader: OpenImageIO 2.4's read_scanlines takes its
+// converting path even then, allocating a 64 MB buffer per call (mapped afresh, so its pages
+// fault in again every 16 rows) and copying the rows out of it — for the 127 MP test image, 529
+// such calls moved 380 MB through fresh pages on the decoding thread, the pyramid's critical path
+// (tiles/README.md). A tiled source (a tiled or pyramidal TIFF) is read a row of tiles at a time
+// into a band the rows are copied from: it has no scanlines, and OpenImageIO 2.4's read_scanlines
+// on one divides by zero (SIGFPE). The band is the image's width × one tile's height.
+class RowReader {
+ public:
+  RowReader(OIIO::ImageInput& in, int subimage, int channels) : in_(in), subimage_(subimage), channels_(channels) {}
+
+  bool read(int y0, int y1, std::uint8_t* out) {
+    const OIIO::ImageSpec& spec = in_.spec();
+    if (spec.tile_width > 0 && spec.tile_height > 0) return read_tiled(y0, y1, out);
+    if (spec.format == OIIO::TypeDesc::UINT8 && spec.channelformats.empty() && channels_ == spec.nchannels)
+      return in_.read_native_scanlines(subimage_, 0, y0, y1, 0, out);
+    return in_.read_scanlines(subimage_, 0, y0, y1, 0, 0, channels_, OIIO::TypeDesc::UINT8, out);
+  }
+
+ private:
+  bool read_tiled(int y0, int y1, std::uint8_t* out) {
+    const OIIO::ImageSpec& spec = in_.spec();
+    const std::size_t row_bytes = std::size_t(spec.width) * channels_;
+    for (int y = y0; y < y1;) {
+      if (y < band_y0_ || y >= band_y1_) {
+        band_y0_ = y - (y - spec.y) % spec.tile_height;
+        band_y1_ = std::min(band_y0_ + spec.tile_height, spec.y + spec.height);
+        band_.resize(row_bytes * std::size_t(band_y1_ - band_y0_));
+        if (!in_.read_tiles(subimage_, 0, spec.x, spec.x + spec.width, band_y0_, band_y1_, spec.z, spec.z + 1, 0,
+                            channels_, OIIO::TypeDesc::UINT8, band_.data()))
+          return false;
+      }
+      const int n = std::min(y1, band_y1_) - y;
+      std::memcpy(out + row_bytes * std::size_t(y - y0), band_.data() + row_bytes * std::size_t(y - band_y0_),
+                  row_bytes * std::size_t(n));
+      y += n;
+    }
+    return true;
+  }
+
+  OIIO::ImageInput& in_;
+  int subimage_, channels_;
+  std::vector<std::uint8_t> band_;
+  int band_y0_ = 0, band_y1_ = 0;  // the rows band_ holds
+};
 
 void check_read(OIIO::ImageInput& in, bool ok) {
   // libjpeg reports a truncated file as a warning and pads it grey; OIIO passes that on as an
@@ -267,10 +354,12 @@ PyramidInfo build_pyramid(const std::string& path, const std::string& out_dir,
     const int chunk = 16;
     const bool direct = rc == ch;
     std::vector<std::uint8_t> buf(direct ? 0 : std::size_t(chunk) * sw * rc);
+    RowReader reader(in, src.subimage, rc);
     for (int y = 0; y < sh;) {
       const int n = std::min({chunk, sh - y, level0.rows_free()});
       std::uint8_t* rows = level0.free_rows();
-      check_read(in, read_rows(in, y, y + n, rc, direct ? rows : buf.data()));
+      check_read(in, reader.read(y, y + n, direct ? rows : buf.data()));
+      if (src.icc) src.icc->convert(direct ? rows : buf.data(), std::size_t(n) * sw);
       if (!direct)
         for (int r = 0; r < n; ++r)
           to_stored(buf.data() + std::size_t(r) * sw * rc, rc, sw, ch, rows + std::size_t(r) * sw * ch);
@@ -282,7 +371,8 @@ PyramidInfo build_pyramid(const std::string& path, const std::string& out_dir,
     // A rotation needs whole columns, so the image is decoded whole (8-bit) and reoriented.
     OIIO::ImageSpec spec8(sw, sh, rc, OIIO::TypeDesc::UINT8);
     OIIO::ImageBuf whole(spec8);
-    check_read(in, in.read_image(0, 0, 0, rc, OIIO::TypeDesc::UINT8, whole.localpixels()));
+    check_read(in, in.read_image(src.subimage, 0, 0, rc, OIIO::TypeDesc::UINT8, whole.localpixels()));
+    if (src.icc) src.icc->convert(static_cast<std::uint8_t*>(whole.localpixels()), std::size_t(sw) * sh);
     whole.specmod().attribute("Orientation", info.source_orientation);
     if (progress) progress(0.3);
     OIIO::ImageBuf upright = OIIO::ImageBufAlgo::reorient(whole);

@@ -81,6 +81,30 @@ bool webp_is_lossy(const std::string& path) {
   return false;
 }
 
+// Whether a JPEG 2000 codestream's wavelet is the irreversible 9-7 (lossy) rather than the
+// reversible 5-3 (lossless when every layer is kept, as a master's is): the COD marker's
+// "transformation" byte (ISO 15444-1 §A.6.1, Table A.20: 0 = 9-7, 1 = 5-3). COD is in the main
+// header after SIZ, so it lies in the first KiB of a JP2's codestream box; the codestream is
+// found by its SOC + SIZ markers, and the main header walked marker by marker up to SOT.
+bool jpeg2000_is_lossy(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string head(64 * 1024, '\0');
+  in.read(head.data(), std::streamsize(head.size()));
+  head.resize(std::size_t(in.gcount()));
+  const auto* h = reinterpret_cast<const unsigned char*>(head.data());
+  std::size_t at = head.find("\xFF\x4F\xFF\x51");
+  if (at == std::string::npos) return true;  // unreadable: the safe side is JPEG tiles
+  at += 2;
+  while (at + 4 <= head.size() && h[at] == 0xFF) {
+    const int marker = h[at + 1];
+    const std::size_t length = std::size_t(h[at + 2]) << 8 | h[at + 3];
+    if (marker == 0x90 || length < 2) break;  // SOT: the main header is over
+    if (marker == 0x52 && length >= 12 && at + 2 + 12 <= head.size()) return h[at + 2 + 11] == 0;
+    at += 2 + length;
+  }
+  return true;
+}
+
 }  // namespace
 
 int ijg_quality_of(const unsigned short (&table)[64]) {
@@ -106,6 +130,10 @@ SourceCompression source_compression(const std::string& path, const std::string&
     if (file) s.jpeg = read_jpeg_format(file.get());
   } else if (format == "webp") {
     s.lossy = webp_is_lossy(path);
+  } else if (format == "jp2" || format == "j2k") {
+    s.lossy = jpeg2000_is_lossy(path);
+  } else if (format == "heif" || format == "avif") {
+    s.lossy = true;  // HEVC and AV1 as these files carry them: lossy (tiles/README.md)
   }
   return s;
 }

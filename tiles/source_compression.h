@@ -1,5 +1,6 @@
 // What a source's own compression says about how to store its pyramid (tiles/README.md,
-// "Tile compression per source"): a lossy source (JPEG, lossy WebP) gets JPEG tiles, and a JPEG
+// "Tile compression per source"): a lossy source (JPEG, lossy WebP, lossy JPEG 2000, HEIF, AVIF)
+// gets JPEG tiles, and a JPEG
 // source's tiles are never made at a higher quality than the source's own — storing a quality-75
 // photograph at 90 would only keep its artefacts more exactly, at 1.6× the bytes.
 // Pure functions of the file's first bytes; safe on any thread.
@@ -13,7 +14,9 @@
 namespace zoomwarp::tiles {
 
 struct SourceCompression {
-  bool lossy = false;  // JPEG, or WebP whose image is a VP8 (not VP8L) bitstream
+  // JPEG, WebP whose image is a VP8 (not VP8L) bitstream, JPEG 2000 with the irreversible 9-7
+  // wavelet, HEIF and AVIF.
+  bool lossy = false;
   // For a JPEG source: its luma quantisation table's IJG quality (exact for libjpeg's, vips' and
   // most encoders' tables, the nearest for a camera's own) and its chroma subsampling.
   std::optional<JpegTileFormat> jpeg;

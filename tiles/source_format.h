@@ -9,10 +9,13 @@
 
 namespace zoomwarp::tiles {
 
-// Bytes sniff_image_format() wants to see (fewer is fine; it then recognises less).
-inline constexpr std::size_t kSniffBytes = 16;
+// Bytes sniff_image_format() wants to see (fewer is fine; it then recognises less): a HEIF
+// 'ftyp' box's first compatible brands lie past byte 16.
+inline constexpr std::size_t kSniffBytes = 32;
 
-// "jpeg", "png", "tiff", "webp", or "" when the bytes are none of them.
+// "jpeg", "png", "tiff" (classic and BigTIFF), "webp", "jp2" (a JPEG 2000 file), "j2k" (a bare
+// JPEG 2000 codestream), "heif" (HEIC and other HEIF), "avif", or "" when the bytes are none of
+// them.
 std::string sniff_image_format(const std::uint8_t* head, std::size_t n);
 
 // The same for a file's first bytes; "" if it cannot be read.
