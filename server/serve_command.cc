@@ -49,6 +49,8 @@ std::vector<OptionSpec> serve_specs() {
       {"dzi-overlap", "1", "Deep Zoom Overlap, pixels, 0-8"},
       {"jpeg-quality", "85", "JPEG quality of every answer that is encoded, 1-100 (stored tiles sent as they are keep the image's tile quality)"},
       {"webp-quality", "80", "WebP quality, 1-100"},
+      {"avif-quality", "60", "AVIF quality, 1-100 (AV1 quantizer (100 - q) * 63 / 100)"},
+      {"avif-speed", "10", "AVIF encoder speed, 0 (slowest, smallest) to 10 (fastest)"},
       {"cache-max-age", "60", "Cache-Control max-age of image responses, seconds"},
       {"public-url", "", "base URL clients see (for IIIF ids); default from the Host header"},
       {"idle-timeout", "30", "seconds an idle keep-alive connection is kept"},
@@ -153,6 +155,8 @@ int serve_command(const std::vector<std::string>& args) {
     rc.warp_cache_bytes = o.bytes("warp-cache", 1ULL << 20, 1ULL << 40);
     rc.encode.jpeg_quality = int(o.integer("jpeg-quality", 1, 100));
     rc.encode.webp_quality = int(o.integer("webp-quality", 1, 100));
+    rc.encode.avif_quality = int(o.integer("avif-quality", 1, 100));
+    rc.encode.avif_speed = int(o.integer("avif-speed", 0, 10));
     rc.iiif.max_width = int(o.integer("iiif-max-width", 1, 65535));
     rc.iiif.max_height = int(o.integer("iiif-max-height", 1, 65535));
     rc.iiif.max_area = o.integer("iiif-max-area", 1, 1LL << 32);

@@ -6,6 +6,7 @@ std::optional<ImageFormat> format_from_extension(std::string_view ext) {
   if (ext == "jpg" || ext == "jpeg") return ImageFormat::kJpeg;
   if (ext == "png") return ImageFormat::kPng;
   if (ext == "webp") return ImageFormat::kWebp;
+  if (ext == "avif") return ImageFormat::kAvif;
   return std::nullopt;
 }
 
@@ -14,6 +15,7 @@ std::string_view mime_type(ImageFormat f) {
     case ImageFormat::kJpeg: return "image/jpeg";
     case ImageFormat::kPng: return "image/png";
     case ImageFormat::kWebp: return "image/webp";
+    case ImageFormat::kAvif: return "image/avif";
   }
   return "application/octet-stream";
 }
@@ -23,6 +25,7 @@ std::string_view extension(ImageFormat f) {
     case ImageFormat::kJpeg: return "jpg";
     case ImageFormat::kPng: return "png";
     case ImageFormat::kWebp: return "webp";
+    case ImageFormat::kAvif: return "avif";
   }
   return "";
 }

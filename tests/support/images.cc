@@ -18,6 +18,7 @@ std::string sniff_extension(const std::string& bytes) {
   if (bytes.rfind("\xFF\xD8\xFF", 0) == 0) return ".jpg";
   if (bytes.rfind("\x89PNG", 0) == 0) return ".png";
   if (bytes.size() > 12 && bytes.compare(8, 4, "WEBP") == 0) return ".webp";
+  if (bytes.size() > 12 && bytes.compare(4, 8, "ftypavif") == 0) return ".avif";
   throw std::runtime_error("response is not an image (" + std::to_string(bytes.size()) + " bytes)");
 }
 }  // namespace
