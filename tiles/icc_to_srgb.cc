@@ -17,11 +17,10 @@ std::string text_of(cmsHPROFILE profile, cmsInfoType info) {
   return text;
 }
 
-// Whether `profile` is sRGB under another name (the IEC 61966-2.1 profile most cameras and
-// editors embed, or a copy of it): its description says so, or its primaries, white point and
-// tone curve are sRGB's. Converting sRGB to sRGB would only add rounding.
+// Whether `profile` is sRGB under some name (the IEC 61966-2.1 profile most cameras and editors
+// embed, or a copy of it): converting through it to sRGB moves no primary ramp or grey by more
+// than one level. Converting sRGB to sRGB would only add rounding.
 bool is_srgb(cmsHPROFILE profile) {
-  if (text_of(profile, cmsInfoDescription).find("sRGB") != std::string::npos) return true;
   cmsHPROFILE srgb = cmsCreate_sRGBProfile();
   cmsHTRANSFORM probe = cmsCreateTransform(profile, TYPE_RGB_8, srgb, TYPE_RGB_8, INTENT_RELATIVE_COLORIMETRIC, cmsFLAGS_NOCACHE);
   cmsCloseProfile(srgb);
