@@ -146,7 +146,8 @@ IiifPlan plan_iiif_request(std::string_view region, std::string_view size,
   return plan;
 }
 
-std::string iiif_info_json(const tiles::Manifest& m, const std::string& id, const IiifLimits& limits) {
+std::string iiif_info_json(const tiles::Manifest& m, const std::string& id, const std::string& base,
+                           const IiifLimits& limits) {
   nlohmann::json sizes = nlohmann::json::array();
   // Whole-image sizes the pyramid holds, smallest first, from thumbnails of 64 px up to the limits.
   for (int k = m.levels - 1; k >= 0; --k) {
@@ -175,6 +176,12 @@ std::string iiif_info_json(const tiles::Manifest& m, const std::string& id, cons
       {"extraFormats", {"webp", "avif"}},
       {"extraQualities", {"color", "gray", "bitonal"}},
       {"extraFeatures", {"mirroring", "sizeUpscaling"}},
+      {"partOf", {{{"id", base + "/iiif/presentation/3/" + m.id + "/manifest"}, {"type", "Manifest"}}}},
+      {"seeAlso",
+       {{{"id", base + "/v1/images/" + m.id},
+         {"type", "Dataset"},
+         {"label", {{"none", {"zoomwarp image record"}}}},
+         {"format", "application/json"}}}},
   };
   return info.dump(2) + "\n";
 }

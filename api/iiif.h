@@ -39,8 +39,10 @@ IiifPlan plan_iiif_request(std::string_view region, std::string_view size,
                            std::string_view rotation, std::string_view quality_format,
                            int image_w, int image_h, const IiifLimits& limits);
 
-// The info.json of an image; `id` is the absolute base URI of the image service.
-std::string iiif_info_json(const tiles::Manifest& m, const std::string& id,
+// The info.json of an image; `id` is the absolute base URI of the image service, `base` the
+// server's origin: `partOf` names the image's Presentation manifest (api/presentation.h) and
+// `seeAlso` its /v1/images record (Image API 3.0 §5.7).
+std::string iiif_info_json(const tiles::Manifest& m, const std::string& id, const std::string& base,
                            const IiifLimits& limits);
 
 }  // namespace zoomwarp::api

@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <fstream>
 #include <chrono>
+#include <map>
 #include <set>
 #include <nlohmann/json.hpp>
 
@@ -10,6 +11,7 @@
 #include "api/errors.h"
 #include "api/responses.h"
 #include "api/http_caching.h"
+#include "api/presentation.h"
 #include "api/url.h"
 #include "tiles/image_id.h"
 #include "tiles/store_deadline.h"
@@ -46,7 +48,9 @@ json image_json(const tiles::Manifest& m) {
           {"links",
            {{"self", "/v1/images/" + m.id},
             {"dzi", "/dzi/" + m.id + ".dzi"},
-            {"iiif", "/iiif/3/" + m.id + "/info.json"}}}};
+            {"iiif", "/iiif/3/" + m.id + "/info.json"},
+            {"manifest", manifest_path(m.id)},
+            {"metadata", "/v1/images/" + m.id + "/metadata"}}}};
 }
 
 // The default id of an upload: a digest of its bytes.
@@ -79,6 +83,14 @@ void reject_repeated_parameters(std::string_view query) {
   std::set<std::string_view> seen;
   for (const auto& [name, value] : *pairs)
     if (!seen.insert(name).second) throw ApiError(400, "invalid_query", "parameter '" + name + "' is given twice");
+}
+
+// A signed URL's or service token's verdict, other than kUnsigned: 403 unless it is valid.
+void refuse_unless_valid(UrlSigner::Verdict verdict) {
+  using Verdict = UrlSigner::Verdict;
+  if (verdict == Verdict::kExpired) throw ApiError(403, "url_expired", "this signed URL has expired; ask for a new one");
+  if (verdict != Verdict::kValid)
+    throw ApiError(403, "bad_signature", "the signature does not match this URL (path, query and expiry are signed)");
 }
 
 bool host_is_sane(std::string_view h) {
@@ -149,15 +161,24 @@ std::shared_ptr<const tiles::ImageEntry> Router::readable_image(const Request& r
   using Verdict = UrlSigner::Verdict;
   const Verdict verdict = config_.url_signer ? config_.url_signer->verify(req.path, req.query, now.count())
                                              : Verdict::kUnsigned;
-  switch (verdict) {
-    case Verdict::kValid: return entry;
-    case Verdict::kExpired: throw ApiError(403, "url_expired", "this signed URL has expired; ask for a new one");
-    case Verdict::kBadSignature:
-      throw ApiError(403, "bad_signature", "the signature does not match this URL (path, query and expiry are signed)");
-    case Verdict::kUnsigned: break;
+  if (verdict != Verdict::kUnsigned) {
+    refuse_unless_valid(verdict);
+    return entry;
   }
   // The same answer as for an id that does not exist (responses.cc find_image).
   throw ApiError(404, "image_not_found", "no image with id '" + id + "'");
+}
+
+std::shared_ptr<const tiles::ImageEntry> Router::readable_service(const Request& req, const std::string& segment) const {
+  const std::size_t tilde = segment.find('~');
+  if (tilde == std::string::npos) return readable_image(req, segment);
+  std::string id = segment.substr(0, tilde);
+  check_image_id(id);
+  if (!config_.url_signer)
+    throw ApiError(403, "bad_signature", "this server has no signing key, so no service token is valid");
+  const auto now = std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch());
+  refuse_unless_valid(config_.url_signer->verify_service(segment, now.count(), &id));
+  return find_image(store_, id);
 }
 
 std::optional<Response> Router::image_response(const Request& req, const tiles::ImageEntry& entry,
@@ -284,6 +305,12 @@ const std::vector<Router::Route>& Router::routes() {
       {"GET", "/iiif/3/{id}", &Router::iiif_base, Access::kPublic},
       {"GET", "/iiif/3/{id}/info.json", &Router::iiif_info, Access::kPublic},
       {"GET", "/iiif/3/{id}/{region}/{size}/{rotation}/{quality}.{format}", &Router::iiif_image, Access::kPublic},
+      {"GET", "/v1/images/{id}/metadata", &Router::get_metadata, Access::kPublic},
+      {"PUT", "/v1/images/{id}/metadata", &Router::put_metadata, Access::kCurator},
+      // Before the collection's pages: an image may be called "collection".
+      {"GET", "/iiif/presentation/3/{id}/manifest", &Router::iiif_manifest, Access::kPublic},
+      {"GET", "/iiif/presentation/3/collection", &Router::iiif_collection, Access::kPublic},
+      {"GET", "/iiif/presentation/3/collection/{page}", &Router::iiif_collection_page, Access::kPublic},
   };
   return table;
 }
@@ -509,7 +536,7 @@ std::optional<Response> Router::dzi_tile_route(const Request& req, const PathPar
 
 // IIIF base URI: redirect to the image information (§2.1).
 std::optional<Response> Router::iiif_base(const Request& req, const PathParams& p, bool) {
-  readable_image(req, param(p, "id"));
+  readable_service(req, param(p, "id"));
   Response r;
   r.status = 303;
   r.route = "iiif_base";
@@ -520,19 +547,22 @@ std::optional<Response> Router::iiif_base(const Request& req, const PathParams& 
 std::optional<Response> Router::iiif_info(const Request& req, const PathParams& p, bool) {
   const std::string base = base_url(req);
   const bool ld = req.accept.find("application/ld+json") != std::string::npos;
-  return image_response(req, *readable_image(req, param(p, "id")), "iiif_info", base + (ld ? "|ld" : ""), true,
+  // The service's id is the segment asked for: a private manifest's service token stays in it, so
+  // the viewer's tile requests carry it too.
+  const std::string& segment = param(p, "id");
+  return image_response(req, *readable_service(req, segment), "iiif_info", base + (ld ? "|ld" : ""), true,
                         [&](const tiles::ImageEntry& e) {
                           Response r = body_response(
                               ld ? "application/ld+json;profile=\"http://iiif.io/api/image/3/context.json\""
                                  : "application/json",
-                              iiif_info_json(e.manifest, base + "/iiif/3/" + e.manifest.id, config_.iiif));
+                              iiif_info_json(e.manifest, base + "/iiif/3/" + segment, base, config_.iiif));
                           r.set_header("Link", "<http://iiif.io/api/image/3/level2.json>;rel=\"profile\"");
                           return r;
                         });
 }
 
 std::optional<Response> Router::iiif_image(const Request& req, const PathParams& p, bool may_compute) {
-  auto entry = readable_image(req, param(p, "id"));
+  auto entry = readable_service(req, param(p, "id"));
   const IiifPlan plan =
       plan_iiif_request(param(p, "region"), param(p, "size"), param(p, "rotation"),
                         param(p, "quality") + "." + param(p, "format"), entry->manifest.width, entry->manifest.height,
@@ -612,10 +642,14 @@ std::optional<Response> Router::upload_image(const Request& req, const PathParam
   if (!query) throw ApiError(400, "invalid_query", "the query string is not well-formed");
   std::string id;
   tiles::IngestOptions options = config_.ingest;
+  std::map<std::string, std::string> description_fields;
   for (const auto& [k, v] : *query) {
     if (k == "id") id = v;
     else if (k == "private") options.is_private = parse_private_flag(v);
-    else throw ApiError(400, "invalid_query", "unknown parameter '" + k + "' (only id and private are accepted)");
+    else if (k == "label" || k == "summary" || k == "rights" || k == "attribution") description_fields[k] = v;
+    else
+      throw ApiError(400, "invalid_query",
+                     "unknown parameter '" + k + "' (id, private, label, summary, rights and attribution are accepted)");
   }
   std::error_code ec;
   if (req.body_file.empty() || std::filesystem::file_size(req.body_file, ec) == 0 || ec)
@@ -624,6 +658,17 @@ std::optional<Response> Router::upload_image(const Request& req, const PathParam
   if (!tiles::is_valid_image_id(id))
     throw ApiError(400, "invalid_id",
                    "image ids are 1-128 characters from A-Z a-z 0-9 . _ - and start with a letter or digit");
+  if (!description_fields.empty()) {
+    // Laid over the description the image has (a re-upload giving a label keeps the rest), and
+    // published with the pixels in one version.
+    const auto published = store_.find(id);
+    const Description d =
+        description_with_upload_fields(published ? read_description(*published) : Description{}, description_fields);
+    options.analyse = [d, analyse = options.analyse](const tiles::ImageEntry& staged) {
+      if (analyse) analyse(staged);
+      staged.files->write(kDescriptionFile, description_json(d));
+    };
+  }
   try {
     tiles::Manifest m = tiles::ingest_image(store_, req.body_file, id, options);
     Response r = json_response(201, image_json(m));

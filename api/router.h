@@ -138,6 +138,12 @@ class Router {
   std::optional<Response> iiif_base(const Request&, const PathParams&, bool);
   std::optional<Response> iiif_info(const Request&, const PathParams&, bool);
   std::optional<Response> iiif_image(const Request&, const PathParams&, bool may_compute);
+  // /v1/images/{id}/metadata and IIIF Presentation 3.0 (router_presentation.cc)
+  std::optional<Response> get_metadata(const Request&, const PathParams&, bool);
+  std::optional<Response> put_metadata(const Request&, const PathParams&, bool may_compute);
+  std::optional<Response> iiif_manifest(const Request&, const PathParams&, bool may_compute);
+  std::optional<Response> iiif_collection(const Request&, const PathParams&, bool may_compute);
+  std::optional<Response> iiif_collection_page(const Request&, const PathParams&, bool may_compute);
 
   // Image responses go through one path: check If-None-Match, look in the cache, then in the
   // failure cache, and only then (if allowed) compute — once for identical concurrent requests
@@ -178,6 +184,10 @@ class Router {
   // signed URL that fails. Every read route calls this before its cache lookup or 304, so a cached
   // answer is never served around the check.
   std::shared_ptr<const tiles::ImageEntry> readable_image(const Request& req, const std::string& id) const;
+  // The image of an IIIF Image service segment: readable_image() for a plain id; for a service
+  // segment ID~EXPIRES~SIG (api/url_signing.h, a private manifest's service) the image when the
+  // token is valid, 403 url_expired / bad_signature when not.
+  std::shared_ptr<const tiles::ImageEntry> readable_service(const Request& req, const std::string& segment) const;
 
   tiles::Store& store_;
   tiles::PyramidReader& reader_;

@@ -111,4 +111,31 @@ UrlSigner::Verdict UrlSigner::verify(std::string_view path, std::string_view que
   return now > *expires ? Verdict::kExpired : Verdict::kValid;
 }
 
+namespace {
+std::string service_message(std::string_view id, std::string_view expires) {
+  return "iiif-image-service:" + std::string(id) + "~" + std::string(expires);
+}
+}  // namespace
+
+std::string UrlSigner::sign_service(std::string_view id, std::int64_t expires) const {
+  const std::string expires_text = std::to_string(expires);
+  const Mac mac = hmac_sha256(secret_, service_message(id, expires_text));
+  return std::string(id) + "~" + expires_text + "~" + hex_encode(mac.data(), mac.size());
+}
+
+UrlSigner::Verdict UrlSigner::verify_service(std::string_view segment, std::int64_t now, std::string* id) const {
+  const std::size_t first = segment.find('~');
+  *id = std::string(segment.substr(0, first));
+  if (first == std::string_view::npos) return Verdict::kUnsigned;
+  const std::size_t second = segment.find('~', first + 1);
+  if (second == std::string_view::npos) return Verdict::kBadSignature;
+  const std::string_view expires_text = segment.substr(first + 1, second - first - 1);
+  const auto given = hex_decode(segment.substr(second + 1));
+  const auto expires = unix_seconds(expires_text);
+  const Mac mac = hmac_sha256(secret_, service_message(*id, expires_text));
+  if (!given || given->size() != mac.size() || !expires || CRYPTO_memcmp(given->data(), mac.data(), mac.size()) != 0)
+    return Verdict::kBadSignature;
+  return now > *expires ? Verdict::kExpired : Verdict::kValid;
+}
+
 }  // namespace zoomwarp::api

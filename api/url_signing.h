@@ -10,6 +10,17 @@
 // The method is not signed: a signed URL is for reading (GET/HEAD). Changing any byte of the path
 // or query (another image, another view, a later expiry, a parameter added) breaks the signature.
 //
+// A service token signs one image's IIIF Image service as a whole: the service id inside a
+// private image's manifest (api/presentation.h), which a viewer extends with /info.json and
+// /{region}/{size}/{rotation}/{quality}.{format} and cannot keep a query string on. It stands in
+// the path, in place of the image id:
+//
+//   service segment /iiif/3/ID~EXPIRES~SIG/…
+//   signed string   iiif-image-service:ID~EXPIRES  (a URL's signed string starts with '/', so a
+//                   signature of one kind never passes for the other)
+//
+// Image ids never hold '~', so a segment with one is a token or nothing.
+//
 // Threads: a UrlSigner is immutable after construction; all members may be called concurrently.
 #pragma once
 
@@ -44,6 +55,14 @@ class UrlSigner {
   // or malformed `expires` is kBadSignature; a right signature past its expiry (`now` > expires,
   // Unix seconds) is kExpired.
   Verdict verify(std::string_view path, std::string_view query, std::int64_t now) const;
+
+  // The service segment ID~EXPIRES~SIG of image `id`, valid until `expires` (Unix seconds).
+  std::string sign_service(std::string_view id, std::int64_t expires) const;
+
+  // `segment` checked as a service segment: kUnsigned when it holds no '~' (a plain id, left in
+  // *id), else the image id in *id and kValid, kExpired (`now` > EXPIRES) or kBadSignature (also
+  // for a malformed token).
+  Verdict verify_service(std::string_view segment, std::int64_t now, std::string* id) const;
 
  private:
   std::string secret_;

@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "api/description.h"
 #include "server/log.h"
 #include "warp/analysis/image_analysis.h"
 
@@ -77,6 +78,8 @@ tiles::IngestOptions ingest_options(const Options& o, const warp::SignificanceOp
     throw std::invalid_argument("--tile-compression must be auto, jpeg, zip:1 … zip:9, zip, lzw or none, not '" + c + "'");
   const auto set = warp::parse_analysis_set(o.str("analyses"));
   if (!set) throw std::invalid_argument("--analyses must be none, icaz or all, not '" + o.str("analyses") + "'");
+  // A re-ingest keeps the curator's description unless it gives one (api/description.h).
+  opt.carried_files = {api::kDescriptionFile};
   // The warp engine's files published with the image: those asked for; the others on first use.
   opt.analyse = [significance, method_timings, threads = opt.pyramid.threads, set = *set](const tiles::ImageEntry& staged) {
     auto timings = warp::write_image_analysis(staged, significance, threads, set);

@@ -8,6 +8,21 @@
 
 namespace zoomwarp::tiles {
 
+namespace {
+// IngestOptions::carried_files: from the version `id` names now into `staging`.
+void carry_files(const Store& store, const std::string& id, const std::vector<std::string>& names,
+                 const std::string& staging) {
+  if (names.empty()) return;
+  const auto staged = folder_files(staging);
+  std::shared_ptr<const ImageEntry> published;
+  for (const std::string& name : names) {
+    if (staged->exists(name)) continue;
+    if (!published && !(published = store.find(id))) return;
+    if (auto bytes = published->files->read(name)) staged->write(name, *bytes);
+  }
+}
+}  // namespace
+
 Manifest ingest_image(Store& store, const std::string& source_path, const std::string& id,
                       const IngestOptions& options, const ProgressFn& progress) {
   if (!is_valid_image_id(id)) throw std::invalid_argument("invalid image id");
@@ -40,6 +55,7 @@ Manifest ingest_image(Store& store, const std::string& source_path, const std::s
       options.analyse(ImageEntry{m, folder_files(staging)});
       if (progress) progress(0.99);
     }
+    carry_files(store, id, options.carried_files, staging);
     Manifest published = store.publish(staging, std::move(m))->manifest;
     if (progress) progress(1.0);
     return published;

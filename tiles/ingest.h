@@ -5,6 +5,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "tiles/manifest.h"
 #include "tiles/pyramid_builder.h"
@@ -20,6 +21,10 @@ struct IngestOptions {
   // The entry's manifest has no version yet.
   std::function<void(const ImageEntry& staged)> analyse;
   bool is_private = false;  // Manifest::is_private of the published version
+  // Files of the id's published version, if there is one, copied into the new version unless it
+  // has them already (an upload that gives its own): the curator's data that does not depend on
+  // the pixels (api/description.h), which a re-ingest must not drop. Copied after `analyse`.
+  std::vector<std::string> carried_files;
   // Manifest::source_sha256 of the published version: the source file's digest when the caller
   // has it (file_sha256_hex, `zoomwarp ingest`), empty when not.
   std::string source_sha256;
