@@ -78,7 +78,8 @@ else
   echo "setup: Debian packages already installed"
 fi
 
-# npm packages of the browser tests (OpenSeadragon, playwright-core driving Debian's chromium).
+# npm packages of the browser tests (OpenSeadragon, Mirador, the Universal Viewer, the IIIF
+# Presentation 3 schema validator, playwright-core driving Debian's chromium).
 if [ "$build_only" -eq 0 ] && [ -f tests/browser/package.json ]; then
   if [ ! -d tests/browser/node_modules ] || [ tests/browser/package-lock.json -nt tests/browser/node_modules ]; then
     (cd tests/browser && npm ci --no-audit --no-fund --loglevel=error)
