@@ -26,7 +26,6 @@ void carry_files(const Store& store, const std::string& id, const std::vector<st
 Manifest ingest_image(Store& store, const std::string& source_path, const std::string& id,
                       const IngestOptions& options, const ProgressFn& progress) {
   if (!is_valid_image_id(id)) throw std::invalid_argument("invalid image id");
-  probe_source(source_path, options.limits);  // refuse bad input before making anything
   const std::string staging = store.make_staging_dir();
   try {
     // With an analysis, the pyramid's progress runs to 0.95 and the analysis's step follows.

@@ -196,6 +196,13 @@ std::optional<std::pair<std::uint64_t, std::uint64_t>> declared_size(const std::
   return std::make_pair(h.width, h.height);
 }
 
+// OpenImageIO's name of the reader of a format sniff_image_file() names.
+std::string oiio_format_name(const std::string& sniffed) {
+  if (sniffed == "jp2" || sniffed == "j2k") return "jpeg2000";
+  if (sniffed == "avif") return "heif";
+  return sniffed;  // jpeg, png, tiff, webp, heif: the same names
+}
+
 struct OpenSource {
   std::unique_ptr<OIIO::ImageInput> input;
   PyramidInfo info;
@@ -217,8 +224,13 @@ OpenSource open_source(const std::string& path, const SourceLimits& limits) {
     throw IngestError(Kind::kTooLarge, too_large_message(declared->first, declared->second, limits));
   OIIO::ImageSpec config;
   config.attribute("oiio:UnassociatedAlpha", 1);  // keep alpha straight, as the file has it
-  s.input = OIIO::ImageInput::open(path, &config);
+  // The sniffed format's reader, opened once. Given a file name, ImageInput::open() opens the
+  // file to check its type, closes it and opens it again, and OpenImageIO 2.4's JPEG 2000 reader
+  // decodes the whole image at every open: a JP2 was decoded twice per open.
+  s.input = OIIO::ImageInput::create(oiio_format_name(s.info.source_format));
+  OIIO::ImageSpec opened;
   if (!s.input) throw IngestError(Kind::kCorrupt, "cannot decode image: " + OIIO::geterror());
+  if (!s.input->open(path, opened, config)) throw IngestError(Kind::kCorrupt, "cannot decode image: " + s.input->geterror());
   // A pyramidal or multi-page TIFF: its largest page is the image (usually the first; an
   // overview stored first would otherwise be taken for it). Only TIFF's pages are looked at: a
   // WebP's reader, asked for a frame past the last, cannot decode its first one afterwards.
@@ -319,10 +331,6 @@ void check_read(OIIO::ImageInput& in, bool ok) {
 }  // namespace
 
 std::string level_filename(int k) { return "level_" + std::to_string(k) + ".tif"; }
-
-PyramidInfo probe_source(const std::string& path, const SourceLimits& limits) {
-  return open_source(path, limits).info;
-}
 
 PyramidInfo build_pyramid(const std::string& path, const std::string& out_dir,
                           const PyramidOptions& options, const SourceLimits& limits,

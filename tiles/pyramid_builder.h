@@ -71,11 +71,9 @@ using ProgressFn = std::function<void(double)>;
 // File name of pyramid level k inside an image version's folder.
 std::string level_filename(int k);
 
-// Reads only the header of `source_path` and checks it against the limits. Throws IngestError.
-PyramidInfo probe_source(const std::string& source_path, const SourceLimits& limits);
-
 // Writes level_0.tif … level_{n-1}.tif into the existing folder `out_dir`. Throws IngestError;
-// on error the caller discards out_dir.
+// on error the caller discards out_dir. Bad input (an unsupported format, a size over the limits,
+// a file its decoder cannot open) is refused before anything is written.
 PyramidInfo build_pyramid(const std::string& source_path, const std::string& out_dir,
                           const PyramidOptions& options, const SourceLimits& limits,
                           const ProgressFn& progress = {});
