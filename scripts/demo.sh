@@ -19,6 +19,7 @@ zoomwarp is starting on http://127.0.0.1:${port}/  (Ctrl-C stops it)
   images:    curl http://127.0.0.1:${port}/v1/images
   IIIF:      http://127.0.0.1:${port}/iiif/3/boats_lake_sunset/full/!800,800/0/default.jpg
   Deep Zoom: http://127.0.0.1:${port}/dzi/boats_lake_sunset.dzi
+  manifest:  http://127.0.0.1:${port}/iiif/presentation/3/boats_lake_sunset/manifest  (IIIF Presentation 3: open it in Mirador or the Universal Viewer)
   metrics:   curl http://127.0.0.1:${port}/metrics
 
 TXT
