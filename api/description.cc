@@ -104,6 +104,13 @@ Description parse_description(std::string_view body) {
       invalid("unknown member '" + k + "' (label, summary, metadata, rights and requiredStatement are taken)");
     }
   }
+  // The limit holds for what is stored too (description_json, indented, which read_description
+  // parses again): a compact body within it could otherwise be stored over it, and every later
+  // read of the image would fail.
+  if (description_json(d).size() > kMaxDescriptionBytes)
+    throw ApiError(413, "description_too_large",
+                   "a description is at most " + std::to_string(kMaxDescriptionBytes) +
+                       " bytes of JSON as stored (indented, as GET /v1/images/{id}/metadata answers it)");
   return d;
 }
 
@@ -124,6 +131,12 @@ std::string description_json(const Description& d) {
 Description description_with_upload_fields(Description d, const std::map<std::string, std::string>& fields) {
   for (const auto& [name, value] : fields) {
     if (value.empty()) throw ApiError(400, "invalid_query", name + "= is empty");
+    // Percent-decoding gives any bytes; JSON text is UTF-8 (description_json would throw later).
+    try {
+      (void)json(value).dump();
+    } catch (const json::type_error&) {
+      throw ApiError(400, "invalid_query", name + "= is not UTF-8 text");
+    }
     if (name == "label") d.label = {{"none", {value}}};
     else if (name == "summary") d.summary = {{"none", {value}}};
     else if (name == "rights") {
@@ -136,6 +149,10 @@ Description description_with_upload_fields(Description d, const std::map<std::st
     } else if (name == "attribution") d.required_statement = LabelledValue{{{"none", {"Attribution"}}}, {{"none", {value}}}};
     else throw std::logic_error("not an upload description field: " + name);
   }
+  if (description_json(d).size() > kMaxDescriptionBytes)
+    throw ApiError(413, "description_too_large",
+                   "with these fields the image's description would be over " + std::to_string(kMaxDescriptionBytes) +
+                       " bytes of JSON");
   return d;
 }
 

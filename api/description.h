@@ -52,7 +52,8 @@ struct Description {
 // {"label", "summary", "metadata": [{"label", "value"}, …], "rights", "requiredStatement":
 // {"label", "value"}}, every member optional, no other member. Throws ApiError 400 invalid_body
 // saying what is wrong (not JSON, an unknown member, a language tag that is not one, an empty
-// value list, rights from neither vocabulary), 413 description_too_large / too_many_metadata.
+// value list, rights from neither vocabulary), 413 description_too_large (the body, or the
+// description as stored, over kMaxDescriptionBytes) / too_many_metadata.
 Description parse_description(std::string_view body);
 
 // The canonical JSON of a description (every member present that is set; language maps as maps).
@@ -62,7 +63,8 @@ std::string description_json(const Description& d);
 // The fields an upload may set in its query string: label=, summary= (plain strings),
 // rights= (a URI) and attribution= (the requiredStatement's value, labelled "Attribution"),
 // laid over `base` (the description the image had, so that a re-upload giving only a label keeps
-// the rest). Throws ApiError 400 for a rights URI from neither vocabulary or an empty value.
+// the rest). Throws ApiError 400 for a rights URI from neither vocabulary, an empty value or one
+// that is not UTF-8, 413 description_too_large when the result would be over kMaxDescriptionBytes.
 Description description_with_upload_fields(Description base, const std::map<std::string, std::string>& fields);
 
 // The description the version holds, or an empty one when it holds none. Throws

@@ -90,9 +90,12 @@ std::optional<Response> Router::iiif_manifest(const Request& req, const PathPara
   // whole (api/url_signing.h service token), so that a viewer holding only this manifest can load
   // the tiles; until the signed URL expires, or for kServiceTokenSeconds. Without a signing key
   // the service is the plain one, which answers curator keys only.
+  // A curator key's request was let through without its query being verified: an `expires` in it
+  // is the client's word, not a signed URL's, and must not extend the token.
+  const auto url_expiry = has_curator_key(req) ? std::nullopt : signed_expiry(req.query);
   if (config_.url_signer)
     links.service_id = base + "/iiif/3/" +
-                       config_.url_signer->sign_service(id, signed_expiry(req.query).value_or(unix_now() + kServiceTokenSeconds));
+                       config_.url_signer->sign_service(id, url_expiry.value_or(unix_now() + kServiceTokenSeconds));
   Response r = body_response(presentation_type(req), manifest_json(entry->manifest, read_description(*entry), links, config_.iiif));
   r.route = "iiif_manifest";
   r.set_header("Cache-Control", "private, no-store");  // it holds a capability that expires
