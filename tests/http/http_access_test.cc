@@ -98,6 +98,9 @@ std::optional<Call> valid_call(const api::Router::Route& route, int n, const std
   if (name == "PUT /v1/images/{id}/lines")
     return Call{method, instantiate(route.path, kImage), R"({"lines": [[10, 100, 200, 100]]})",
                 {{"Content-Type", "application/json"}}};
+  if (name == "PUT /v1/images/{id}/metadata")
+    return Call{method, instantiate(route.path, kImage), R"({"label": "Target", "rights": "http://creativecommons.org/licenses/by/4.0/"})",
+                {{"Content-Type", "application/json"}}};
   if (name == "PATCH /v1/images/{id}/significance")
     return Call{method, instantiate(route.path, kImage), R"({"regions": [{"rect": [10, 10, 50, 40], "weight": 1}]})",
                 {{"Content-Type", "application/json"}}};

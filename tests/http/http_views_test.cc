@@ -314,7 +314,7 @@ TEST_F(Views, EveryDocumentedRouteIsServed) {
       std::string target = path;
       for (auto [name, value] : {std::pair{"{id}", "no_such_image"}, {"{level}", "0"}, {"{tile}", "0_0.jpg"},
                                  {"{region}", "full"}, {"{size}", "max"}, {"{rotation}", "0"}, {"{quality}", "default"},
-                                 {"{format}", "jpg"}, {"{file}", "viewer"}})
+                                 {"{format}", "jpg"}, {"{file}", "viewer"}, {"{page}", "1"}})
         if (auto at = target.find(name); at != std::string::npos) target.replace(at, std::string(name).size(), value);
       std::string m = method;
       for (char& c : m) c = char(std::toupper(static_cast<unsigned char>(c)));
