@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <string>
+#include <vector>
 
 #include "api/url_signing.h"
 #include "tests/support/server_process.h"
@@ -90,6 +92,93 @@ TEST(UrlSigning, SecretFilesAreHexOrRawAndLongEnough) {
   } catch (const std::runtime_error& e) {
     EXPECT_EQ(std::string(e.what()).find("s3cr3t"), std::string::npos) << "the message never holds the secret";
   }
+}
+
+// Service tokens (ID~EXPIRES~SIG in place of an IIIF image id): a private image's manifest signs
+// its whole image service with one, valid until it expires.
+TEST(ServiceTokens, AKnownAnswer) {
+  // Computed independently of the code under test:
+  //   printf '%s' 'iiif-image-service:boats~1800000060' | openssl dgst -sha256 -hmac 'kkkkkkkkkkkkkkkkkkkkkkkkkkkkkkkk'
+  EXPECT_EQ(UrlSigner(kSecret).sign_service("boats", kNow + 60),
+            "boats~1800000060~431f96b9e8632df5ff3313c25073969179d967ab4d9b5b2eb7218ff42b4a8418");
+}
+
+TEST(ServiceTokens, ValidUntilTheyExpire) {
+  const UrlSigner signer(kSecret);
+  const std::string token = signer.sign_service("boats", kNow + 60);
+  std::string id;
+  EXPECT_EQ(signer.verify_service(token, kNow, &id), Verdict::kValid);
+  EXPECT_EQ(id, "boats");
+  EXPECT_EQ(signer.verify_service(token, kNow + 60, &id), Verdict::kValid) << "valid through its expiry second";
+  EXPECT_EQ(signer.verify_service(token, kNow + 61, &id), Verdict::kExpired);
+  EXPECT_EQ(id, "boats") << "the image is named also when the token has expired";
+  EXPECT_EQ(signer.verify_service("boats", kNow, &id), Verdict::kUnsigned) << "a plain id";
+  EXPECT_EQ(id, "boats");
+}
+
+TEST(ServiceTokens, AnyChangeBreaksThem) {
+  const UrlSigner signer(kSecret);
+  const std::string token = signer.sign_service("boats", kNow + 60);  // boats~1800000060~<64 hex>
+  const std::string sig = token.substr(token.rfind('~') + 1);
+  std::string id;
+  // Another image with this image's token: refused, and named as the image asked for.
+  EXPECT_EQ(signer.verify_service("other~1800000060~" + sig, kNow, &id), Verdict::kBadSignature);
+  EXPECT_EQ(id, "other");
+  EXPECT_EQ(signer.verify_service("boats~1800009999~" + sig, kNow, &id), Verdict::kBadSignature) << "a later expiry";
+  std::string flipped = token;
+  flipped.back() = flipped.back() == '0' ? '1' : '0';
+  EXPECT_EQ(signer.verify_service(flipped, kNow, &id), Verdict::kBadSignature) << "one hex digit of the signature";
+  std::string first_digit = token;
+  const std::size_t at = token.rfind('~') + 1;
+  first_digit[at] = first_digit[at] == 'f' ? 'e' : 'f';
+  EXPECT_EQ(signer.verify_service(first_digit, kNow, &id), Verdict::kBadSignature) << "its first digit";
+  EXPECT_EQ(UrlSigner(std::string(32, 'j')).verify_service(token, kNow, &id), Verdict::kBadSignature)
+      << "another secret";
+}
+
+TEST(ServiceTokens, MalformedOnesAreBadSignatures) {
+  const UrlSigner signer(kSecret);
+  const std::string token = signer.sign_service("boats", kNow + 60);
+  const std::string sig = token.substr(token.rfind('~') + 1);
+  for (const std::string& bad : std::vector<std::string>{
+           "boats~",                                     // nothing after the id
+           "boats~1800000060",                           // no signature
+           "boats~1800000060~",                          // an empty signature
+           "boats~~" + sig,                              // no expiry
+           "boats~18e8~" + sig,                          // an expiry that is not a number
+           "boats~-1~" + sig,                            // nor negative
+           "boats~1800000060~" + sig.substr(0, 63),      // an odd number of digits
+           "boats~1800000060~" + sig.substr(0, 62),      // a shortened signature
+           "boats~1800000060~" + sig + "00",             // a longer one
+           "boats~1800000060~" + std::string(64, 'z'),   // not hex
+           "boats~1800000060~" + sig + "~x",             // a fourth part
+           "~1800000060~" + sig,                         // no id
+       }) {
+    SCOPED_TRACE(bad);
+    std::string id;
+    EXPECT_EQ(signer.verify_service(bad, kNow, &id), Verdict::kBadSignature);
+  }
+}
+
+// The two kinds sign different strings (a URL's starts with '/'), so neither passes for the other.
+TEST(ServiceTokens, AUrlSignatureIsNeverAServiceTokenNorTheOtherWay) {
+  const UrlSigner signer(kSecret);
+  std::string id;
+  for (const std::string path : {"/iiif/3/boats", "/iiif/3/boats/info.json", "boats"}) {
+    SCOPED_TRACE(path);
+    const auto [p, query] = split(signer.sign(path, "", kNow + 60));
+    ASSERT_EQ(signer.verify(p, query, kNow), Verdict::kValid);
+    const std::string url_sig = query.substr(query.find("sig=") + 4);
+    EXPECT_EQ(signer.verify_service("boats~1800000060~" + url_sig, kNow, &id), Verdict::kBadSignature);
+  }
+  const std::string token = signer.sign_service("boats", kNow + 60);
+  const std::string token_sig = token.substr(token.rfind('~') + 1);
+  for (const std::string path : {"/iiif/3/boats", "/iiif/3/boats/info.json", "/iiif/3/boats/full/max/0/default.jpg"}) {
+    SCOPED_TRACE(path);
+    EXPECT_EQ(signer.verify(path, "expires=1800000060&sig=" + token_sig, kNow), Verdict::kBadSignature);
+  }
+  // A token in the path is not a signed URL: its query has no signature.
+  EXPECT_EQ(signer.verify("/iiif/3/" + token + "/info.json", "", kNow), Verdict::kUnsigned);
 }
 
 }  // namespace
