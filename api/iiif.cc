@@ -139,7 +139,7 @@ IiifPlan plan_iiif_request(std::string_view region, std::string_view size,
   auto format = tiles::format_from_extension(ext);
   if (!format || ext == "jpeg") {
     if (ext == "tif" || ext == "gif" || ext == "jp2" || ext == "pdf")
-      throw ApiError(501, "not_implemented", "format " + std::string(ext) + " is not offered; use jpg, png, webp or avif");
+      throw ApiError(501, "not_implemented", "format " + std::string(ext) + " is not offered; use jpg, png, webp, avif or jxl");
     bad("unknown format");
   }
   plan.format = *format;
@@ -173,7 +173,7 @@ std::string iiif_info_json(const tiles::Manifest& m, const std::string& id, cons
       {"maxArea", limits.max_area},
       {"sizes", sizes},
       {"tiles", {{{"width", m.tile_size}, {"height", m.tile_size}, {"scaleFactors", scale_factors}}}},
-      {"extraFormats", {"webp", "avif"}},
+      {"extraFormats", {"webp", "avif", "jxl"}},
       {"extraQualities", {"color", "gray", "bitonal"}},
       {"extraFeatures", {"mirroring", "sizeUpscaling"}},
       {"partOf", {{{"id", base + "/iiif/presentation/3/" + m.id + "/manifest"}, {"type", "Manifest"}}}},

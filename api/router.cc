@@ -520,7 +520,7 @@ std::optional<Response> Router::dzi_tile_route(const Request& req, const PathPar
   if (!level || !name)
     throw ApiError(400, "invalid_tile", "tile paths are /dzi/{id}_files/{level}/{col}_{row}.{jpg|png|webp}");
   auto format = tiles::format_from_extension(name->extension);
-  if (!format) throw ApiError(400, "invalid_format", "tile format must be jpg, png, webp or avif");
+  if (!format) throw ApiError(400, "invalid_format", "tile format must be jpg, png, webp, avif or jxl");
   auto entry = readable_image(req, param(p, "id"));
   auto tile = dzi_tile(entry->manifest, config_.dzi, *level, name->col, name->row);
   if (!tile)

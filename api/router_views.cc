@@ -117,7 +117,7 @@ std::optional<Response> Router::view_route(const Request& req, const PathParams&
                                                                     q.view.screen_height, e, reader_, req.stop);
         warp::check_stop(req.stop);  // not worth encoding a view nobody waits for any more
         tiles::EncodeOptions encode = config_.encode;
-        if (q.quality > 0) encode.jpeg_quality = encode.webp_quality = encode.avif_quality = q.quality;
+        if (q.quality > 0) encode.jpeg_quality = encode.webp_quality = encode.avif_quality = encode.jxl_quality = q.quality;
         return body_response(std::string(tiles::mime_type(q.format)), tiles::encode_image(screen, q.format, encode));
       }
       if (retargeter && !retargeter->has_mesh())

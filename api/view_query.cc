@@ -126,7 +126,7 @@ ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double W
     else if (route == ViewRoute::kMesh && name == "from_cy") from_cy = in_range(name, number(name, value), 0, H);
     else if (route == ViewRoute::kViewport && name == "format") {
       const auto f = tiles::format_from_extension(value);
-      if (!f) bad("format must be jpg, png, webp or avif, not '" + value + "'");
+      if (!f) bad("format must be jpg, png, webp, avif or jxl, not '" + value + "'");
       q.format = *f;
     } else if (route == ViewRoute::kViewport && name == "quality") q.quality = integer(name, value, 1, 100);
     else if (is_signature_parameter(name)) continue;  // the router checks them; they name no view

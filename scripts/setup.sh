@@ -26,7 +26,7 @@ build_pkgs=(
   build-essential cmake ninja-build pkg-config
   libopenimageio-dev openimageio-tools
   libeigen3-dev libsuitesparse-dev libcgal-dev libboost-dev
-  nlohmann-json3-dev libturbojpeg0-dev libpng-dev libwebp-dev libavif-dev libssl-dev
+  nlohmann-json3-dev libturbojpeg0-dev libpng-dev libwebp-dev libavif-dev libjxl-dev libssl-dev
   libopencv-imgproc-dev libopencv-objdetect-dev
   libssl-dev
   # pyramid levels written by tiles/level_file.cc: libtiff directly, tiles compressed by ISA-L

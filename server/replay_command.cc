@@ -71,7 +71,7 @@ std::vector<OptionSpec> replay_specs() {
       {"duration", "", "seconds to run, wrapping around the path (instead of --count)"},
       {"endpoint", "both", "mesh, viewport, or both (each action requests its mesh, then its viewport)"},
       {"method", "icaz", "icaz, traditional or retarget-zoom"},
-      {"format", "jpg", "viewport image format: jpg, png, webp or avif"},
+      {"format", "jpg", "viewport image format: jpg, png, webp, avif or jxl"},
       {"timeout", "30", "seconds a request may take before it counts as failed"},
       {"json", "0", "print the summary as one JSON object", true},
       {"fail-on-error", "0", "exit 3 when any request failed", true},
@@ -125,7 +125,7 @@ Config config_from(const Options& o) {
   if (endpoint != "viewport") c.endpoints.push_back(Endpoint::kMesh);
   if (endpoint != "mesh") c.endpoints.push_back(Endpoint::kViewport);
   c.method = choice(o, "method", {"icaz", "traditional", "retarget-zoom"});
-  c.format = choice(o, "format", {"jpg", "png", "webp", "avif"});
+  c.format = choice(o, "format", {"jpg", "png", "webp", "avif", "jxl"});
   c.timeout = std::chrono::seconds(o.integer("timeout", 1, 3600));
   c.json = o.flag("json");
   c.fail_on_error = o.flag("fail-on-error");

@@ -51,6 +51,8 @@ std::vector<OptionSpec> serve_specs() {
       {"webp-quality", "80", "WebP quality, 1-100"},
       {"avif-quality", "60", "AVIF quality, 1-100 (AV1 quantizer (100 - q) * 63 / 100)"},
       {"avif-speed", "10", "AVIF encoder speed, 0 (slowest, smallest) to 10 (fastest)"},
+      {"jxl-quality", "80", "JPEG XL quality, 1-100 (as cjxl's: Butteraugli distance 0.1 + (100 - q) * 0.09)"},
+      {"jxl-effort", "3", "JPEG XL encoder effort, 1 (fastest) to 9 (slowest, smallest)"},
       {"cache-max-age", "60", "Cache-Control max-age of image responses, seconds"},
       {"public-url", "", "base URL clients see (for IIIF ids); default from the Host header"},
       {"idle-timeout", "30", "seconds an idle keep-alive connection is kept"},
@@ -157,6 +159,8 @@ int serve_command(const std::vector<std::string>& args) {
     rc.encode.webp_quality = int(o.integer("webp-quality", 1, 100));
     rc.encode.avif_quality = int(o.integer("avif-quality", 1, 100));
     rc.encode.avif_speed = int(o.integer("avif-speed", 0, 10));
+    rc.encode.jxl_quality = int(o.integer("jxl-quality", 1, 100));
+    rc.encode.jxl_effort = int(o.integer("jxl-effort", 1, 9));
     rc.iiif.max_width = int(o.integer("iiif-max-width", 1, 65535));
     rc.iiif.max_height = int(o.integer("iiif-max-height", 1, 65535));
     rc.iiif.max_area = o.integer("iiif-max-area", 1, 1LL << 32);

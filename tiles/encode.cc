@@ -1,11 +1,13 @@
 #include "tiles/encode.h"
 
 #include <avif/avif.h>
+#include <jxl/encode.h>
 #include <png.h>
 #include <turbojpeg.h>
 #include <webp/encode.h>
 
 #include <algorithm>
+#include <cmath>
 #include <csetjmp>
 #include <memory>
 #include <stdexcept>
@@ -148,6 +150,57 @@ std::string encode_avif(const Raster& in, int quality, int speed) {
   return bytes;
 }
 
+// libjxl 0.7's cjxl maps its --quality to a Butteraugli distance this way (cjxl_main.cc):
+// 100 is mathematically lossless there; here it is distance 0.1, visually lossless.
+float jxl_distance(int quality) {
+  const int q = std::clamp(quality, 1, 100);
+  return q >= 30 ? 0.1f + float(100 - q) * 0.09f : 6.4f + float(std::pow(2.5, (30 - q) / 5.0)) / 6.25f;
+}
+
+// JPEG XL through libjxl (VarDCT, sRGB, grey kept grey), on the calling thread only (the server
+// runs requests side by side); alpha, if any, at the same distance.
+std::string encode_jxl(const Raster& in, int quality, int effort) {
+  if (in.width > kJxlMaxDimension || in.height > kJxlMaxDimension)
+    throw std::invalid_argument("JPEG XL images are served at most 16384 pixels wide and high");
+  std::unique_ptr<JxlEncoder, void (*)(JxlEncoder*)> enc(JxlEncoderCreate(nullptr), JxlEncoderDestroy);
+  if (!enc) throw std::runtime_error("cannot start the JPEG XL encoder");
+  const bool grey = in.channels <= 2, alpha = in.channels == 2 || in.channels == 4;
+  JxlBasicInfo info;
+  JxlEncoderInitBasicInfo(&info);
+  info.xsize = std::uint32_t(in.width);
+  info.ysize = std::uint32_t(in.height);
+  info.bits_per_sample = 8;
+  info.num_color_channels = grey ? 1 : 3;
+  info.num_extra_channels = alpha ? 1 : 0;
+  info.alpha_bits = alpha ? 8 : 0;
+  info.uses_original_profile = JXL_FALSE;  // lossy: XYB
+  JxlColorEncoding colour;
+  JxlColorEncodingSetToSRGB(&colour, grey ? JXL_TRUE : JXL_FALSE);
+  JxlEncoderFrameSettings* frame = nullptr;
+  const JxlPixelFormat format{std::uint32_t(in.channels), JXL_TYPE_UINT8, JXL_NATIVE_ENDIAN, 0};
+  if (JxlEncoderSetBasicInfo(enc.get(), &info) != JXL_ENC_SUCCESS ||
+      JxlEncoderSetColorEncoding(enc.get(), &colour) != JXL_ENC_SUCCESS ||
+      !(frame = JxlEncoderFrameSettingsCreate(enc.get(), nullptr)) ||
+      JxlEncoderSetFrameDistance(frame, jxl_distance(quality)) != JXL_ENC_SUCCESS ||
+      JxlEncoderFrameSettingsSetOption(frame, JXL_ENC_FRAME_SETTING_EFFORT, std::clamp(effort, 1, 9)) != JXL_ENC_SUCCESS ||
+      JxlEncoderAddImageFrame(frame, &format, in.pixels.data(), in.pixels.size()) != JXL_ENC_SUCCESS)
+    throw std::runtime_error("JPEG XL encoding failed (error " + std::to_string(int(JxlEncoderGetError(enc.get()))) + ")");
+  JxlEncoderCloseInput(enc.get());
+  std::string out(std::max<std::size_t>(4096, in.pixels.size() / 4), '\0');
+  std::size_t used = 0;
+  while (true) {
+    auto* next = reinterpret_cast<std::uint8_t*>(out.data()) + used;
+    std::size_t avail = out.size() - used;
+    const JxlEncoderStatus status = JxlEncoderProcessOutput(enc.get(), &next, &avail);
+    used = out.size() - avail;
+    if (status == JXL_ENC_SUCCESS) break;
+    if (status != JXL_ENC_NEED_MORE_OUTPUT) throw std::runtime_error("JPEG XL encoding failed");
+    out.resize(out.size() * 2);
+  }
+  out.resize(used);
+  return out;
+}
+
 }  // namespace
 
 std::string encode_image(const Raster& image, ImageFormat format, const EncodeOptions& options) {
@@ -158,6 +211,7 @@ std::string encode_image(const Raster& image, ImageFormat format, const EncodeOp
     case ImageFormat::kPng: return encode_png(image, options.png_level);
     case ImageFormat::kWebp: return encode_webp(image, options.webp_quality);
     case ImageFormat::kAvif: return encode_avif(image, options.avif_quality, options.avif_speed);
+    case ImageFormat::kJxl: return encode_jxl(image, options.jxl_quality, options.jxl_effort);
   }
   throw std::invalid_argument("unknown format");
 }

@@ -7,6 +7,7 @@ std::optional<ImageFormat> format_from_extension(std::string_view ext) {
   if (ext == "png") return ImageFormat::kPng;
   if (ext == "webp") return ImageFormat::kWebp;
   if (ext == "avif") return ImageFormat::kAvif;
+  if (ext == "jxl") return ImageFormat::kJxl;
   return std::nullopt;
 }
 
@@ -16,6 +17,7 @@ std::string_view mime_type(ImageFormat f) {
     case ImageFormat::kPng: return "image/png";
     case ImageFormat::kWebp: return "image/webp";
     case ImageFormat::kAvif: return "image/avif";
+    case ImageFormat::kJxl: return "image/jxl";
   }
   return "application/octet-stream";
 }
@@ -26,6 +28,7 @@ std::string_view extension(ImageFormat f) {
     case ImageFormat::kPng: return "png";
     case ImageFormat::kWebp: return "webp";
     case ImageFormat::kAvif: return "avif";
+    case ImageFormat::kJxl: return "jxl";
   }
   return "";
 }

@@ -1,14 +1,12 @@
 // What each answer format costs to encode, and what it gives (issue 31: "a format that is too
 // slow to serve at request time is reported, not offered"): a 480×360 view of the boats sample,
-// as /viewport answers it, encoded as JPEG, WebP and AVIF at several qualities and, for AVIF,
-// encoder speeds. Counters: bytes, and PSNR of the decoded answer against the view (dB), so that
+// as /viewport answers it, encoded as JPEG, WebP, AVIF and JPEG XL at several qualities and, for
+// AVIF and JPEG XL, encoder speeds (efforts). Counters: bytes, and PSNR of the decoded answer against the view (dB), so that
 // sizes and times are compared at matched quality.
 //
-//   build/bin/encode_bench [--benchmark_filter=Avif]
+//   build/bin/encode_bench [--benchmark_filter=Avif|Jxl]
 #include <benchmark/benchmark.h>
 
-#include <cstdio>
-#include <fstream>
 #include <string>
 
 #include "tests/support/images.h"
@@ -24,19 +22,14 @@ const tiles::Raster& view() {
   return v;
 }
 
-// The answer decoded by OpenImageIO (libjpeg, libwebp, libheif), against the view.
-double psnr_of(const std::string& bytes, tiles::ImageFormat format) {
-  const std::string path = "/tmp/encode_bench." + std::string(tiles::extension(format));
-  std::ofstream(path, std::ios::binary) << bytes;
-  const double db = testing::psnr(testing::load_image(path), view());
-  std::remove(path.c_str());
-  return db;
-}
+// The answer decoded by OpenImageIO (libjpeg, libwebp, libheif) or libjxl, against the view.
+double psnr_of(const std::string& bytes) { return testing::psnr(testing::decode_image(bytes), view()); }
 
 void Encode(benchmark::State& state, tiles::ImageFormat format, int quality, int speed) {
   tiles::EncodeOptions options;
-  options.jpeg_quality = options.webp_quality = options.avif_quality = quality;
+  options.jpeg_quality = options.webp_quality = options.avif_quality = options.jxl_quality = quality;
   options.avif_speed = speed;
+  options.jxl_effort = speed;
   std::string bytes;
   view();  // decoded once, outside the timing
   for (auto _ : state) {
@@ -44,7 +37,7 @@ void Encode(benchmark::State& state, tiles::ImageFormat format, int quality, int
     benchmark::DoNotOptimize(bytes);
   }
   state.counters["bytes"] = double(bytes.size());
-  state.counters["psnr_db"] = psnr_of(bytes, format);
+  state.counters["psnr_db"] = psnr_of(bytes);
 }
 
 void register_all() {
@@ -55,6 +48,11 @@ void register_all() {
     for (int q : {50, 60, 70})
       benchmark::RegisterBenchmark(("Avif/speed" + std::to_string(speed) + "/q" + std::to_string(q)).c_str(), Encode,
                                    ImageFormat::kAvif, q, speed)
+          ->Unit(benchmark::kMillisecond);
+  for (int effort : {1, 3, 5})
+    for (int q : {70, 80, 85, 90})
+      benchmark::RegisterBenchmark(("Jxl/effort" + std::to_string(effort) + "/q" + std::to_string(q)).c_str(), Encode,
+                                   ImageFormat::kJxl, q, effort)
           ->Unit(benchmark::kMillisecond);
 }
 

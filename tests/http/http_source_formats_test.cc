@@ -85,7 +85,29 @@ TEST(SourceFormatUploads, ViewsAreAnsweredInAvif) {
   const double db = testing::psnr(testing::decode_image(avif.body), testing::decode_image(png.body));
   std::cout << "[ figures ] a 480x360 view: AVIF " << avif.body.size() << " bytes, " << db << " dB from the PNG view\n";
   EXPECT_GE(db, 32.0) << "as close as the default JPEG answer (33.2 dB on encode_bench's view)";
-  EXPECT_EQ(http.get(view + "jxl").status, 400);
+  EXPECT_EQ(http.get(view + "heic").status, 400);
+}
+
+// JPEG XL answers likewise, decoded by libjxl's decoder; and an IIIF image and a DZI tile.
+TEST(SourceFormatUploads, ViewsAndTilesAreAnsweredInJpegXl) {
+  TempDir dir;
+  ServerProcess server(dir.path() + "/store", {"--open-writes"});
+  HttpClient http(server.port());
+  ASSERT_EQ(http.request("POST", "/v1/images?id=boats", testing::read_file(testing::samples_dir() + "/boats_lake_sunset.jpg")).status, 201);
+  const std::string view = "/v1/images/boats/viewport?zoom=0.3&w=480&h=360&method=traditional&format=";
+  const auto png = http.get(view + "png"), jxl = http.get(view + "jxl");
+  ASSERT_EQ(jxl.status, 200) << jxl.body;
+  EXPECT_EQ(jxl.header("content-type"), "image/jxl");
+  const double db = testing::psnr(testing::decode_image(jxl.body), testing::decode_image(png.body));
+  std::cout << "[ figures ] a 480x360 view: JPEG XL " << jxl.body.size() << " bytes, " << db << " dB from the PNG view\n";
+  EXPECT_GE(db, 32.0) << "as close as the default JPEG answer (33.2 dB on encode_bench's view)";
+  for (const std::string path : {"/iiif/3/boats/full/320,/0/default.jxl", "/dzi/boats_files/9/0_0.jxl"}) {
+    const auto r = http.get(path);
+    ASSERT_EQ(r.status, 200) << path << ": " << r.body;
+    EXPECT_EQ(r.header("content-type"), "image/jxl") << path;
+    const tiles::Raster decoded = testing::decode_image(r.body);
+    EXPECT_GT(decoded.width, 0) << path;
+  }
 }
 
 }  // namespace

@@ -148,7 +148,7 @@ TEST_F(Tiles, IiifInfoJson) {
     EXPECT_LE(s["width"].get<long long>() * s["height"].get<long long>(), 5000000);
   }
   EXPECT_EQ(j["sizes"].back(), json({{"width", 2560}, {"height", 1600}}));
-  EXPECT_EQ(j["extraFormats"], json({"webp", "avif"}));
+  EXPECT_EQ(j["extraFormats"], json({"webp", "avif", "jxl"}));
   // JSON-LD when asked for, and the base URI redirects to info.json.
   auto ld = http.get("/iiif/3/boats/info.json", {{"Accept", "application/ld+json"}});
   EXPECT_NE(ld.header("content-type").find("application/ld+json"), std::string::npos);
@@ -198,6 +198,7 @@ TEST_F(Tiles, IiifImageRequestsTable) {
       {"full/,100/0/default.webp", {0, 0, 2560, 1600}, 160, 100, 0, false, 26},
       {"full/,100/0/default.avif", {0, 0, 2560, 1600}, 160, 100, 0, false, 26},
       {"512,512,512,512/256,/0/default.avif", {512, 512, 512, 512}, 256, 256, 0, false, 28},
+      {"512,512,512,512/256,/0/default.jxl", {512, 512, 512, 512}, 256, 256, 0, false, 28},
       {"full/pct:10/0/default.png", {0, 0, 2560, 1600}, 256, 160, 0, false, 28},
       {"square/300,300/0/default.png", {480, 0, 1600, 1600}, 300, 300, 0, false, 28},
       {"pct:25,25,50,50/640,400/0/default.png", {640, 400, 1280, 800}, 640, 400, 0, false, 28},

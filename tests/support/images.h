@@ -9,7 +9,7 @@
 
 namespace zoomwarp::testing {
 
-// Decodes encoded image bytes (JPEG, PNG, WebP) to 8-bit; throws on failure.
+// Decodes encoded image bytes (JPEG, PNG, WebP, AVIF, JPEG XL) to 8-bit; throws on failure.
 tiles::Raster decode_image(const std::string& bytes);
 
 // Reads an image file as 8-bit with its own channels, EXIF orientation applied.
