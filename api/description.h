@@ -57,7 +57,8 @@ struct Description {
 Description parse_description(std::string_view body);
 
 // The canonical JSON of a description (every member present that is set; language maps as maps).
-// parse_description(description_json(d)) == d.
+// parse_description(description_json(d)) == d for every d parse_description made (its languages
+// sorted, as a JSON object's members are read).
 std::string description_json(const Description& d);
 
 // The fields an upload may set in its query string: label=, summary= (plain strings),

@@ -456,6 +456,8 @@ std::optional<Response> Router::index(const Request&, const PathParams&, bool) {
                                      {"openapi", "/openapi.json"},
                                      {"dzi", "/dzi/{id}.dzi"},
                                      {"iiif", "/iiif/3/{id}/info.json"},
+                                     {"manifest", "/iiif/presentation/3/{id}/manifest"},
+                                     {"collection", "/iiif/presentation/3/collection"},
                                      {"health", "/healthz"},
                                      {"readiness", "/readyz"},
                                      {"metrics", "/metrics"}}}});
