@@ -13,7 +13,6 @@
 // Needs: a built zoomwarp (ZOOMWARP_BINARY), /usr/bin/chromium, oiiotool, opj_compress, heif-enc.
 
 import assert from 'node:assert/strict';
-import { once } from 'node:events';
 import fs from 'node:fs/promises';
 import http from 'node:http';
 import path from 'node:path';
@@ -24,7 +23,7 @@ import { after, before, test } from 'node:test';
 import { PNG } from 'pngjs';
 
 import {
-  Cleanups, SAMPLES, ZOOMWARP, compareRgb, execFileP, ingest, launchChromium, startZoomwarp, tempDir,
+  Cleanups, SAMPLES, ZOOMWARP, compareRgb, execFileP, ingest, launchChromium, listenOnLoopback, startZoomwarp, tempDir,
 } from './support.mjs';
 
 const require = createRequire(import.meta.url);
@@ -344,11 +343,5 @@ async function startPageServer() {
     }
     res.writeHead(404).end();
   });
-  server.listen(0, '127.0.0.1');
-  await once(server, 'listening');
-  cleanups.push(() => {
-    server.closeAllConnections();
-    return new Promise((resolve) => server.close(resolve));
-  });
-  return `http://127.0.0.1:${server.address().port}`;
+  return listenOnLoopback(server, cleanups);
 }

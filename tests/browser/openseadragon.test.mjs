@@ -7,7 +7,6 @@
 // Needs: a built zoomwarp (ZOOMWARP_BINARY), /usr/bin/chromium, oiiotool, Node >= 18.
 
 import assert from 'node:assert/strict';
-import { once } from 'node:events';
 import fs from 'node:fs/promises';
 import http from 'node:http';
 import path from 'node:path';
@@ -17,7 +16,7 @@ import { after, before, test } from 'node:test';
 import { PNG } from 'pngjs';
 
 import {
-  Cleanups, SAMPLES, compareRgb, execFileP, ingest, launchChromium, startZoomwarp, tempDir,
+  Cleanups, SAMPLES, compareRgb, execFileP, ingest, launchChromium, listenOnLoopback, startZoomwarp, tempDir,
 } from './support.mjs';
 
 const __dirname = path.dirname(fileURLToPath(import.meta.url));
@@ -189,11 +188,5 @@ async function startPageServer() {
       res.writeHead(404).end();
     }
   });
-  server.listen(0, '127.0.0.1');
-  await once(server, 'listening');
-  cleanups.push(() => {
-    server.closeAllConnections();
-    return new Promise((resolve) => server.close(resolve));
-  });
-  return `http://127.0.0.1:${server.address().port}/`;
+  return `${await listenOnLoopback(server, cleanups)}/`;
 }

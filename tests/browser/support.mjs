@@ -4,6 +4,7 @@
 
 import assert from 'node:assert/strict';
 import { execFile, spawn } from 'node:child_process';
+import { once } from 'node:events';
 import fs from 'node:fs/promises';
 import os from 'node:os';
 import path from 'node:path';
@@ -103,6 +104,18 @@ export async function startZoomwarp(store, cleanups, extraArgs = ['--open-writes
     assert.equal(status, 0, `zoomwarp serve exited with ${status} on SIGTERM:\n${log}`);
   });
   return port;
+}
+
+// Starts `server` (an http.Server) on a free loopback port and returns its origin; cleanup closes
+// it and its connections.
+export async function listenOnLoopback(server, cleanups) {
+  server.listen(0, '127.0.0.1');
+  await once(server, 'listening');
+  cleanups.push(() => {
+    server.closeAllConnections();
+    return new Promise((resolve) => server.close(resolve));
+  });
+  return `http://127.0.0.1:${server.address().port}`;
 }
 
 // Headless Chromium (the system one; Playwright never downloads a browser), closed at cleanup.
