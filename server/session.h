@@ -25,7 +25,7 @@
 #include <vector>
 
 #include "api/router.h"
-#include "server/http_server.h"
+#include "server/http_server_options.h"
 #include "server/metrics.h"
 #include "server/upload_admission.h"
 #include "server/worker_pool.h"

@@ -10,7 +10,7 @@
 #include <span>
 #include <stdexcept>
 
-#include "tiles/pyramid_builder.h"
+#include "tiles/ingest_error.h"
 
 namespace zoomwarp::tiles {
 

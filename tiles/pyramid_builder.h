@@ -11,9 +11,9 @@
 
 #include <cstdint>
 #include <functional>
-#include <stdexcept>
 #include <string>
 
+#include "tiles/ingest_error.h"
 #include "tiles/level_file.h"
 
 namespace zoomwarp::tiles {
@@ -37,21 +37,6 @@ struct PyramidOptions {
 struct SourceLimits {
   std::uint64_t max_pixels = 1'000'000'000;  // width × height, checked from the header
   int max_dimension = 1 << 20;
-};
-
-class IngestError : public std::runtime_error {
- public:
-  enum class Kind {
-    kUnsupportedFormat,  // not one of the formats we read
-    kTooLarge,           // over the pixel or dimension limit
-    kCorrupt,            // a known format that does not decode
-    kIo,                 // writing the pyramid failed
-  };
-  IngestError(Kind kind, const std::string& what) : std::runtime_error(what), kind_(kind) {}
-  Kind kind() const { return kind_; }
-
- private:
-  Kind kind_;
 };
 
 struct PyramidInfo {
