@@ -39,7 +39,7 @@ std::string joined(const std::vector<std::string>& names) {
 }  // namespace
 
 int analyse_command(const std::vector<std::string>& args) {
-  try {
+  return run_command("analyse", [&]() -> int {
     std::vector<OptionSpec> specs = {
         {"store", "./store", "the image store: a folder, or s3://BUCKET/PREFIX (credentials and endpoint from AWS_* variables)"},
         {"analyses", "all", "what to add: all (every method, both saliency kinds) or icaz (ICAZ's model, detected lines)"},
@@ -87,13 +87,7 @@ int analyse_command(const std::vector<std::string>& args) {
       std::fflush(stdout);
     }
     return failed > 0 ? 1 : 0;
-  } catch (const std::invalid_argument& e) {
-    std::fprintf(stderr, "zoomwarp analyse: %s\n", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "zoomwarp analyse: %s\n", e.what());
-    return 1;
-  }
+  });
 }
 
 }  // namespace zoomwarp::server

@@ -2,7 +2,9 @@
 // the process exit code.
 #pragma once
 
+#include <functional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace zoomwarp::server {
@@ -16,5 +18,11 @@ int health_command(const std::vector<std::string>& args);
 int sign_command(const std::vector<std::string>& args);
 int keys_command(const std::vector<std::string>& args);
 int compare_command(const std::vector<std::string>& args);
+
+// Runs a subcommand's `body` and turns what it throws into the exit code every subcommand shares:
+// std::invalid_argument (a usage mistake: a bad flag or argument, an unknown image) is 2, any
+// other std::exception 1, each with "zoomwarp NAME: what" on standard error. Otherwise the
+// body's own code.
+int run_command(std::string_view name, const std::function<int()>& body);
 
 }  // namespace zoomwarp::server

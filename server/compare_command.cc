@@ -369,7 +369,7 @@ int compare_command(const std::vector<std::string>& raw_args) {
   std::vector<std::string> args = raw_args;
   for (auto& a : args)
     if (a == "-o") a = "--out";
-  try {
+  return run_command("compare", [&]() -> int {
     const Options o(specs, args);
     if (o.help_requested()) {
       std::printf("%s%s", kHelp, o.usage().c_str());
@@ -409,14 +409,7 @@ int compare_command(const std::vector<std::string>& raw_args) {
     std::printf("wrote %s, %s and %s\n", (s.out / "sheet.png").c_str(), (s.out / "metrics.json").c_str(),
                 (s.out / "metrics.md").c_str());
     return 0;
-  } catch (const std::invalid_argument& e) {
-    // Bad arguments, an unknown image, or a view the limits refuse.
-    std::fprintf(stderr, "zoomwarp compare: %s\n", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "zoomwarp compare: %s\n", e.what());
-    return 1;
-  }
+  });
 }
 
 }  // namespace zoomwarp::server

@@ -68,7 +68,7 @@ int ingest_command(const std::vector<std::string>& args) {
   };
   for (auto& s : store_option_specs()) specs.push_back(s);
   for (auto& s : store_cache_option_specs()) specs.push_back(s);
-  try {
+  return run_command("ingest", [&]() -> int {
     Options o(specs, args);
     if (o.help_requested()) {
       std::printf("%s%s", kHelp, o.usage().c_str());
@@ -110,13 +110,7 @@ int ingest_command(const std::vector<std::string>& args) {
     if (single) return refusals.empty() ? 0 : exit_code(refusals[0].input.refused->kind);
     display.print_summary();
     return refusals.empty() ? 0 : kSomeRefused;
-  } catch (const std::invalid_argument& e) {
-    std::fprintf(stderr, "zoomwarp ingest: %s\n", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "zoomwarp ingest: %s\n", e.what());
-    return 1;
-  }
+  });
 }
 
 }  // namespace zoomwarp::server

@@ -21,7 +21,7 @@ constexpr const char* kHelp =
 }  // namespace
 
 int keys_command(const std::vector<std::string>& args) {
-  try {
+  return run_command("keys", [&]() -> int {
     Options o({{"id", "", "the key's name in logs and metrics: 1-64 characters from A-Z a-z 0-9 . _ -"},
                {"role", "curator", "reader, curator or admin"}},
               args);
@@ -40,13 +40,7 @@ int keys_command(const std::vector<std::string>& args) {
                 "# or (the file holds only the key's SHA-256):\n%ssha256:%s\n",
                 key.c_str(), prefix.c_str(), key.c_str(), prefix.c_str(), api::digest_hex(api::key_digest(key)).c_str());
     return 0;
-  } catch (const std::invalid_argument& e) {
-    std::fprintf(stderr, "zoomwarp keys: %s\n", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "zoomwarp keys: %s\n", e.what());
-    return 1;
-  }
+  });
 }
 
 }  // namespace zoomwarp::server

@@ -414,7 +414,7 @@ void print_summary(const Summary& s, const Config& c, std::size_t actions) {
 }  // namespace
 
 int replay_command(const std::vector<std::string>& args) {
-  try {
+  return run_command("replay", [&]() -> int {
     Options o(replay_specs(), args);
     if (o.help_requested()) {
       std::printf("%s%s", kHelp, o.usage().c_str());
@@ -427,13 +427,7 @@ int replay_command(const std::vector<std::string>& args) {
     if (c.json) std::printf("%s\n", summary_json(s, c).dump().c_str());
     else print_summary(s, c, actions.size());
     return c.fail_on_error && s.errors > 0 ? 3 : 0;
-  } catch (const std::invalid_argument& e) {
-    std::fprintf(stderr, "zoomwarp replay: %s\n", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "zoomwarp replay: %s\n", e.what());
-    return 1;
-  }
+  });
 }
 
 }  // namespace zoomwarp::server

@@ -51,7 +51,7 @@ UrlParts split_url(const std::string& url) {
 }  // namespace
 
 int sign_command(const std::vector<std::string>& args) {
-  try {
+  return run_command("sign", [&]() -> int {
     Options o({{"expires", "1h", "how long the URL stays valid: 30s, 15m, 1h, 7d"},
                {"signing-key", "", "file holding the signing secret (the server's --signing-key)"}},
               args);
@@ -67,13 +67,7 @@ int sign_command(const std::vector<std::string>& args) {
     const auto now = std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch());
     std::printf("%s%s\n", url.origin.c_str(), signer.sign(url.path, url.query, now.count() + lifetime).c_str());
     return 0;
-  } catch (const std::invalid_argument& e) {
-    std::fprintf(stderr, "zoomwarp sign: %s\n", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "zoomwarp sign: %s\n", e.what());
-    return 1;
-  }
+  });
 }
 
 }  // namespace zoomwarp::server

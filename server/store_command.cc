@@ -138,20 +138,14 @@ int copy_command(const std::vector<std::string>& args) {
 }  // namespace
 
 int store_command(const std::vector<std::string>& args) {
-  try {
+  return run_command("store", [&]() -> int {
     if (args.empty() || args[0] == "--help" || args[0] == "-h") {
       std::printf("usage: zoomwarp store copy FROM TO [ID...]   (zoomwarp store copy --help)\n");
       return args.empty() ? 2 : 0;
     }
     if (args[0] == "copy") return copy_command(std::vector<std::string>(args.begin() + 1, args.end()));
     throw std::invalid_argument("unknown store command '" + args[0] + "' (there is: copy)");
-  } catch (const std::invalid_argument& e) {
-    std::fprintf(stderr, "zoomwarp store: %s\n", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "zoomwarp store: %s\n", e.what());
-    return 1;
-  }
+  });
 }
 
 }  // namespace zoomwarp::server
