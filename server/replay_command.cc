@@ -21,6 +21,7 @@
 #include <regex>
 #include <thread>
 
+#include "api/view_query.h"
 #include "server/commands.h"
 #include "server/http_client.h"
 #include "server/options.h"
@@ -70,7 +71,7 @@ std::vector<OptionSpec> replay_specs() {
       {"count", "", "requests per client, wrapping around the path (default: the path once)"},
       {"duration", "", "seconds to run, wrapping around the path (instead of --count)"},
       {"endpoint", "both", "mesh, viewport, or both (each action requests its mesh, then its viewport)"},
-      {"method", "icaz", "icaz, traditional or retarget-zoom"},
+      {"method", "icaz", "any method GET /v1/methods lists; one without a mesh (seam) needs --endpoint viewport"},
       {"format", "jpg", "viewport image format: jpg, png, webp, avif or jxl"},
       {"timeout", "30", "seconds a request may take before it counts as failed"},
       {"json", "0", "print the summary as one JSON object", true},
@@ -124,7 +125,18 @@ Config config_from(const Options& o) {
   const std::string endpoint = choice(o, "endpoint", {"mesh", "viewport", "both"});
   if (endpoint != "viewport") c.endpoints.push_back(Endpoint::kMesh);
   if (endpoint != "mesh") c.endpoints.push_back(Endpoint::kViewport);
-  c.method = choice(o, "method", {"icaz", "traditional", "retarget-zoom"});
+  c.method = o.str("method");
+  // Every method a view may name, from the same table as GET /v1/methods (api/view_query.h).
+  const std::vector<api::MethodDescription> methods = api::view_methods();
+  std::string names;
+  const api::MethodDescription* method = nullptr;
+  for (const api::MethodDescription& m : methods) {
+    names += (names.empty() ? "" : ", ") + std::string(m.name);
+    if (m.name == c.method) method = &m;
+  }
+  if (!method) throw std::invalid_argument("--method must be one of " + names + ", not '" + c.method + "'");
+  if (!method->has_mesh && endpoint != "viewport")
+    throw std::invalid_argument("--method " + c.method + " has no mesh (GET /v1/methods): replay it with --endpoint viewport");
   c.format = choice(o, "format", {"jpg", "png", "webp", "avif", "jxl"});
   c.timeout = std::chrono::seconds(o.integer("timeout", 1, 3600));
   c.json = o.flag("json");

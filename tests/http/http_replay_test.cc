@@ -6,9 +6,12 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <fstream>
+#include <thread>
 #include <nlohmann/json.hpp>
 
+#include "tests/support/http_client.h"
 #include "tests/support/server_process.h"
 
 namespace zoomwarp {
@@ -80,6 +83,40 @@ TEST_F(Replay, ShippedPathsReplayWithoutErrors) {
         EXPECT_LE(p50, p95);
         EXPECT_LE(p95, p99);
       }
+  }
+}
+
+// Every method GET /v1/methods lists replays (issue 32): its mesh and viewport, or its viewport
+// alone when it has no mesh; such a method with a mesh endpoint is a usage mistake. Each method's
+// analysis and its warp for the path's 480×360 screen are made on first use: the first view is
+// asked for until it is ready, so that the replay measures views, not analyses.
+TEST_F(Replay, EveryListedMethodReplays) {
+  testing::HttpClient http(server_->port());
+  const json methods = json::parse(http.get("/v1/methods").body)["methods"];
+  ASSERT_GE(methods.size(), 7u);
+  const std::string first_view = "?zoom=0&cx=1280&cy=800&w=480&h=360&method=";
+  for (const json& m : methods) {
+    const std::string name = m["name"], endpoint = m["mesh"].get<bool>() ? "both" : "viewport";
+    SCOPED_TRACE(name);
+    for (const std::string route : {"viewport", "mesh"}) {
+      if (route == "mesh" && endpoint == "viewport") continue;
+      int status = 0;
+      for (int i = 0; i < 60 && (status = http.get("/v1/images/boats_lake_sunset/" + route + first_view + name).status) == 503; ++i)
+        std::this_thread::sleep_for(std::chrono::seconds(1));
+      ASSERT_EQ(status, 200) << route;
+    }
+    auto r = replay({view_path("boats_explore.jsonl"), "--image", "boats_lake_sunset", "--url", url(), "--json",
+                     "--clients", "2", "--count", "10", "--method", name, "--endpoint", endpoint, "--fail-on-error"});
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const json summary = json::parse(r.output, nullptr, false);
+    ASSERT_TRUE(summary.is_object()) << r.output;
+    EXPECT_EQ(summary["requests"], 20);
+    EXPECT_EQ(summary["errors"], 0);
+    if (endpoint == "viewport") {
+      r = replay({view_path("boats_explore.jsonl"), "--image", "boats_lake_sunset", "--url", url(), "--method", name});
+      EXPECT_EQ(r.exit_code, 2) << r.output;
+      EXPECT_NE(r.output.find("has no mesh"), std::string::npos) << r.output;
+    }
   }
 }
 
