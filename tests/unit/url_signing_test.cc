@@ -1,4 +1,5 @@
-// Signed URLs (api/url_signing.h): what is signed, what breaks a signature, expiry, secret files.
+// Signed URLs (api/url_signing.h): a known answer from openssl dgst, what is signed, what breaks a
+// signature, expiry, secret files.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -21,6 +22,27 @@ constexpr std::int64_t kNow = 1'800'000'000;
 std::pair<std::string, std::string> split(const std::string& url) {
   const auto q = url.find('?');
   return {url.substr(0, q), url.substr(q + 1)};
+}
+
+// The signed-string format (api/url_signing.h, README "Signed URLs") pinned for signers outside the
+// project: HMAC-SHA256 over PATH?QUERY&expires=UNIX_SECONDS, hex, lower case. Computed
+// independently of the code under test:
+//   printf '%s' '/v1/images/boats/viewport?zoom=0.5&w=320&h=240&expires=1800000060' | openssl dgst -sha256 -hmac 'kkkkkkkkkkkkkkkkkkkkkkkkkkkkkkkk'
+//   printf '%s' '/iiif/3/boats/info.json?expires=1800000060' | openssl dgst -sha256 -hmac 'kkkkkkkkkkkkkkkkkkkkkkkkkkkkkkkk'
+TEST(UrlSigning, AKnownAnswer) {
+  EXPECT_EQ(UrlSigner(kSecret).sign("/v1/images/boats/viewport", "zoom=0.5&w=320&h=240", kNow + 60),
+            "/v1/images/boats/viewport?zoom=0.5&w=320&h=240&expires=1800000060"
+            "&sig=b71fdfe3648f4ab11b67c0cd24bc80c65d7f1e1602c395fc97feecea4cf052c8");
+  EXPECT_EQ(UrlSigner(kSecret).sign("/iiif/3/boats/info.json", "", kNow + 60),
+            "/iiif/3/boats/info.json?expires=1800000060"
+            "&sig=64f7aa5871fc63ef06e45c45956771e27dd158896bcef09324d1c10a1367c066")
+      << "an empty query";
+  // And the server takes what an outside signer computed.
+  EXPECT_EQ(UrlSigner(kSecret).verify("/v1/images/boats/viewport",
+                                      "zoom=0.5&w=320&h=240&expires=1800000060"
+                                      "&sig=b71fdfe3648f4ab11b67c0cd24bc80c65d7f1e1602c395fc97feecea4cf052c8",
+                                      kNow),
+            Verdict::kValid);
 }
 
 TEST(UrlSigning, ASignedUrlVerifiesUntilItExpires) {
@@ -89,6 +111,7 @@ TEST(UrlSigning, SecretFilesAreHexOrRawAndLongEnough) {
   EXPECT_THROW(UrlSigner::from_file(dir.path() + "/missing"), std::runtime_error);
   try {
     UrlSigner::from_file(write("secret-short", "s3cr3t"));
+    FAIL() << "a 6-byte secret file was accepted";
   } catch (const std::runtime_error& e) {
     EXPECT_EQ(std::string(e.what()).find("s3cr3t"), std::string::npos) << "the message never holds the secret";
   }
