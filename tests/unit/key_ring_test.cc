@@ -14,17 +14,24 @@ using Outcome = Authenticator::Outcome;
 
 constexpr std::string_view kCuratorKey = "curator-key-0123456789";
 
+// The digests are computed independently of the code under test:
+//   printf '%s' 'the-admin-key-0123' | sha256sum       (the sha256: line)
+//   printf '%s' 'curator-key-0123456789' | sha256sum   (kCuratorKey, given as it is)
+constexpr std::string_view kAdminKeySha256 = "a06a4fd502bcc6f80a5b5be7f8b68a1ce94fc7b3d839bdbd4679f2f10089f482";
+constexpr std::string_view kCuratorKeySha256 = "73b73c62a3788812eca0349ca1f769d2c2d15d63ad403d1951df62279df000b7";
+
 TEST(KeyFile, ParsesKeysCommentsBlankLinesAndDigests) {
   const std::string text = "# id role key\n\n  alice\tcurator  " + std::string(kCuratorKey) +
-                           "\r\nops admin sha256:" + digest_hex(key_digest("the-admin-key-0123")) + "\n";
+                           "\r\nops admin sha256:" + std::string(kAdminKeySha256) + "\n";
   const auto keys = parse_key_file(text);
   ASSERT_EQ(keys.size(), 2u);
   EXPECT_EQ(keys[0].key_id, "alice");
   EXPECT_EQ(keys[0].role, Role::kCurator);
-  EXPECT_EQ(keys[0].digest, key_digest(kCuratorKey));
+  EXPECT_EQ(digest_hex(keys[0].digest), kCuratorKeySha256);
   EXPECT_EQ(keys[1].key_id, "ops");
   EXPECT_EQ(keys[1].role, Role::kAdmin);
-  EXPECT_EQ(keys[1].digest, key_digest("the-admin-key-0123"));
+  EXPECT_EQ(digest_hex(keys[1].digest), kAdminKeySha256);
+  EXPECT_EQ(keys[1].digest, key_digest("the-admin-key-0123")) << "the key the sha256: line stands for";
 }
 
 // Each malformed file is refused with a message naming the line, and never quoting the key.
