@@ -6,9 +6,15 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <future>
+#include <limits>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -142,31 +148,106 @@ TEST(Images, BadIdsInPaths) {
   expect_json_error(http.request("PUT", "/v1/images/x"), 405);
 }
 
-// A reader keeps fetching tiles while the same id is re-ingested with other images; every answer
-// is a whole, valid image of one version or the other.
+// A picture's fingerprint at any size: the mean colour of each of kGrid × kGrid equal cells (a
+// pixel counts in the cell holding its centre), RGB.
+constexpr int kGrid = 8;
+std::vector<double> cell_means(const tiles::Raster& r) {
+  std::vector<double> sum(kGrid * kGrid * 3, 0), count(kGrid * kGrid, 0);
+  for (int y = 0; y < r.height; ++y) {
+    const int cy = int((y + 0.5) * kGrid / r.height);
+    const std::uint8_t* row = r.row(y);
+    for (int x = 0; x < r.width; ++x) {
+      const int cell = cy * kGrid + int((x + 0.5) * kGrid / r.width);
+      for (int c = 0; c < 3; ++c) sum[cell * 3 + c] += row[x * r.channels + std::min(c, r.channels - 1)];
+      ++count[cell];
+    }
+  }
+  for (std::size_t i = 0; i < sum.size(); ++i) sum[i] /= count[i / 3];
+  return sum;
+}
+
+// Root mean square difference of two fingerprints, in 8-bit levels.
+double distance(const std::vector<double>& a, const std::vector<double>& b) {
+  double se = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) se += (a[i] - b[i]) * (a[i] - b[i]);
+  return std::sqrt(se / a.size());
+}
+
+// One published version's picture, as a reader may be answered with it: its size and its
+// fingerprint, from the source file, independently of the server (OpenImageIO's decoder).
+struct Version {
+  std::string file;
+  int width = 0, height = 0;  // the source's
+  std::vector<double> means;
+
+  explicit Version(const std::string& name) : file(name) {
+    const tiles::Raster source = testing::load_image(testing::samples_dir() + "/" + name);
+    width = source.width, height = source.height, means = cell_means(source);
+  }
+  // Whether `shown`, the answer to full/!W,H, is this picture: within 1 px of the size IIIF's !W,H
+  // gives it (the largest that fits, aspect kept), and its cells' colours the source's.
+  bool shows(const tiles::Raster& shown, int box_w, int box_h, double* off) const {
+    const double scale = std::min(double(box_w) / width, double(box_h) / height);
+    *off = distance(cell_means(shown), means);
+    return std::abs(shown.width - width * scale) <= 1 && std::abs(shown.height - height * scale) <= 1 &&
+           *off <= kMaxDistance;
+  }
+  // Levels. Measured: answers lie at most 3.6 levels off their own picture and 63 off the other
+  // one; an answer mirrored, 33 off its own.
+  static constexpr double kMaxDistance = 8;
+};
+
+// A reader keeps fetching IIIF images while the same id is re-ingested with other images; every
+// answer is a whole, valid image of one version or the other: the size and the cells' colours of
+// one of the two pictures.
 TEST(Images, ReingestWhileServingAndConcurrentIngests) {
+  // The two pictures, read while the server starts and ingests the first.
+  auto reading = std::async(std::launch::async, [] {
+    return std::pair<Version, Version>{Version("boats_lake_sunset.jpg"), Version("interior_wine_djembe_tall.jpg")};
+  });
   TempDir dir;
   ServerProcess server(dir.path() + "/store", {"--ingest-workers", "2"});
   HttpClient http(server.port());
   ASSERT_EQ(http.request("POST", "/v1/images?id=live", sample("boats_lake_sunset.jpg")).status, 201);
+  const auto pictures = reading.get();
+  const Version &boats = pictures.first, &interior = pictures.second;
 
   std::atomic<bool> stop{false};
-  std::atomic<int> reads{0}, failures{0};
+  std::atomic<int> reads{0}, failures{0}, boats_seen{0}, interior_seen{0};
+  std::mutex figures;
+  double worst_own = 0, closest_other = std::numeric_limits<double>::infinity();  // fingerprint distances, levels
   std::vector<std::thread> readers;
   for (int t = 0; t < 2; ++t)
     readers.emplace_back([&, t] {
       HttpClient c(server.port());
       for (int i = 0; !stop; ++i) {
-        auto r = c.get("/iiif/3/live/full/!" + std::to_string(100 + (i * 7 + t) % 300) + ",300/0/default.jpg");
+        const int box_w = 100 + (i * 7 + t) % 300, box_h = 300;
+        const std::string target = "/iiif/3/live/full/!" + std::to_string(box_w) + "," + std::to_string(box_h) + "/0/default.jpg";
+        auto r = c.get(target);
         if (r.status != 200) {
-          ++failures;
+          if (failures++ < 5) ADD_FAILURE() << target << ": " << r.status;
           continue;
         }
         try {
-          testing::decode_image(r.body);
+          const tiles::Raster shown = testing::decode_image(r.body);
+          double off_boats = 0, off_interior = 0;
+          const bool is_boats = boats.shows(shown, box_w, box_h, &off_boats);
+          const bool is_interior = interior.shows(shown, box_w, box_h, &off_interior);
+          {
+            std::lock_guard lock(figures);
+            worst_own = std::max(worst_own, is_boats ? off_boats : is_interior ? off_interior : 0);
+            if (is_boats || is_interior) closest_other = std::min(closest_other, is_boats ? off_interior : off_boats);
+          }
+          if (is_boats) ++boats_seen;
+          else if (is_interior) ++interior_seen;
+          else if (failures++ < 5) {
+            ADD_FAILURE() << target << ": " << shown.width << "x" << shown.height
+                          << " is neither version's picture (colours off the boats' by " << off_boats
+                          << " levels, the interior's by " << off_interior << ")";
+          }
           ++reads;
-        } catch (const std::exception&) {
-          ++failures;
+        } catch (const std::exception& e) {
+          if (failures++ < 5) ADD_FAILURE() << target << ": " << e.what();
         }
       }
     });
@@ -175,13 +256,16 @@ TEST(Images, ReingestWhileServingAndConcurrentIngests) {
     for (int i = 0; i < 2; ++i)
       EXPECT_EQ(c.request("POST", "/v1/images?id=other" + std::to_string(i), sample("pano_grossmugl_field_4to1.png")).status, 201);
   });
-  const char* versions[] = {"interior_wine_djembe_tall.jpg", "boats_lake_sunset.jpg", "interior_wine_djembe_tall.jpg"};
-  for (const char* file : versions) EXPECT_EQ(http.request("POST", "/v1/images?id=live", sample(file)).status, 201);
+  for (const Version* v : {&interior, &boats, &interior})
+    EXPECT_EQ(http.request("POST", "/v1/images?id=live", sample(v->file)).status, 201);
   other.join();
   stop = true;
   for (auto& t : readers) t.join();
-  EXPECT_EQ(failures.load(), 0);
+  EXPECT_EQ(failures.load(), 0) << "(the first 5 reported above)";
   EXPECT_GT(reads.load(), 10);
+  std::printf("[ reingest ] %d answers: %d the boats, %d the interior; colours off their own picture's by at most "
+              "%.1f levels, off the other's by at least %.1f\n",
+              reads.load(), boats_seen.load(), interior_seen.load(), worst_own, closest_other);
   auto j = json::parse(http.get("/v1/images/live").body);
   EXPECT_EQ(j["width"], 2560);
   EXPECT_EQ(j["height"], 3837);
