@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "tests/support/http_client.h"
+#include "tests/support/metrics_scrape.h"
 #include "tests/support/server_process.h"
 
 namespace zoomwarp {
@@ -86,10 +87,12 @@ TEST(Ops, OverloadAnswers503WithRetryAfter) {
 }
 
 // SIGTERM: readiness fails first, requests already in flight are answered in full, new
-// connections are refused once the listener closes, and the process exits 0.
+// connections are refused once the listener closes, and the process exits 0. "In flight" is
+// observed, not assumed: the signal is sent once /metrics shows all three requests on a worker.
 TEST(Ops, SigtermDrainsInFlightRequests) {
   testing::TempDir dir;
-  testing::ServerProcess server(dir.path() + "/store", {"--drain-delay", "1", "--log-requests", "0"});
+  testing::ServerProcess server(dir.path() + "/store",
+                                {"--workers", "3", "--drain-delay", "1", "--log-requests", "0"});
   HttpClient setup(server.port());
   ASSERT_EQ(setup.request("POST", "/v1/images?id=a", testing::read_file(testing::samples_dir() + "/interior_wine_djembe_tall.jpg")).status, 201);
 
@@ -103,7 +106,11 @@ TEST(Ops, SigtermDrainsInFlightRequests) {
       statuses[i] = r.status;
       sizes[i] = r.body.size();
     });
-  std::this_thread::sleep_for(std::chrono::milliseconds(150));
+  // 30 s is a bound on a hang, not a timing: each request runs for seconds, so all three are seen
+  // running at once. (Without them, the drain below would prove nothing; the clients are joined
+  // either way.)
+  EXPECT_TRUE(testing::wait_for_metric(server.port(), R"(zoomwarp_workers_busy{pool="cpu"})", 3, 30))
+      << "the three requests were never in flight together";
   ::kill(server.pid(), SIGTERM);
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   EXPECT_EQ(setup.get("/readyz").status, 503) << "not ready while draining";
