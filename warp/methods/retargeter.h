@@ -37,6 +37,13 @@ class Retargeter {
   // (check_view_request), Stopped when its token says so, NoMesh when has_mesh() is false.
   virtual View view(const ViewRequest& request) = 0;
 
+  // Both views of a zoom or pan action and the geomorph between them [ICAZ §5.3]: the client
+  // blends each vertex from its `from` position to its `to` position; `to`'s view is also stored
+  // in `to_view` if given. By default the two views are of one mesh — a method that warps the
+  // whole image once per screen size draws the same mesh in every view of that screen, only
+  // zoomed — so the pair is vertex by vertex. Throws as view() does.
+  virtual Geomorph geomorph(const ViewRequest& from, const ViewRequest& to, View* to_view = nullptr);
+
   // The screen: by default view() texture-mapped by render/render.h. Throws as view() does, and
   // std::runtime_error when the pyramid cannot be read.
   virtual tiles::Raster render(const ViewRequest& request, const tiles::ImageEntry& image,

@@ -1,5 +1,5 @@
 // The retargeting methods a request may name (`method=`), as a registry of plain descriptions.
-// ICAZ and traditional zoom are not in it: they are the icaz/ operator's own (api/ maps them);
+// ICAZ and traditional zoom are not in it: they are the icaz/ operator's own (methods/icaz_retargeter.h);
 // every other method is one entry here, with the precompute/solve split of libigl's
 // arap_precomputation/arap_solve:
 //
