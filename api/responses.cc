@@ -1,5 +1,7 @@
 #include "api/responses.h"
 
+#include <nlohmann/json.hpp>
+
 #include "api/errors.h"
 #include "tiles/image_id.h"
 
@@ -9,6 +11,12 @@ Response body_response(std::string content_type, std::string body) {
   Response r;
   r.content_type = std::move(content_type);
   r.body = std::make_shared<const std::string>(std::move(body));
+  return r;
+}
+
+Response json_response(int status, const nlohmann::json& body) {
+  Response r = body_response("application/json", body.dump(2) + "\n");
+  r.status = status;
   return r;
 }
 

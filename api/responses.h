@@ -2,6 +2,7 @@
 #pragma once
 
 #include <memory>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 
 #include "api/http_types.h"
@@ -10,6 +11,9 @@
 namespace zoomwarp::api {
 
 Response body_response(std::string content_type, std::string body);
+
+// `body` as indented JSON (a newline at the end), with `status`.
+Response json_response(int status, const nlohmann::json& body);
 
 // ApiError 400 unless `id` is a valid image id.
 void check_image_id(const std::string& id);

@@ -1,33 +1,38 @@
-// The REST surface of the product (api/openapi.json): image management (/v1/images), the warp
-// engine's views (/v1/images/{id}/viewport and /mesh), the methods they take (/v1/methods) and
-// curator edits (/lines, /significance),
-// Deep Zoom (/dzi) and IIIF Image API 3.0 (/iiif/3). Operations endpoints (/healthz, /readyz, /metrics) belong to the
-// server. Every answer is a pure function of the published image version and the request, which
-// is what makes the ETags strong and the encoded-response cache safe.
+// The REST surface of the product (api/openapi.json): the route table — OpenAPI path templates,
+// each with its handler and who may call it — and the dispatch that matches a request against it
+// (api/route_match.h) and checks its access (api/authorize.h) before the handler runs. The
+// handlers are grouped by what they serve, one file each: router_site.cc (the web viewer, /v1,
+// /openapi.json, /v1/methods), router_images.cc (/v1/images), router_views.cc (the warp
+// engine's views and curator edits), router_tiles.cc (Deep Zoom and IIIF Image API 3.0),
+// router_presentation.cc (the curator's description and IIIF Presentation 3.0). Operations
+// endpoints (/healthz, /readyz, /metrics) belong to the server.
+//
+// Every image answer is a pure function of the published image version and the request, which is
+// what makes the ETags strong and the encoded-response cache safe (api/cached_responses.h); a
+// private image is read only through api/image_access.h.
 #pragma once
 
 #include <atomic>
 #include <chrono>
-#include <cstdint>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
-#include <utility>
 #include <vector>
 
 #include "api/authorize.h"
+#include "api/cached_responses.h"
 #include "api/deepzoom.h"
-#include "api/failure_cache.h"
 #include "api/http_types.h"
 #include "api/iiif.h"
+#include "api/image_access.h"
+#include "api/route_match.h"
 #include "api/stored_tile_match.h"
-#include "tiles/single_flight.h"
 #include "api/url_signing.h"
-#include "api/view_query.h"
 #include "api/warp_engines.h"
-#include "tiles/byte_lru_cache.h"
 #include "tiles/encode.h"
 #include "tiles/ingest.h"
 #include "tiles/pyramid_reader.h"
@@ -61,7 +66,7 @@ struct RouterConfig {
 };
 
 // Threads: try_answer_now() and handle() may be called concurrently from any threads (I/O threads
-// and workers); the response cache, the single-flight table and the warp engines lock inside.
+// and workers); the response caches, the single-flight table and the warp engines lock inside.
 // A Request's StopToken is read only.
 class Router {
  public:
@@ -85,8 +90,8 @@ class Router {
   // (Request::body_file) instead of memory.
   static bool is_upload(std::string_view method, std::string_view path);
 
-  tiles::ByteLruCache<Response>::Stats response_cache_stats() const { return cache_.stats(); }
-  std::size_t failure_cache_bytes() const { return failures_.bytes(); }
+  tiles::ByteLruCache<Response>::Stats response_cache_stats() const { return responses_.cache_stats(); }
+  std::size_t failure_cache_bytes() const { return responses_.failure_cache_bytes(); }
   std::size_t warp_cache_bytes() { return engines_.memory_bytes(); }
   WarpEngines::Counts analysis_counts() const { return engines_.counts(); }
   // Tile answers computed by sending a stored JPEG tile as it is, without decoding (api/README.md,
@@ -94,10 +99,9 @@ class Router {
   std::uint64_t tiles_passed_through() const { return passed_through_.load(std::memory_order_relaxed); }
   const RouterConfig& config() const { return config_; }
 
- // A route: method, OpenAPI path template, the member answering it, and who may call it (the
+  // A route: method, OpenAPI path template, the member answering it, and who may call it (the
   // OpenAPI document declares the same as the route's `security`). A handler returns nullopt when
   // the answer must be computed and may_compute is false.
-  using PathParams = std::vector<std::pair<std::string_view, std::string>>;
   using Handler = std::optional<Response> (Router::*)(const Request&, const PathParams&, bool may_compute);
   struct Route {
     std::string_view method;
@@ -113,17 +117,15 @@ class Router {
   // `allowed` gathers the methods of routes with the same path.
   static const Route* find_route(const std::string& method, const std::vector<std::string>& segments,
                                  PathParams& params, std::string& allowed);
-  static const std::string& param(const PathParams& params, std::string_view name);
 
+  // the web viewer (web/), /v1, /openapi.json, /v1/methods (router_site.cc)
   std::optional<Response> index(const Request&, const PathParams&, bool);
-  // the web viewer (web/)
   std::optional<Response> web_page(const Request&, const PathParams&, bool);
   std::optional<Response> web_script(const Request&, const PathParams&, bool);
   std::optional<Response> web_style(const Request&, const PathParams&, bool);
   std::optional<Response> openapi(const Request&, const PathParams&, bool);
-  // /v1/methods: the warp methods and saliency kinds a view request may name
   std::optional<Response> list_methods(const Request&, const PathParams&, bool);
-  // /v1/images
+  // /v1/images (router_images.cc)
   std::optional<Response> list_images(const Request&, const PathParams&, bool);
   std::optional<Response> describe_image(const Request&, const PathParams&, bool);
   std::optional<Response> delete_image(const Request&, const PathParams&, bool);
@@ -132,7 +134,7 @@ class Router {
   // /v1/images/{id}/… of the warp engine (router_views.cc)
   std::optional<Response> view_route(const Request&, const PathParams&, bool may_compute);
   std::optional<Response> edit_route(const Request&, const PathParams&, bool may_compute);
-  // /dzi, /iiif/3
+  // /dzi, /iiif/3 (router_tiles.cc)
   std::optional<Response> dzi_descriptor_route(const Request&, const PathParams&, bool);
   std::optional<Response> dzi_tile_route(const Request&, const PathParams&, bool may_compute);
   std::optional<Response> iiif_base(const Request&, const PathParams&, bool);
@@ -145,28 +147,6 @@ class Router {
   std::optional<Response> iiif_collection(const Request&, const PathParams&, bool may_compute);
   std::optional<Response> iiif_collection_page(const Request&, const PathParams&, bool may_compute);
 
-  // Image responses go through one path: check If-None-Match, look in the cache, then in the
-  // failure cache, and only then (if allowed) compute — once for identical concurrent requests
-  // (single flight). A failure that is the server's (api/errors.h server_failure_response) is
-  // answered with the route's label.
-  std::optional<Response> image_response(const Request& req, const tiles::ImageEntry& entry,
-                                         const std::string& route, const std::string& key_extra,
-                                         bool may_compute,
-                                         const std::function<Response(const tiles::ImageEntry&)>& compute);
-
-  // Computes the response for `cache_key` once for identical concurrent requests (single flight).
-  // Each requester is bound by its own `stop` only: a waiter that runs out of time leaves without
-  // stopping the computation, and when the computing request is stopped by its token the
-  // waiters do not fail with it, one of them computes in its place. Throws warp::Stopped, and
-  // what `compute` throws. The computing request's deadline or internal error is remembered in
-  // the failure cache (a client's error or cancellation is not); the waiters of that flight fare
-  // as without it (a 500 reaches them, after a deadline one of them computes again).
-  Response compute_once(const std::string& cache_key, const warp::StopToken* stop,
-                        const std::function<Response()>& compute);
-  // Runs `compute`; a failure that is the server's, but not a cancellation, is remembered under
-  // `cache_key` (api/failure_cache.h) before it is rethrown.
-  Response compute_remembering_failure(const std::string& cache_key, const std::function<Response()>& compute);
-
   // The stored JPEG tile `tile` as the whole answer (api/stored_tile_match.h), counted.
   Response stored_tile_response(const tiles::ImageEntry& entry, const StoredTileRef& tile);
   // An IIIF image read, resampled, rotated, filtered and encoded (every request that is not a
@@ -175,29 +155,14 @@ class Router {
 
   std::string base_url(const Request& req) const;
 
-  // Private images (tiles::Manifest::is_private): whether the request carries a curator (or admin)
-  // key.
-  bool has_curator_key(const Request& req) const;
-  // The image `id` for reading, like find_image(). A private image only for a curator key or a
-  // validly signed URL; otherwise 404 image_not_found exactly as for an image that does not exist
-  // (a private image's existence is not revealed), and 403 url_expired / bad_signature for a
-  // signed URL that fails. Every read route calls this before its cache lookup or 304, so a cached
-  // answer is never served around the check.
-  std::shared_ptr<const tiles::ImageEntry> readable_image(const Request& req, const std::string& id) const;
-  // The image of an IIIF Image service segment: readable_image() for a plain id; for a service
-  // segment ID~EXPIRES~SIG (api/url_signing.h, a private manifest's service) the image when the
-  // token is valid, 403 url_expired / bad_signature when not.
-  std::shared_ptr<const tiles::ImageEntry> readable_service(const Request& req, const std::string& segment) const;
-
   tiles::Store& store_;
   tiles::PyramidReader& reader_;
   RouterConfig config_;
-  tiles::ByteLruCache<Response> cache_;
-  FailureCache failures_;
+  ImageAccess access_;
+  CachedResponses responses_;
   WarpEngines engines_;
   tiles::StoredTiles stored_tiles_;
   std::atomic<std::uint64_t> passed_through_{0};
-  tiles::SingleFlight<std::shared_ptr<const Response>> in_flight_;  // keeps nothing: cache_ keeps the answers
 };
 
 }  // namespace zoomwarp::api

@@ -54,7 +54,7 @@ Response description_response(const tiles::ImageEntry& entry, const Description&
 }  // namespace
 
 std::optional<Response> Router::get_metadata(const Request& req, const PathParams& p, bool may_compute) {
-  auto entry = readable_image(req, param(p, "id"));
+  auto entry = access_.readable_image(req, param(p, "id"));
   if (!may_compute) return std::nullopt;  // reads the version's description.json: on a worker
   return description_response(*entry, read_description(*entry), "metadata_get");
 }
@@ -76,11 +76,11 @@ std::optional<Response> Router::put_metadata(const Request& req, const PathParam
 
 std::optional<Response> Router::iiif_manifest(const Request& req, const PathParams& p, bool may_compute) {
   const std::string& id = param(p, "id");
-  auto entry = readable_image(req, id);
+  auto entry = access_.readable_image(req, id);
   const std::string base = base_url(req);
   ManifestLinks links{base, base + "/iiif/3/" + id, !entry->manifest.is_private};
   if (!entry->manifest.is_private)
-    return image_response(req, *entry, "iiif_manifest", base + "|" + presentation_type(req), may_compute,
+    return responses_.image_response(req, *entry, "iiif_manifest", base + "|" + presentation_type(req), may_compute,
                           [&](const tiles::ImageEntry& e) {
                             return body_response(presentation_type(req),
                                                  manifest_json(e.manifest, read_description(e), links, config_.iiif));
@@ -92,7 +92,7 @@ std::optional<Response> Router::iiif_manifest(const Request& req, const PathPara
   // the service is the plain one, which answers curator keys only.
   // A curator key's request was let through without its query being verified: an `expires` in it
   // is the client's word, not a signed URL's, and must not extend the token.
-  const auto url_expiry = has_curator_key(req) ? std::nullopt : signed_expiry(req.query);
+  const auto url_expiry = access_.has_curator_key(req) ? std::nullopt : signed_expiry(req.query);
   if (config_.url_signer)
     links.service_id = base + "/iiif/3/" +
                        config_.url_signer->sign_service(id, url_expiry.value_or(unix_now() + kServiceTokenSeconds));

@@ -13,9 +13,9 @@
 #include "api/responses.h"
 #include "api/url.h"
 #include "api/router.h"
+#include "api/view_query.h"
 #include "warp/analysis/detected_lines.h"
 #include "warp/analysis/image_analysis.h"
-#include "warp/render/render.h"
 
 namespace zoomwarp::api {
 
@@ -62,13 +62,13 @@ warp::Saliency significance_query(const Request& req) {
 }  // namespace
 
 std::optional<Response> Router::view_route(const Request& req, const PathParams& p, bool may_compute) {
-  auto entry = readable_image(req, param(p, "id"));
+  auto entry = access_.readable_image(req, param(p, "id"));
   const std::string what(last_segment(req.path));
   if (what == "significance.png") {
     const warp::Saliency kind = significance_query(req);
     // The default map keeps the ETag it had before there was a choice.
     const std::string variant = kind == warp::Saliency::kDefault ? "" : std::string(warp::saliency_name(kind));
-    return image_response(req, *entry, "significance_png", variant, may_compute, [&](const tiles::ImageEntry& e) {
+    return responses_.image_response(req, *entry, "significance_png", variant, may_compute, [&](const tiles::ImageEntry& e) {
       // The map the ICAZ engine of that kind warps with: faces and the curator's edits painted in.
       const std::shared_ptr<warp::Icaz> engine = engines_.get(e, kind, warp::LineSet::kCurator, req.stop);
       const warp::SignificanceMap& map = engine->model().significance;
@@ -79,7 +79,7 @@ std::optional<Response> Router::view_route(const Request& req, const PathParams&
   }
   if (what == "lines") {
     reject_query(req, what);
-    return image_response(req, *entry, "lines_get", "", may_compute, [&](const tiles::ImageEntry& e) {
+    return responses_.image_response(req, *entry, "lines_get", "", may_compute, [&](const tiles::ImageEntry& e) {
       const warp::ImageModel& model = engines_.get(e, warp::Saliency::kDefault, warp::LineSet::kCurator, req.stop)->model();
       return body_response("application/json", json{{"lines", lines_json(model.lines)},
                                                     {"suggested", lines_json(warp::suggested_lines(e, reader_, model))},
@@ -92,48 +92,27 @@ std::optional<Response> Router::view_route(const Request& req, const PathParams&
   ViewQuery q = parse_view_query(req.query, route, entry->manifest.width, entry->manifest.height);
   q.view.stop = req.stop;  // both ends of a geomorph: the from-view is as much work as the view
   if (q.from) q.from->stop = req.stop;
-  return image_response(req, *entry, what, q.canonical(), may_compute, [&](const tiles::ImageEntry& e) {
+  return responses_.image_response(req, *entry, what, q.canonical(), may_compute, [&](const tiles::ImageEntry& e) {
     try {
-      // ICAZ and traditional zoom are the ICAZ operator's; every other method is a Retargeter.
-      std::shared_ptr<warp::Icaz> icaz;
-      std::shared_ptr<warp::Retargeter> retargeter;
-      if (q.method == ViewMethod::kRetargeting)
-        retargeter = engines_.retargeter_for_screen(e, *q.retargeting, q.saliency, q.lines, q.view.screen_width,
-                                                    q.view.screen_height, req.stop);
-      else
-        icaz = engines_.get(e, q.method == ViewMethod::kTraditional ? warp::Saliency::kDefault : q.saliency, q.lines,
-                            req.stop);
-      const auto view_of = [&](const warp::ViewRequest& r) {
-        switch (q.method) {
-          case ViewMethod::kTraditional: return icaz->traditional(r);
-          case ViewMethod::kRetargeting: return retargeter->view(r);
-          case ViewMethod::kIcaz: break;
-        }
-        return icaz->view(r);
-      };
+      // Whatever the method, it draws through a Retargeter (api/view_methods.h), its warp for this
+      // screen made first (in the background: every view of that screen shares it).
+      const std::shared_ptr<warp::Retargeter> engine = engines_.view_engine(
+          e, *q.method, q.saliency, q.lines, req.stop, q.view.screen_width, q.view.screen_height);
       if (route == ViewRoute::kViewport) {
-        const tiles::Raster screen = retargeter ? retargeter->render(q.view, e, reader_)
-                                                : warp::render_view(view_of(q.view), q.view.screen_width,
-                                                                    q.view.screen_height, e, reader_, req.stop);
+        const tiles::Raster screen = engine->render(q.view, e, reader_);
         warp::check_stop(req.stop);  // not worth encoding a view nobody waits for any more
         tiles::EncodeOptions encode = config_.encode;
         if (q.quality > 0) encode.jpeg_quality = encode.webp_quality = encode.avif_quality = encode.jxl_quality = q.quality;
         return body_response(std::string(tiles::mime_type(q.format)), tiles::encode_image(screen, q.format, encode));
       }
-      if (retargeter && !retargeter->has_mesh())
+      if (!engine->has_mesh())
         throw ApiError(501, "not_implemented",
                        "method=" + std::string(q.method_name()) + " carves pixels away and has no mesh; use /viewport?method=" +
                            std::string(q.method_name()));
       const std::string tile_ext = e.manifest.has_alpha() ? "png" : "jpg";
-      if (!q.from) return body_response("application/json", mesh_json(e.manifest, q, view_of(q.view), nullptr, config_.dzi, tile_ext));
-      if (q.method == ViewMethod::kIcaz) {
-        warp::View to;
-        const warp::Geomorph morph = icaz->geomorph(*q.from, q.view, &to);
-        return body_response("application/json", mesh_json(e.manifest, q, to, &morph, config_.dzi, tile_ext));
-      }
-      // The other methods draw the same mesh in every view of one screen: the pair is vertex by vertex.
-      const warp::View to = view_of(q.view), from = view_of(*q.from);
-      const warp::Geomorph morph{to.source, {}, from.screen, to.screen};
+      if (!q.from) return body_response("application/json", mesh_json(e.manifest, q, engine->view(q.view), nullptr, config_.dzi, tile_ext));
+      warp::View to;
+      const warp::Geomorph morph = engine->geomorph(*q.from, q.view, &to);
       return body_response("application/json", mesh_json(e.manifest, q, to, &morph, config_.dzi, tile_ext));
     } catch (const std::invalid_argument& err) {
       throw ApiError(400, "invalid_view", err.what());

@@ -33,37 +33,10 @@ double in_range(const std::string& name, double v, double lo, double hi) {
   return v;
 }
 
-// api's own methods: ICAZ and the traditional baseline, both of the ICAZ operator (warp/icaz/icaz.h).
-// Every other `method=` value is a registered one.
-struct OwnMethod {
-  ViewMethod method;
-  MethodDescription description;
-};
-constexpr OwnMethod kOwnMethods[] = {
-    {ViewMethod::kIcaz,
-     {"icaz",
-      "Interactive Content-Aware Zooming: a warp per view that keeps the important regions large and "
-      "undistorted, and gives up the distortion as you zoom in.",
-      "0: the whole image warped to the screen's aspect ratio; 1: 100 % (one screen pixel per image pixel), "
-      "undistorted; in between, the warp relaxes as the viewing area shrinks.",
-      true,
-      "the line set's lines are edges of the coarsest mesh and keep their normal through the warp ([ICAZ §4.3]'s "
-      "line term); detected lines are cut back where they cross and left out where the mesh cannot take them"}},
-    {ViewMethod::kTraditional,
-     {"traditional", "Uniform scaling and cropping: the image's own aspect ratio, letterboxed when zoomed out.",
-      "0: the whole image fits the screen; 1: 100 % (one screen pixel per image pixel).", true, ""}},
-};
-
-const OwnMethod* find_own_method(std::string_view name) {
-  for (const OwnMethod& own : kOwnMethods)
-    if (own.description.name == name) return &own;
-  return nullptr;
-}
-
 // "icaz, traditional, retarget-zoom, seam, …", for error messages.
 std::string method_list() {
   std::string out;
-  for (const MethodDescription& m : view_methods()) out += (out.empty() ? "" : ", ") + std::string(m.name);
+  for (const ViewMethod& m : view_methods()) out += (out.empty() ? "" : ", ") + std::string(m.name());
   return out;
 }
 
@@ -75,20 +48,7 @@ int integer(const std::string& name, const std::string& text, int lo, int hi) {
 
 }  // namespace
 
-std::vector<MethodDescription> view_methods() {
-  std::vector<MethodDescription> out;
-  for (const OwnMethod& own : kOwnMethods) out.push_back(own.description);
-  for (const warp::RetargetingMethod* m : warp::retargeting_methods())
-    if (!find_own_method(m->name)) out.push_back({m->name, m->summary, m->zoom, m->has_mesh, m->lines});
-  return out;
-}
-
-std::string_view ViewQuery::method_name() const {
-  if (method == ViewMethod::kRetargeting) return retargeting->name;
-  for (const OwnMethod& own : kOwnMethods)
-    if (own.method == method) return own.description.name;
-  return "icaz";
-}
+std::string_view ViewQuery::method_name() const { return method->name(); }
 
 ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double W, double H) {
   const auto pairs = parse_query(raw_query);
@@ -106,9 +66,8 @@ ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double W
     else if (name == "w") q.view.screen_width = integer(name, value, 16, warp::limits::kMaxScreenSide), have_w = true;
     else if (name == "h") q.view.screen_height = integer(name, value, 16, warp::limits::kMaxScreenSide), have_h = true;
     else if (name == "method") {
-      if (const OwnMethod* own = find_own_method(value)) q.method = own->method;
-      else if (const auto* m = warp::find_retargeting_method(value)) q.method = ViewMethod::kRetargeting, q.retargeting = m;
-      else bad("method must be one of " + method_list() + ", not '" + value + "'");
+      q.method = find_view_method(value);
+      if (!q.method) bad("method must be one of " + method_list() + ", not '" + value + "'");
     } else if (name == "saliency") {
       const auto s = warp::parse_saliency(value);
       if (!s) bad("saliency must be default or gbvs, not '" + value + "'");
@@ -137,8 +96,7 @@ ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double W
   if ((long long)q.view.screen_width * q.view.screen_height > warp::limits::kMaxScreenPixels)
     bad("the screen (w × h) has at most " + std::to_string(warp::limits::kMaxScreenPixels) + " pixels");
   // A method that takes no lines shows the same view for each line set: one cache entry, one engine.
-  if (q.method == ViewMethod::kTraditional || (q.retargeting && q.retargeting->lines.empty()))
-    q.lines = warp::LineSet::kCurator;
+  if (!q.method->takes_lines()) q.lines = warp::LineSet::kCurator;
   if (from_zoom || from_cx || from_cy) {
     q.from = q.view;
     if (from_zoom) q.from->zoom = *from_zoom;

@@ -3,7 +3,7 @@
 //   zoom     0…1, default 0            cx, cy  view centre in full-resolution image pixels,
 //   w, h     screen pixels, 16…4096             0…width / 0…height, default the image centre
 //   method   icaz (default) | traditional | a registered retargeting method
-//            (warp/methods/retargeting_method.h: retarget-zoom, seam, …)
+//            (api/view_methods.h: retarget-zoom, seam, …)
 //   saliency default (default) | gbvs    which saliency map drives a content-aware method
 //   lines    auto (default) | curator | none   which lines a method keeps straight
 //            (warp/analysis/line_set.h); ignored (taken as curator) by a method that takes none
@@ -22,20 +22,16 @@
 #include <string_view>
 #include <vector>
 
+#include "api/view_methods.h"
 #include "tiles/image_format.h"
 #include "warp/analysis/line_set.h"
 #include "warp/core/view.h"
-#include "warp/methods/retargeting_method.h"
 
 namespace zoomwarp::api {
 
-// ICAZ and traditional zoom are the icaz/ operator's; every other method is a registered one.
-enum class ViewMethod { kIcaz, kTraditional, kRetargeting };
-
 struct ViewQuery {
   warp::ViewRequest view;
-  ViewMethod method = ViewMethod::kIcaz;
-  const warp::RetargetingMethod* retargeting = nullptr;  // for kRetargeting: which one
+  const ViewMethod* method = &default_view_method();  // never null
   warp::Saliency saliency = warp::Saliency::kDefault;
   warp::LineSet lines = warp::LineSet::kAuto;
   std::optional<warp::ViewRequest> from;  // from_* given (all three optional, default: this view's)
@@ -48,21 +44,6 @@ struct ViewQuery {
   // The `method=` value: "icaz", "traditional", "retarget-zoom", "seam", …
   std::string_view method_name() const;
 };
-
-// A `method=` value as GET /v1/methods describes it to clients (the viewer's method menus).
-struct MethodDescription {
-  std::string_view name;
-  std::string_view summary;  // one sentence
-  std::string_view zoom;     // what `zoom` means for it
-  bool has_mesh = true;      // false: /mesh answers 501, a client shows /viewport images
-  std::string_view lines;    // what it does with `lines=` (warp/analysis/line_set.h); empty: takes none
-};
-
-// Every method a request may name, in the order a viewer lists them: api's own (icaz,
-// traditional, retarget-zoom), then each registered one (warp::retargeting_methods()). A
-// registered method named like one of api's own is left out, as parse_view_query resolves that
-// name to api's own. Thread-safe: built from immutable tables.
-std::vector<MethodDescription> view_methods();
 
 enum class ViewRoute { kViewport, kMesh };
 

@@ -204,6 +204,18 @@ std::shared_ptr<warp::Retargeter> WarpEngines::retargeter_for_screen(const tiles
   return engine;
 }
 
+std::shared_ptr<warp::Retargeter> WarpEngines::view_engine(const tiles::ImageEntry& image, const ViewMethod& method,
+                                                           warp::Saliency saliency, warp::LineSet lines,
+                                                           const warp::StopToken* stop, int screen_width,
+                                                           int screen_height) {
+  if (!method.registered)
+    return std::make_shared<warp::IcazRetargeter>(
+        get(image, method.reads_saliency ? saliency : warp::Saliency::kDefault, lines, stop), method.icaz_zoom);
+  if (screen_width > 0 && screen_height > 0)
+    return retargeter_for_screen(image, *method.registered, saliency, lines, screen_width, screen_height, stop);
+  return retargeter(image, *method.registered, saliency, lines, stop);
+}
+
 std::size_t WarpEngines::memory_bytes() { return engines_.weight(); }
 
 WarpEngines::Counts WarpEngines::counts() const { return {computed_.load(), read_.load(), background_.in_flight()}; }

@@ -36,6 +36,7 @@
 #include <unordered_set>
 #include <variant>
 
+#include "api/view_methods.h"
 #include "tiles/background_flights.h"
 #include "tiles/pyramid_reader.h"
 #include "tiles/single_flight.h"
@@ -81,6 +82,16 @@ class WarpEngines {
                                                           const warp::RetargetingMethod& method, warp::Saliency saliency,
                                                           warp::LineSet lines, int screen_width, int screen_height,
                                                           const warp::StopToken* stop = nullptr);
+
+  // What draws `method`'s views of the version (api/view_methods.h), so that routes and tools
+  // never ask which method they hold: api's own through the version's shared ICAZ operator
+  // (get(), wrapped by warp/methods/icaz_retargeter.h; traditional zoom reads no saliency map), a
+  // registered one as retargeter() — or, given a screen (both sides > 0), as
+  // retargeter_for_screen(), its warp for that screen made first. Throws as get() does.
+  std::shared_ptr<warp::Retargeter> view_engine(const tiles::ImageEntry& image, const ViewMethod& method,
+                                                warp::Saliency saliency, warp::LineSet lines,
+                                                const warp::StopToken* stop = nullptr, int screen_width = 0,
+                                                int screen_height = 0);
 
   // The engines' bytes as last measured (for /metrics).
   std::size_t memory_bytes();

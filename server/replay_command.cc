@@ -21,7 +21,7 @@
 #include <regex>
 #include <thread>
 
-#include "api/view_query.h"
+#include "api/view_methods.h"
 #include "server/commands.h"
 #include "server/http_client.h"
 #include "server/options.h"
@@ -126,16 +126,14 @@ Config config_from(const Options& o) {
   if (endpoint != "viewport") c.endpoints.push_back(Endpoint::kMesh);
   if (endpoint != "mesh") c.endpoints.push_back(Endpoint::kViewport);
   c.method = o.str("method");
-  // Every method a view may name, from the same table as GET /v1/methods (api/view_query.h).
-  const std::vector<api::MethodDescription> methods = api::view_methods();
-  std::string names;
-  const api::MethodDescription* method = nullptr;
-  for (const api::MethodDescription& m : methods) {
-    names += (names.empty() ? "" : ", ") + std::string(m.name);
-    if (m.name == c.method) method = &m;
+  // Every method a view may name, from the same table as GET /v1/methods (api/view_methods.h).
+  const api::ViewMethod* method = api::find_view_method(c.method);
+  if (!method) {
+    std::string names;
+    for (const api::ViewMethod& m : api::view_methods()) names += (names.empty() ? "" : ", ") + std::string(m.name());
+    throw std::invalid_argument("--method must be one of " + names + ", not '" + c.method + "'");
   }
-  if (!method) throw std::invalid_argument("--method must be one of " + names + ", not '" + c.method + "'");
-  if (!method->has_mesh && endpoint != "viewport")
+  if (!method->description.has_mesh && endpoint != "viewport")
     throw std::invalid_argument("--method " + c.method + " has no mesh (GET /v1/methods): replay it with --endpoint viewport");
   c.format = choice(o, "format", {"jpg", "png", "webp", "avif", "jxl"});
   c.timeout = std::chrono::seconds(o.integer("timeout", 1, 3600));

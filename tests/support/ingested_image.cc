@@ -19,21 +19,10 @@ IngestedImage::MeshViews IngestedImage::mesh_views(const std::string& query) {
   const tiles::ImageEntry& e = *entry;
   MeshViews m{api::parse_view_query(query, api::ViewRoute::kMesh, e.manifest.width, e.manifest.height), {}, {}};
   const api::ViewQuery& q = m.query;
-  if (q.method == api::ViewMethod::kRetargeting) {
-    const auto engine = engines.retargeter(e, *q.retargeting, q.saliency, q.lines);
-    m.view = engine->view(q.view);
-    if (q.from) m.morph = warp::Geomorph{m.view.source, {}, engine->view(*q.from).screen, m.view.screen};
-    return m;
-  }
-  const auto icaz = engines.get(e, q.saliency, q.lines);
-  if (q.method == api::ViewMethod::kTraditional) {
-    m.view = icaz->traditional(q.view);
-    if (q.from) m.morph = warp::Geomorph{m.view.source, {}, icaz->traditional(*q.from).screen, m.view.screen};
-  } else if (q.from) {
-    m.morph = icaz->geomorph(*q.from, q.view, &m.view);
-  } else {
-    m.view = icaz->view(q.view);
-  }
+  // As the /mesh route draws it: whatever the method, through its Retargeter.
+  const auto engine = engines.view_engine(e, *q.method, q.saliency, q.lines);
+  if (q.from) m.morph = engine->geomorph(*q.from, q.view, &m.view);
+  else m.view = engine->view(q.view);
   return m;
 }
 
