@@ -1,6 +1,6 @@
 // `zoomwarp compare IMAGE --methods … --size WxH --zoom … -o DIR`: one comparison bench for every
 // retargeting method (docs/compare.md). Each cell (method × zoom) is rendered by the code
-// /viewport runs (api::WarpEngines' engines, warp::render_view / Retargeter::render) and measured
+// /viewport runs (api::WarpEngines::view_engine, Retargeter::render) and measured
 // by warp/compare/metrics.h against traditional zoom at the same view; the results are
 // DIR/sheet.png (warp/compare/contact_sheet.h), DIR/metrics.json and DIR/metrics.md.
 //
@@ -13,14 +13,14 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <functional>
 #include <nlohmann/json.hpp>
-#include <set>
 #include <sstream>
 #include <tuple>
 
+#include "api/view_methods.h"
 #include "api/warp_engines.h"
 #include "server/commands.h"
+#include "server/compare_report.h"
 #include "server/settings.h"
 #include "tiles/encode.h"
 #include "tiles/ingest.h"
@@ -30,7 +30,6 @@
 #include "warp/compare/contact_sheet.h"
 #include "warp/compare/metrics.h"
 #include "warp/core/limits.h"
-#include "warp/render/render.h"
 
 namespace zoomwarp::server {
 
@@ -43,11 +42,10 @@ double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std
 
 constexpr std::size_t kMaxZooms = 16;
 
-// The methods `--methods` may name: ICAZ and traditional zoom (the ICAZ operator's), then every
-// registered one.
+// The methods `--methods` may name: every method a view may name (api/view_methods.h).
 std::vector<std::string> known_methods() {
-  std::vector<std::string> out = {"icaz", "traditional"};
-  for (const warp::RetargetingMethod* m : warp::retargeting_methods()) out.emplace_back(m->name);
+  std::vector<std::string> out;
+  for (const api::ViewMethod& m : api::view_methods()) out.emplace_back(m.name());
   return out;
 }
 
@@ -123,91 +121,17 @@ class TemporaryStore {
   std::string path_;
 };
 
-// One method as the comparison sees it: its view (for the metrics) and its screen (as /viewport
-// renders it).
+// One method as the comparison sees it: the engine /viewport draws it with.
 struct Contender {
   std::string name;
-  bool has_mesh = true;
   double precompute_ms = 0;  // the engine's first load: model files read, method loaded
-  std::function<warp::View(const warp::ViewRequest&)> view;
-  std::function<tiles::Raster(const warp::ViewRequest&)> render;
-  // Without a mesh: what each screen pixel shows (Retargeter::screen_sources).
-  std::function<std::vector<warp::Point>(const warp::ViewRequest&)> screen_sources;
+  std::shared_ptr<warp::Retargeter> engine;
 };
-
-struct Cell {
-  double zoom = 0;
-  warp::ViewMetrics metrics;
-  double viewport_ms = 0;  // the rendered screen, first request of the cell (caches as they are)
-};
-
-json optional_json(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
-
-std::string text(const std::optional<double>& v, const char* format = "%.2f") {
-  if (!v) return "n/a";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, format, *v);
-  return buf;
-}
-
-// Three lines that fit under a 360 px cell: method and zoom with folds and coverage; gain and
-// anisotropy; rotation (p95 / spread, degrees) and the worst line's bend (px).
-std::vector<std::string> label(const std::string& method, const Cell& c) {
-  const warp::ViewMetrics& m = c.metrics;
-  char line[128];
-  std::snprintf(line, sizeof line, "%s  z=%.2f  folds %s  cover %.3f", method.c_str(), c.zoom,
-                m.folds ? std::to_string(*m.folds).c_str() : "n/a", m.coverage);
-  std::vector<std::string> out = {line};
-  std::snprintf(line, sizeof line, "gain %s  aniso %s", text(m.scale_gain).c_str(), text(m.anisotropy_salient).c_str());
-  out.push_back(line);
-  std::snprintf(line, sizeof line, "rot %s/%s deg  line %s px", text(m.rotation_p95, "%.1f").c_str(),
-                text(m.rotation_spread, "%.1f").c_str(), text(m.straightness, "%.1f").c_str());
-  out.push_back(line);
-  return out;
-}
 
 void write_file(const std::filesystem::path& path, const std::string& bytes) {
   std::ofstream out(path, std::ios::binary);
   out << bytes;
   if (!out.flush()) throw std::runtime_error("cannot write " + path.string());
-}
-
-std::string markdown(const json& report) {
-  std::ostringstream md;
-  md << "# zoomwarp compare: " << report["image"].get<std::string>() << "\n\n"
-     << "Image " << report["width"] << "×" << report["height"] << ", screen " << report["screen"][0] << "×"
-     << report["screen"][1] << ", saliency " << report["saliency"].get<std::string>() << ", lines "
-     << report["lines"].get<std::string>()
-     << ", view centre the image centre. Gain: on-screen area of the top tenth of the significance map over its area "
-        "under traditional zoom; anisotropy: σ1/σ2 of the triangles' affine maps, salient-area and "
-        "significance weighted; rot. p95: 95th percentile of the triangles' rotation (degrees, polar "
-        "decomposition) over the salient region's on-screen area; rot. spread: its significance-weighted standard "
-        "deviation (what bends shapes); line px: the worst line's distance from its chord on screen, over the "
-        "curator's and the detected lines not dismissed whose chord on screen is at least 8 px (lines: how many); "
-        "viewport ms: the cell's first render (caches warm from the cells before it).\n\n"
-     << "| method | precompute ms |\n|---|---|\n";
-  for (const auto& m : report["methods"]) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.1f", m["precompute_ms"].get<double>());
-    md << "| " << m["name"].get<std::string>() << " | " << buf << " |\n";
-  }
-  md << "\n| method | zoom | gain | aniso. salient | aniso. weighted | rot. p95 | rot. spread | line px | lines | folds "
-        "| coverage | viewport ms |\n"
-        "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
-  auto cell = [](const json& v, const char* format = "%.2f") {
-    if (v.is_null()) return std::string("n/a");
-    char buf[32];
-    std::snprintf(buf, sizeof buf, format, v.get<double>());
-    return std::string(buf);
-  };
-  auto count = [](const json& v) { return v.is_null() ? std::string("n/a") : std::to_string(v.get<int>()); };
-  for (const auto& r : report["rows"])
-    md << "| " << r["method"].get<std::string>() << " | " << cell(r["zoom"]) << " | " << cell(r["scale_gain"]) << " | "
-       << cell(r["anisotropy_salient"]) << " | " << cell(r["anisotropy_weighted"]) << " | "
-       << cell(r["rotation_p95"], "%.1f") << " | " << cell(r["rotation_spread"], "%.1f") << " | " << cell(r["line_px"])
-       << " | " << count(r["lines_measured"]) << " | " << count(r["folds"]) << " | " << cell(r["coverage"], "%.4f")
-       << " | " << cell(r["viewport_ms"], "%.1f") << " |\n";
-  return md.str();
 }
 
 constexpr const char* kHelp =
@@ -257,54 +181,24 @@ Settings parse_settings(const Options& o) {
   return s;
 }
 
-// The engines of the methods compared, each timed on its first load. ICAZ and traditional zoom
-// share one engine for the default saliency: its load (model files read, coarsest mesh factored)
-// counts as the precomputation of both.
+// The engines of the methods compared, each timed on its first load. api's own methods draw with
+// the ICAZ operator: the default-saliency one is loaded first as the reference (`plain`), and its
+// load (model files read, coarsest mesh factored) counts as the precomputation of each that uses it.
 std::vector<Contender> make_contenders(const Settings& s, api::WarpEngines& engines, const tiles::ImageEntry& e,
-                                       tiles::PyramidReader& reader, const std::shared_ptr<warp::Icaz>& plain,
                                        double plain_load_ms) {
   std::vector<Contender> out;
   for (const std::string& name : s.methods) {
+    const api::ViewMethod& method = *api::find_view_method(name);
     Contender c;
     c.name = name;
     const auto t0 = Clock::now();
-    if (name == "icaz" || name == "traditional") {
-      const bool own = name == "icaz" && s.saliency != warp::Saliency::kDefault;
-      const std::shared_ptr<warp::Icaz> icaz = own ? engines.get(e, s.saliency, s.lines) : plain;
-      if (!own) c.precompute_ms = plain_load_ms;
-      c.view = name == "icaz" ? std::function([icaz](const warp::ViewRequest& r) { return icaz->view(r); })
-                              : std::function([icaz](const warp::ViewRequest& r) { return icaz->traditional(r); });
-      c.render = [&e, &reader, view = c.view](const warp::ViewRequest& r) {
-        return warp::render_view(view(r), r.screen_width, r.screen_height, e, reader);
-      };
-    } else {
-      const std::shared_ptr<warp::Retargeter> engine =
-          engines.retargeter(e, *warp::find_retargeting_method(name), s.saliency, s.lines);
-      c.has_mesh = engine->has_mesh();
-      c.view = [engine](const warp::ViewRequest& r) { return engine->view(r); };
-      c.render = [&e, &reader, engine](const warp::ViewRequest& r) { return engine->render(r, e, reader); };
-      c.screen_sources = [engine](const warp::ViewRequest& r) { return engine->screen_sources(r); };
-    }
-    c.precompute_ms += ms_since(t0);
+    c.engine = engines.view_engine(e, method, s.saliency, s.lines);
+    c.precompute_ms = ms_since(t0);
+    if (!method.registered && (!method.reads_saliency || s.saliency == warp::Saliency::kDefault))
+      c.precompute_ms += plain_load_ms;
     out.push_back(std::move(c));
   }
   return out;
-}
-
-json row_json(const std::string& method, const Cell& c) {
-  const warp::ViewMetrics& m = c.metrics;
-  return {{"method", method},
-          {"zoom", c.zoom},
-          {"scale_gain", optional_json(m.scale_gain)},
-          {"anisotropy_salient", optional_json(m.anisotropy_salient)},
-          {"anisotropy_weighted", optional_json(m.anisotropy_weighted)},
-          {"rotation_p95", optional_json(m.rotation_p95)},
-          {"rotation_spread", optional_json(m.rotation_spread)},
-          {"line_px", optional_json(m.straightness)},
-          {"lines_measured", m.lines_measured ? json(*m.lines_measured) : json(nullptr)},
-          {"folds", m.folds ? json(*m.folds) : json(nullptr)},
-          {"coverage", m.coverage},
-          {"viewport_ms", c.viewport_ms}};
 }
 
 // Renders and measures every cell of image `e`; fills `report` and returns the sheet's cells.
@@ -323,13 +217,14 @@ std::vector<std::vector<warp::SheetCell>> run(const Settings& s, const tiles::Im
   // detected ones not dismissed.
   std::vector<warp::Segment> lines = stored.lines;
   for (const warp::Segment& l : warp::suggested_lines(e, reader, stored)) lines.push_back(l);
-  const std::vector<Contender> contenders = make_contenders(s, engines, e, reader, plain, plain_load_ms);
+  const std::vector<Contender> contenders = make_contenders(s, engines, e, plain_load_ms);
 
   const bool progress = ::isatty(STDERR_FILENO);
   std::vector<std::vector<warp::SheetCell>> sheet;
   for (std::size_t k = 0; k < contenders.size(); ++k) {
     const Contender& c = contenders[k];
-    report["methods"].push_back({{"name", c.name}, {"has_mesh", c.has_mesh}, {"precompute_ms", c.precompute_ms}});
+    report["methods"].push_back(
+        {{"name", c.name}, {"has_mesh", c.engine->has_mesh()}, {"precompute_ms", c.precompute_ms}});
     std::vector<warp::SheetCell>& row = sheet.emplace_back();
     for (double z : s.zooms) {
       warp::ViewRequest r;
@@ -338,13 +233,14 @@ std::vector<std::vector<warp::SheetCell>> run(const Settings& s, const tiles::Im
       Cell cell;
       cell.zoom = z;
       const auto start = Clock::now();
-      tiles::Raster shown = c.render(r);
+      tiles::Raster shown = c.engine->render(r, e, reader);
       cell.viewport_ms = ms_since(start);
-      cell.metrics = c.has_mesh ? warp::mesh_view_metrics(c.view(r), plain->traditional(r), map, lines, s.screen_width,
-                                                          s.screen_height)
-                                : warp::raster_view_metrics(shown, c.screen_sources(r), plain->traditional(r), map);
-      report["rows"].push_back(row_json(c.name, cell));
-      row.push_back({std::move(shown), label(c.name, cell)});
+      const warp::View reference = plain->traditional(r);
+      cell.metrics = c.engine->has_mesh()
+                         ? warp::mesh_view_metrics(c.engine->view(r), reference, map, lines, s.screen_width, s.screen_height)
+                         : warp::raster_view_metrics(shown, c.engine->screen_sources(r), reference, map);
+      report["rows"].push_back(cell_json(c.name, cell));
+      row.push_back({std::move(shown), cell_label(c.name, cell)});
     }
     if (progress)
       std::fprintf(stderr, "compare: %s done (%zu/%zu), precompute %.0f ms\n", c.name.c_str(), k + 1, contenders.size(),
@@ -405,7 +301,7 @@ int compare_command(const std::vector<std::string>& raw_args) {
     std::filesystem::create_directories(s.out);
     write_file(s.out / "sheet.png", tiles::encode_image(warp::contact_sheet(sheet), tiles::ImageFormat::kPng, {}));
     write_file(s.out / "metrics.json", report.dump(2) + "\n");
-    write_file(s.out / "metrics.md", markdown(report));
+    write_file(s.out / "metrics.md", report_markdown(report));
     std::printf("wrote %s, %s and %s\n", (s.out / "sheet.png").c_str(), (s.out / "metrics.json").c_str(),
                 (s.out / "metrics.md").c_str());
     return 0;
