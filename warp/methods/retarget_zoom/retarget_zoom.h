@@ -4,10 +4,12 @@
 //
 // The mesh: a conforming Delaunay mesh of the image (meshing/coarse_mesh.h, the curator's lines
 // as edges) whose area bound is the largest leaf of the forest's finest stored level (500 px²
-// for images up to ~20 MP, the runtime threshold at 100 %), capped at kMaxVertices — the world
-// map (5400×2500) gets 29 618 vertices at 500 px². Larger images get proportionally larger
-// triangles: the cap keeps one solve near 0.1 s. Weights are the selected saliency map's
-// per-triangle means [ICAZ §4] (saliency=gbvs works as well as the default).
+// for images up to ~20 MP, the runtime threshold at 100 %), capped at kMaxVertices — about 6 MP
+// at 500 px²; larger images get proportionally larger triangles. The cap bounds the first solve
+// of a screen aspect, which a first view waits for (issue 28): with the rotation term and the
+// fold-over guard's refactorizations, a 16 MP photograph's 23 841 vertices took 3.2 s at
+// 360×640 (a first view of 4.3 s); at the cap, 9 695 vertices, 1.1 s (0.8 s). Weights are the
+// selected saliency map's per-triangle means [ICAZ §4] (saliency=gbvs works as well as the default).
 //
 // Per target size (one per screen aspect: the warp does not depend on the zoom) the warp starts
 // from the affine stretch, which keeps every line straight and gives oblique lines their normals
@@ -52,7 +54,7 @@ namespace zoomwarp::warp {
 
 class RetargetZoom : public Retargeter {
  public:
-  static constexpr int kMaxVertices = 30000;
+  static constexpr int kMaxVertices = 12000;
   static constexpr int kCachedSizes = 16;
   // WarpOptions::rotation_weight of the whole-image warp (ours, issue 30; docs/algorithms.md):
   // the corpus's worst salient rotation p95 at 360×640 from 10.6° (ρ = 0) to 8.5° (1) and 6.2°
