@@ -285,21 +285,19 @@ int serve(const Options& o) {
 }  // namespace
 
 int serve_command(const std::vector<std::string>& args) {
-  try {
-    Options o(serve_specs(), args);
-    if (o.help_requested()) {
-      std::printf("usage: zoomwarp serve [OPTIONS]\n\nServes the image store over HTTP.\n\n%s", o.usage().c_str());
-      return 0;
-    }
-    if (!o.positionals().empty()) throw std::invalid_argument("unexpected argument '" + o.positionals()[0] + "'");
-    return serve(o);
-  } catch (const std::invalid_argument& e) {
-    std::fprintf(stderr, "zoomwarp serve: %s\n", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    log_event("error", "cannot serve", {{"error", e.what()}});
-    return 1;
-  }
+  return run_command(
+      "serve",
+      [&]() -> int {
+        Options o(serve_specs(), args);
+        if (o.help_requested()) {
+          std::printf("usage: zoomwarp serve [OPTIONS]\n\nServes the image store over HTTP.\n\n%s", o.usage().c_str());
+          return 0;
+        }
+        if (!o.positionals().empty()) throw std::invalid_argument("unexpected argument '" + o.positionals()[0] + "'");
+        return serve(o);
+      },
+      // Not "zoomwarp serve: what" on stderr: what stops a server belongs in its JSON log.
+      [](const std::exception& e) { log_event("error", "cannot serve", {{"error", e.what()}}); });
 }
 
 }  // namespace zoomwarp::server
