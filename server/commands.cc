@@ -5,7 +5,8 @@
 
 namespace zoomwarp::server {
 
-int run_command(std::string_view name, const std::function<int()>& body) {
+int run_command(std::string_view name, const std::function<int()>& body,
+                const std::function<void(const std::exception&)>& report_failure) {
   const auto fail = [&](const std::exception& e, int code) {
     std::fprintf(stderr, "zoomwarp %.*s: %s\n", int(name.size()), name.data(), e.what());
     return code;
@@ -15,7 +16,9 @@ int run_command(std::string_view name, const std::function<int()>& body) {
   } catch (const std::invalid_argument& e) {
     return fail(e, 2);
   } catch (const std::exception& e) {
-    return fail(e, 1);
+    if (!report_failure) return fail(e, 1);
+    report_failure(e);
+    return 1;
   }
 }
 

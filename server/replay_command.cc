@@ -1,20 +1,17 @@
 // `zoomwarp replay PATH…`: replays view paths (server/view_path.h) against a running server's
 // /mesh and /viewport routes with concurrent keep-alive clients, and prints latency percentiles per
-// (endpoint, action) and the throughput. For load tests: tests/load/README.md has the shipped
-// paths and how to run them. Exit codes: 0 the run completed (also when requests failed: the
-// summary counts them), 1 it could not run (server unreachable, unknown image), 2 usage or a
-// malformed path, 3 with --fail-on-error when any request failed.
+// (endpoint, action) and the throughput (server/replay_report.h). For load tests:
+// tests/load/README.md has the shipped paths and how to run them. Exit codes: 0 the run completed
+// (also when requests failed: the summary counts them), 1 it could not run (server unreachable,
+// unknown image), 2 usage or a malformed path, 3 with --fail-on-error when any request failed.
 #include <unistd.h>
 
 #include <algorithm>
-#include <array>
 #include <atomic>
 #include <cctype>
 #include <charconv>
-#include <cmath>
 #include <condition_variable>
 #include <cstdio>
-#include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -25,10 +22,13 @@
 #include "server/commands.h"
 #include "server/http_client.h"
 #include "server/options.h"
+#include "server/replay_report.h"
 #include "server/view_path.h"
 #include "tiles/image_id.h"
 
 namespace zoomwarp::server {
+
+namespace replay {
 
 namespace {
 
@@ -38,29 +38,18 @@ using Clock = std::chrono::steady_clock;
 constexpr auto kPauseAfterFailure = std::chrono::milliseconds(100);
 constexpr auto kProgressInterval = std::chrono::milliseconds(250);
 
-enum class Endpoint { kMesh, kViewport };
-constexpr std::array<const char*, 2> kEndpointNames = {"mesh", "viewport"};
-constexpr std::array<ViewAction::Kind, 2> kKinds = {ViewAction::Kind::kZoom, ViewAction::Kind::kPan};
-
-// Statistics are kept per series: one endpoint × one action kind.
-constexpr int kSeries = 4;
-int series_of(Endpoint e, ViewAction::Kind k) { return int(e) * 2 + int(k); }
-
 struct BaseUrl {
   std::string host, port, prefix;  // prefix: "" or "/path", without a trailing slash
 };
 
-struct Config {
+// The workload (replay_report.h) and how to run it.
+struct Config : Workload {
   BaseUrl url;
-  std::string image;
-  int clients = 4;
   std::optional<std::int64_t> count;        // requests per client
   std::optional<Clock::duration> duration;  // instead of a count
-  std::vector<Endpoint> endpoints;
-  std::string method, format;
+  std::string format;
   std::chrono::milliseconds timeout{};
   bool json = false, fail_on_error = false;
-  std::vector<std::string> paths;
 };
 
 std::vector<OptionSpec> replay_specs() {
@@ -211,40 +200,6 @@ std::vector<PlannedRequest> plan_requests(const std::vector<ViewAction>& actions
   return plan;
 }
 
-bool succeeded(int status) { return status >= 200 && status < 300; }
-
-struct SeriesStats {
-  std::int64_t requests = 0, errors = 0;
-  std::vector<float> ms;  // latencies of the successful requests; floats halve a long run's memory
-};
-
-// What a client measured. Each client keeps its own, so the hot loop shares nothing; the summary
-// merges them.
-struct Tally {
-  std::array<SeriesStats, kSeries> series;
-  std::map<std::string, std::int64_t> errors_by_status;  // "503", "connection", …
-
-  void record(int s, int status, double ms) {  // status 0: no answer, the connection failed
-    SeriesStats& st = series[s];
-    ++st.requests;
-    if (succeeded(status)) {
-      st.ms.push_back(float(ms));
-      return;
-    }
-    ++st.errors;
-    ++errors_by_status[status == 0 ? "connection" : std::to_string(status)];
-  }
-
-  void merge(const Tally& other) {
-    for (int s = 0; s < kSeries; ++s) {
-      series[s].requests += other.series[s].requests;
-      series[s].errors += other.series[s].errors;
-      series[s].ms.insert(series[s].ms.end(), other.series[s].ms.begin(), other.series[s].ms.end());
-    }
-    for (const auto& [status, n] : other.errors_by_status) errors_by_status[status] += n;
-  }
-};
-
 // What the clients share while they run.
 struct Run {
   explicit Run(const std::vector<PlannedRequest>& p) : plan(p) {}
@@ -311,13 +266,6 @@ void draw_progress(const Run& run, const Config& c, double elapsed_s) {
   std::fflush(stderr);
 }
 
-struct Summary {
-  Tally tally;  // all clients', latencies sorted
-  std::int64_t requests = 0, errors = 0;
-  double seconds = 0;
-  std::string first_connection_error;
-};
-
 // Client i of N starts at action ⌊i·n/N⌋ so that the clients ask for different views at the same
 // moment; all starting together would mostly measure the server's single flight and response
 // cache, not its warps.
@@ -342,101 +290,38 @@ Summary run_clients(const std::vector<PlannedRequest>& plan, std::size_t actions
     while (!run.finished.wait_for(lock, kProgressInterval, [&] { return run.running == 0; }))
       if (progress) draw_progress(run, c, std::chrono::duration<double>(Clock::now() - t0).count());
   }
-  Summary s;
-  s.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   for (auto& t : threads) t.join();
   if (progress) {
-    draw_progress(run, c, s.seconds);
+    draw_progress(run, c, seconds);
     std::fputc('\n', stderr);
   }
-  for (const Tally& t : tallies) s.tally.merge(t);
-  for (auto& st : s.tally.series) {
-    std::sort(st.ms.begin(), st.ms.end());
-    s.requests += st.requests;
-    s.errors += st.errors;
-  }
-  s.first_connection_error = run.first_connection_error;
-  return s;
+  return summarize(tallies, seconds, run.first_connection_error);
 }
 
-// Nearest rank, so that p50 ≤ p95 ≤ p99 always holds and every figure is a measured latency.
-double percentile(const std::vector<float>& sorted, double p) {
-  const auto rank = std::size_t(std::ceil(p / 100 * double(sorted.size())));
-  return sorted[std::max<std::size_t>(rank, 1) - 1];
-}
-
-constexpr std::array<double, 3> kPercentiles = {50, 95, 99};
-
-// Calls fn(endpoint, action, stats) for every series that saw requests, endpoint by endpoint.
-template <class Fn>
-void for_each_series(const Summary& s, const Config& c, Fn fn) {
-  for (Endpoint e : c.endpoints)
-    for (ViewAction::Kind k : kKinds)
-      if (const SeriesStats& st = s.tally.series[series_of(e, k)]; st.requests > 0)
-        fn(kEndpointNames[int(e)], std::string(kind_name(k)), st);
-}
-
-json summary_json(const Summary& s, const Config& c) {
-  json endpoints = json::object();
-  for_each_series(s, c, [&](const char* endpoint, const std::string& action, const SeriesStats& st) {
-    json row = {{"requests", st.requests}, {"errors", st.errors}};
-    for (double p : kPercentiles)
-      row["p" + std::to_string(int(p)) + "_ms"] =
-          st.ms.empty() ? json() : json(std::round(percentile(st.ms, p) * 1000) / 1000);  // to the µs
-    endpoints[endpoint][action] = row;
-  });
-  json out = {{"image", c.image},
-              {"paths", c.paths},
-              {"method", c.method},
-              {"clients", c.clients},
-              {"seconds", s.seconds},
-              {"requests", s.requests},
-              {"errors", s.errors},
-              {"requests_per_second", s.requests / s.seconds},
-              {"errors_by_status", s.tally.errors_by_status},
-              {"endpoints", endpoints}};
-  if (!s.first_connection_error.empty()) out["first_connection_error"] = s.first_connection_error;
-  return out;
-}
-
-void print_summary(const Summary& s, const Config& c, std::size_t actions) {
-  std::printf("replayed %zu path%s (%zu actions) over %s with %d client%s, method %s: %lld requests in %.2f s, "
-              "%.1f requests/s, %lld errors\n\n",
-              c.paths.size(), c.paths.size() == 1 ? "" : "s", actions, c.image.c_str(), c.clients,
-              c.clients == 1 ? "" : "s", c.method.c_str(), (long long)s.requests, s.seconds, s.requests / s.seconds,
-              (long long)s.errors);
-  std::printf("%-9s %-6s %9s %7s %8s %8s %8s\n", "endpoint", "action", "requests", "errors", "p50 ms", "p95 ms",
-              "p99 ms");
-  for_each_series(s, c, [](const char* endpoint, const std::string& action, const SeriesStats& st) {
-    std::printf("%-9s %-6s %9lld %7lld", endpoint, action.c_str(), (long long)st.requests, (long long)st.errors);
-    for (double p : kPercentiles)
-      if (st.ms.empty()) std::printf(" %8s", "-");
-      else std::printf(" %8.1f", percentile(st.ms, p));
-    std::printf("\n");
-  });
-  if (s.tally.errors_by_status.empty()) return;
-  std::printf("\nerrors:");
-  for (const auto& [status, n] : s.tally.errors_by_status) std::printf(" %s x%lld", status.c_str(), (long long)n);
-  std::printf("\n");
-  if (!s.first_connection_error.empty()) std::printf("first connection error: %s\n", s.first_connection_error.c_str());
+// The paths the flags name replayed, the summary printed; the exit code.
+int replay_paths(const Options& o) {
+  const Config c = config_from(o);
+  const std::vector<ViewAction> actions = read_paths(c.paths);
+  check_fits(actions, image_size(c), c.image);
+  const Summary s = run_clients(plan_requests(actions, c), actions.size(), c);
+  if (c.json) print_summary_json(s, c);
+  else print_summary(s, c, actions.size());
+  return c.fail_on_error && s.errors > 0 ? 3 : 0;
 }
 
 }  // namespace
 
+}  // namespace replay
+
 int replay_command(const std::vector<std::string>& args) {
   return run_command("replay", [&]() -> int {
-    Options o(replay_specs(), args);
+    Options o(replay::replay_specs(), args);
     if (o.help_requested()) {
-      std::printf("%s%s", kHelp, o.usage().c_str());
+      std::printf("%s%s", replay::kHelp, o.usage().c_str());
       return 0;
     }
-    const Config c = config_from(o);
-    const std::vector<ViewAction> actions = read_paths(c.paths);
-    check_fits(actions, image_size(c), c.image);
-    const Summary s = run_clients(plan_requests(actions, c), actions.size(), c);
-    if (c.json) std::printf("%s\n", summary_json(s, c).dump().c_str());
-    else print_summary(s, c, actions.size());
-    return c.fail_on_error && s.errors > 0 ? 3 : 0;
+    return replay::replay_paths(o);
   });
 }
 

@@ -120,141 +120,184 @@ std::unique_ptr<api::KeyRing> access_settings(const Options& o, api::AccessPolic
   return keys;
 }
 
+// The listener's address, limits, timeouts, CORS and upload rate policies. What the rest of the
+// wiring knows (face detection's state, the key file's reload, the upload slots) is added by serve().
+HttpServerOptions http_server_options(const Options& o) {
+  HttpServerOptions http;
+  http.host = o.str("host");
+  http.port = int(o.integer("port", 0, 65535));
+  http.io_threads = int(o.integer("io-threads", 1, 256));
+  http.max_upload_bytes = o.bytes("max-upload", 1, 1ULL << 40);
+  http.max_staging_bytes = o.bytes("max-staging", 0, 1ULL << 50);
+  http.idle_timeout = std::chrono::seconds(o.integer("idle-timeout", 1, 3600));
+  http.header_timeout = std::chrono::seconds(o.integer("header-timeout", 1, 3600));
+  http.body_timeout = std::chrono::seconds(o.integer("body-timeout", 1, 3600));
+  const auto max_connections = std::size_t(o.integer("max-connections", 0, 1 << 24));
+  http.max_connections = max_connections > 0 ? max_connections : connections_for_fd_limit();
+  http.drain_delay = std::chrono::seconds(o.integer("drain-delay", 0, 3600));
+  http.drain_timeout = std::chrono::seconds(o.integer("drain-timeout", 0, 3600));
+  http.request_timeout = std::chrono::seconds(o.integer("request-timeout", 1, 3600));
+  http.gc_grace = std::chrono::seconds(o.integer("gc-grace", 0, 30 * 86400));
+  http.log_requests = o.flag("log-requests");
+  http.cors = CorsPolicy::parse(o.str("cors-write-origins"));
+  http.trust_forwarded_for = o.flag("trust-forwarded-for");
+  http.upload_limits.uploads_per_minute = upload_rate(o.str("upload-rate"));
+  http.upload_limits.bytes_per_day = o.bytes("upload-bytes-per-day", 0, 1ULL << 50);
+  return http;
+}
+
+// The router's caches, encoders, IIIF and Deep Zoom limits, ingest and analysis settings, URL
+// signer and log; access_settings() adds who may write. Face detection's state goes to
+// `*face_detection`: it is found with the analysis settings, and /readyz (the HTTP server) tells it.
+api::RouterConfig router_config(const Options& o, std::string* face_detection) {
+  api::RouterConfig rc;
+  rc.response_cache_bytes = o.bytes("response-cache", 0, 1ULL << 40);
+  rc.warp_cache_bytes = o.bytes("warp-cache", 1ULL << 20, 1ULL << 40);
+  rc.encode.jpeg_quality = int(o.integer("jpeg-quality", 1, 100));
+  rc.encode.webp_quality = int(o.integer("webp-quality", 1, 100));
+  rc.encode.avif_quality = int(o.integer("avif-quality", 1, 100));
+  rc.encode.avif_speed = int(o.integer("avif-speed", 0, 10));
+  rc.encode.jxl_quality = int(o.integer("jxl-quality", 1, 100));
+  rc.encode.jxl_effort = int(o.integer("jxl-effort", 1, 9));
+  rc.iiif.max_width = int(o.integer("iiif-max-width", 1, 65535));
+  rc.iiif.max_height = int(o.integer("iiif-max-height", 1, 65535));
+  rc.iiif.max_area = o.integer("iiif-max-area", 1, 1LL << 32);
+  rc.dzi.tile_size = int(o.integer("dzi-tile-size", 64, 2048));
+  rc.dzi.overlap = int(o.integer("dzi-overlap", 0, 8));
+  rc.cache_max_age = int(o.integer("cache-max-age", 0, 365 * 86400));
+  rc.failure_cache_window = std::chrono::milliseconds(o.integer("failure-cache-ms", 0, 3'600'000));
+  rc.compute_hook = compute_hook();
+  rc.public_url = o.str("public-url");
+  while (!rc.public_url.empty() && rc.public_url.back() == '/') rc.public_url.pop_back();
+  const AnalysisSettings analysis = analysis_settings(o);
+  rc.ingest = ingest_options(o, analysis.significance);
+  rc.significance = analysis.significance;
+  rc.analysis_threads = int(o.integer("analysis-threads", 1, 64));
+  if (!o.str("signing-key").empty())
+    rc.url_signer = std::make_shared<const api::UrlSigner>(api::UrlSigner::from_file(o.str("signing-key")));
+  rc.log = [](std::string_view level, std::string_view msg, const nlohmann::json& fields) {
+    log_event(level, msg, fields);
+  };
+  *face_detection = analysis.face_detection;
+  return rc;
+}
+
+// --workers and --queue: the pool answering computed requests; --ingest-workers and --ingest-queue:
+// the one ingesting uploads.
+struct PoolSizes {
+  int workers = 0;
+  std::size_t queue = 0;
+  int ingest_workers = 0;
+  std::size_t ingest_queue = 0;
+};
+
+PoolSizes pool_sizes(const Options& o) {
+  PoolSizes p;
+  p.workers = int(o.integer("workers", 1, 256));
+  p.queue = std::size_t(o.integer("queue", 1, 1 << 20));
+  p.ingest_workers = int(o.integer("ingest-workers", 1, 64));
+  p.ingest_queue = std::size_t(o.integer("ingest-queue", 0, 1 << 10));
+  return p;
+}
+
+// The pool ingesting uploads. Uploads are admitted against `upload_slots`; the pool's queue also
+// counts a job handed to a thread that has not picked it up yet, so it gets room for every slot
+// and never refuses one. An ingest runs on --ingest-threads threads (started by its pool thread,
+// so they inherit its priority), ten nice levels below the request workers: on an idle machine it
+// takes every core, under request load it yields to the requests instead of halving their CPU.
+WorkerPool ingest_pool(int ingest_workers, std::size_t upload_slots) {
+  constexpr int kIngestNice = 10;
+  return WorkerPool(ingest_workers, upload_slots, kIngestNice);
+}
+
+// What /metrics samples at each scrape besides the request counts: the caches, the worker pools,
+// the warp engines' analyses and the tiles sent as stored. The sampler keeps references to the
+// objects passed, which must outlive `metrics`.
+void add_sampled_metrics(Metrics& metrics, api::Router& router, const tiles::PyramidReader& reader,
+                         const WorkerPool& cpu, const WorkerPool& ingest, std::size_t warp_cache_limit) {
+  metrics.add_sampler([&router, &reader, &cpu, &ingest, warp_cache_limit] {
+    using S = Metrics::Sample;
+    auto rs = router.response_cache_stats();
+    auto ts = reader.stats();
+    return std::vector<S>{
+        {"zoomwarp_cache_hits_total", "Cache hits.", "counter", R"(cache="response")", double(rs.hits)},
+        // OpenImageIO counts one lookup per call but may read several tiles in it: clamp at 0.
+        {"zoomwarp_cache_hits_total", "", "counter", R"(cache="tile")", double(std::max<std::int64_t>(0, ts.lookups - ts.tiles_read))},
+        {"zoomwarp_cache_misses_total", "Cache misses.", "counter", R"(cache="response")", double(rs.misses)},
+        {"zoomwarp_cache_misses_total", "", "counter", R"(cache="tile")", double(ts.tiles_read)},
+        {"zoomwarp_cache_bytes", "Bytes held by a cache.", "gauge", R"(cache="response")", double(rs.bytes)},
+        {"zoomwarp_cache_bytes", "", "gauge", R"(cache="tile")", double(ts.bytes_used)},
+        {"zoomwarp_cache_bytes", "", "gauge", R"(cache="warp")", double(router.warp_cache_bytes())},
+        {"zoomwarp_cache_bytes", "", "gauge", R"(cache="failure")", double(router.failure_cache_bytes())},
+        {"zoomwarp_cache_limit_bytes", "Byte limit of a cache.", "gauge", R"(cache="response")", double(rs.max_bytes)},
+        {"zoomwarp_cache_limit_bytes", "", "gauge", R"(cache="tile")", double(ts.bytes_limit)},
+        {"zoomwarp_cache_limit_bytes", "", "gauge", R"(cache="warp")", double(warp_cache_limit)},
+        {"zoomwarp_queue_depth", "Jobs waiting for a worker.", "gauge", R"(pool="cpu")", double(cpu.queued())},
+        {"zoomwarp_queue_depth", "", "gauge", R"(pool="ingest")", double(ingest.queued())},
+        {"zoomwarp_workers_busy", "Workers running a job.", "gauge", R"(pool="cpu")", double(cpu.running())},
+        {"zoomwarp_workers_busy", "", "gauge", R"(pool="ingest")", double(ingest.running())},
+        {"zoomwarp_worker_jobs_total", "Jobs handed to a worker pool.", "counter", R"(pool="cpu")", double(cpu.accepted())},
+        {"zoomwarp_worker_jobs_total", "", "counter", R"(pool="ingest")", double(ingest.accepted())},
+        {"zoomwarp_analyses_total", "Warp engines loaded: their analysis computed here (first use) or read from the store.",
+         "counter", R"(source="computed")", double(router.analysis_counts().computed)},
+        {"zoomwarp_analyses_total", "", "counter", R"(source="read")", double(router.analysis_counts().read)},
+        {"zoomwarp_analyses_pending", "Background computations (analyses, warps for a new screen) queued or running.",
+         "gauge", "", double(router.analysis_counts().pending)},
+        {"zoomwarp_tiles_passthrough_total", "Tile answers computed by sending a stored JPEG tile as it is, without decoding.",
+         "counter", "", double(router.tiles_passed_through())},
+    };
+  });
+}
+
+// The server made from the flags, run until a signal stops it; its exit code.
+int serve(const Options& o) {
+  HttpServerOptions http = http_server_options(o);
+  api::RouterConfig rc = router_config(o, &http.face_detection);
+  const std::unique_ptr<api::KeyRing> keys = access_settings(o, rc.access);
+  if (keys) http.on_reload = [&keys] { keys->reload(); };
+  const std::uint64_t tile_cache = o.bytes("tile-cache", 1ULL << 20, 1ULL << 40);
+  const PoolSizes pools = pool_sizes(o);
+  http.upload_slots = std::size_t(pools.ingest_workers) + pools.ingest_queue;
+
+  tiles::Store store(o.str("store"), std::chrono::milliseconds(o.integer("store-recheck-ms", 0, 3'600'000)),
+                     store_cache_options(o));
+  const int removed = store.collect_garbage(http.gc_grace);
+  tiles::PyramidReader reader(tile_cache);
+  api::Router router(store, reader, rc);
+  WorkerPool cpu(pools.workers, pools.queue);
+  WorkerPool ingest = ingest_pool(pools.ingest_workers, http.upload_slots);
+  Metrics metrics;
+  add_sampled_metrics(metrics, router, reader, cpu, ingest, rc.warp_cache_bytes);
+  log_event("info", "starting", {{"store", store.root()}, {"workers", pools.workers}, {"tile_cache", tile_cache},
+                                 {"response_cache", rc.response_cache_bytes}, {"warp_cache", rc.warp_cache_bytes},
+                                 {"gc_removed", removed}});
+  HttpServer server(http, store, router, cpu, ingest, metrics);
+  const int code = server.run();
+  // After a drain that timed out, workers may still be in work that checks no token and hold
+  // sessions of the stopped server: leave without waiting for them or destroying what they use.
+  // The store survives this (it survives SIGKILL); only their answers are lost.
+  // The same for an analysis still running in the background: it is kept only once finished.
+  if (cpu.running() + cpu.queued() + ingest.running() + ingest.queued() + router.analysis_counts().pending > 0)
+    std::_Exit(code);
+  return code;
+}
+
 }  // namespace
 
 int serve_command(const std::vector<std::string>& args) {
-  try {
-    Options o(serve_specs(), args);
-    if (o.help_requested()) {
-      std::printf("usage: zoomwarp serve [OPTIONS]\n\nServes the image store over HTTP.\n\n%s", o.usage().c_str());
-      return 0;
-    }
-    if (!o.positionals().empty()) throw std::invalid_argument("unexpected argument '" + o.positionals()[0] + "'");
-
-    HttpServerOptions http;
-    http.host = o.str("host");
-    http.port = int(o.integer("port", 0, 65535));
-    http.io_threads = int(o.integer("io-threads", 1, 256));
-    http.max_upload_bytes = o.bytes("max-upload", 1, 1ULL << 40);
-    http.max_staging_bytes = o.bytes("max-staging", 0, 1ULL << 50);
-    http.idle_timeout = std::chrono::seconds(o.integer("idle-timeout", 1, 3600));
-    http.header_timeout = std::chrono::seconds(o.integer("header-timeout", 1, 3600));
-    http.body_timeout = std::chrono::seconds(o.integer("body-timeout", 1, 3600));
-    const auto max_connections = std::size_t(o.integer("max-connections", 0, 1 << 24));
-    http.max_connections = max_connections > 0 ? max_connections : connections_for_fd_limit();
-    http.drain_delay = std::chrono::seconds(o.integer("drain-delay", 0, 3600));
-    http.drain_timeout = std::chrono::seconds(o.integer("drain-timeout", 0, 3600));
-    http.request_timeout = std::chrono::seconds(o.integer("request-timeout", 1, 3600));
-    http.gc_grace = std::chrono::seconds(o.integer("gc-grace", 0, 30 * 86400));
-    http.log_requests = o.flag("log-requests");
-    http.cors = CorsPolicy::parse(o.str("cors-write-origins"));
-    http.trust_forwarded_for = o.flag("trust-forwarded-for");
-    http.upload_limits.uploads_per_minute = upload_rate(o.str("upload-rate"));
-    http.upload_limits.bytes_per_day = o.bytes("upload-bytes-per-day", 0, 1ULL << 50);
-
-    api::RouterConfig rc;
-    rc.response_cache_bytes = o.bytes("response-cache", 0, 1ULL << 40);
-    rc.warp_cache_bytes = o.bytes("warp-cache", 1ULL << 20, 1ULL << 40);
-    rc.encode.jpeg_quality = int(o.integer("jpeg-quality", 1, 100));
-    rc.encode.webp_quality = int(o.integer("webp-quality", 1, 100));
-    rc.encode.avif_quality = int(o.integer("avif-quality", 1, 100));
-    rc.encode.avif_speed = int(o.integer("avif-speed", 0, 10));
-    rc.encode.jxl_quality = int(o.integer("jxl-quality", 1, 100));
-    rc.encode.jxl_effort = int(o.integer("jxl-effort", 1, 9));
-    rc.iiif.max_width = int(o.integer("iiif-max-width", 1, 65535));
-    rc.iiif.max_height = int(o.integer("iiif-max-height", 1, 65535));
-    rc.iiif.max_area = o.integer("iiif-max-area", 1, 1LL << 32);
-    rc.dzi.tile_size = int(o.integer("dzi-tile-size", 64, 2048));
-    rc.dzi.overlap = int(o.integer("dzi-overlap", 0, 8));
-    rc.cache_max_age = int(o.integer("cache-max-age", 0, 365 * 86400));
-    rc.failure_cache_window = std::chrono::milliseconds(o.integer("failure-cache-ms", 0, 3'600'000));
-    rc.compute_hook = compute_hook();
-    rc.public_url = o.str("public-url");
-    while (!rc.public_url.empty() && rc.public_url.back() == '/') rc.public_url.pop_back();
-    const AnalysisSettings analysis = analysis_settings(o);
-    rc.ingest = ingest_options(o, analysis.significance);
-    rc.significance = analysis.significance;
-    rc.analysis_threads = int(o.integer("analysis-threads", 1, 64));
-    if (!o.str("signing-key").empty())
-      rc.url_signer = std::make_shared<const api::UrlSigner>(api::UrlSigner::from_file(o.str("signing-key")));
-    rc.log = [](std::string_view level, std::string_view msg, const nlohmann::json& fields) {
-      log_event(level, msg, fields);
-    };
-    http.face_detection = analysis.face_detection;
-    const std::unique_ptr<api::KeyRing> keys = access_settings(o, rc.access);
-    if (keys) http.on_reload = [&keys] { keys->reload(); };
-    const std::uint64_t tile_cache = o.bytes("tile-cache", 1ULL << 20, 1ULL << 40);
-    const int workers = int(o.integer("workers", 1, 256));
-    const auto queue = std::size_t(o.integer("queue", 1, 1 << 20));
-    const int ingest_workers = int(o.integer("ingest-workers", 1, 64));
-    const auto ingest_queue = std::size_t(o.integer("ingest-queue", 0, 1 << 10));
-    http.upload_slots = std::size_t(ingest_workers) + ingest_queue;
-
-    tiles::Store store(o.str("store"), std::chrono::milliseconds(o.integer("store-recheck-ms", 0, 3'600'000)),
-                       store_cache_options(o));
-    const int removed = store.collect_garbage(http.gc_grace);
-    tiles::PyramidReader reader(tile_cache);
-    api::Router router(store, reader, rc);
-    WorkerPool cpu(workers, queue);
-    // Uploads are admitted against http.upload_slots; the pool's queue also counts a job handed to
-    // a thread that has not picked it up yet, so it gets room for every slot and never refuses one.
-    // An ingest runs on --ingest-threads threads (started by its pool thread, so they inherit its
-    // priority), ten nice levels below the request workers: on an idle machine it takes every
-    // core, under request load it yields to the requests instead of halving their CPU.
-    constexpr int kIngestNice = 10;
-    WorkerPool ingest(ingest_workers, http.upload_slots, kIngestNice);
-    Metrics metrics;
-    metrics.add_sampler([&] {
-      using S = Metrics::Sample;
-      auto rs = router.response_cache_stats();
-      auto ts = reader.stats();
-      return std::vector<S>{
-          {"zoomwarp_cache_hits_total", "Cache hits.", "counter", R"(cache="response")", double(rs.hits)},
-          // OpenImageIO counts one lookup per call but may read several tiles in it: clamp at 0.
-          {"zoomwarp_cache_hits_total", "", "counter", R"(cache="tile")", double(std::max<std::int64_t>(0, ts.lookups - ts.tiles_read))},
-          {"zoomwarp_cache_misses_total", "Cache misses.", "counter", R"(cache="response")", double(rs.misses)},
-          {"zoomwarp_cache_misses_total", "", "counter", R"(cache="tile")", double(ts.tiles_read)},
-          {"zoomwarp_cache_bytes", "Bytes held by a cache.", "gauge", R"(cache="response")", double(rs.bytes)},
-          {"zoomwarp_cache_bytes", "", "gauge", R"(cache="tile")", double(ts.bytes_used)},
-          {"zoomwarp_cache_bytes", "", "gauge", R"(cache="warp")", double(router.warp_cache_bytes())},
-          {"zoomwarp_cache_bytes", "", "gauge", R"(cache="failure")", double(router.failure_cache_bytes())},
-          {"zoomwarp_cache_limit_bytes", "Byte limit of a cache.", "gauge", R"(cache="response")", double(rs.max_bytes)},
-          {"zoomwarp_cache_limit_bytes", "", "gauge", R"(cache="tile")", double(ts.bytes_limit)},
-          {"zoomwarp_cache_limit_bytes", "", "gauge", R"(cache="warp")", double(rc.warp_cache_bytes)},
-          {"zoomwarp_queue_depth", "Jobs waiting for a worker.", "gauge", R"(pool="cpu")", double(cpu.queued())},
-          {"zoomwarp_queue_depth", "", "gauge", R"(pool="ingest")", double(ingest.queued())},
-          {"zoomwarp_workers_busy", "Workers running a job.", "gauge", R"(pool="cpu")", double(cpu.running())},
-          {"zoomwarp_workers_busy", "", "gauge", R"(pool="ingest")", double(ingest.running())},
-          {"zoomwarp_worker_jobs_total", "Jobs handed to a worker pool.", "counter", R"(pool="cpu")", double(cpu.accepted())},
-          {"zoomwarp_worker_jobs_total", "", "counter", R"(pool="ingest")", double(ingest.accepted())},
-          {"zoomwarp_analyses_total", "Warp engines loaded: their analysis computed here (first use) or read from the store.",
-           "counter", R"(source="computed")", double(router.analysis_counts().computed)},
-          {"zoomwarp_analyses_total", "", "counter", R"(source="read")", double(router.analysis_counts().read)},
-          {"zoomwarp_analyses_pending", "Background computations (analyses, warps for a new screen) queued or running.",
-           "gauge", "", double(router.analysis_counts().pending)},
-          {"zoomwarp_tiles_passthrough_total", "Tile answers computed by sending a stored JPEG tile as it is, without decoding.",
-           "counter", "", double(router.tiles_passed_through())},
-      };
-    });
-    log_event("info", "starting", {{"store", store.root()}, {"workers", workers}, {"tile_cache", tile_cache},
-                                   {"response_cache", rc.response_cache_bytes}, {"warp_cache", rc.warp_cache_bytes},
-                                   {"gc_removed", removed}});
-    HttpServer server(http, store, router, cpu, ingest, metrics);
-    const int code = server.run();
-    // After a drain that timed out, workers may still be in work that checks no token and hold
-    // sessions of the stopped server: leave without waiting for them or destroying what they use.
-    // The store survives this (it survives SIGKILL); only their answers are lost.
-    // The same for an analysis still running in the background: it is kept only once finished.
-    if (cpu.running() + cpu.queued() + ingest.running() + ingest.queued() + router.analysis_counts().pending > 0)
-      std::_Exit(code);
-    return code;
-  } catch (const std::invalid_argument& e) {
-    std::fprintf(stderr, "zoomwarp serve: %s\n", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    log_event("error", "cannot serve", {{"error", e.what()}});
-    return 1;
-  }
+  return run_command(
+      "serve",
+      [&]() -> int {
+        Options o(serve_specs(), args);
+        if (o.help_requested()) {
+          std::printf("usage: zoomwarp serve [OPTIONS]\n\nServes the image store over HTTP.\n\n%s", o.usage().c_str());
+          return 0;
+        }
+        if (!o.positionals().empty()) throw std::invalid_argument("unexpected argument '" + o.positionals()[0] + "'");
+        return serve(o);
+      },
+      // Not "zoomwarp serve: what" on stderr: what stops a server belongs in its JSON log.
+      [](const std::exception& e) { log_event("error", "cannot serve", {{"error", e.what()}}); });
 }
 
 }  // namespace zoomwarp::server
