@@ -4,11 +4,11 @@
 #include <boost/asio/write.hpp>
 #include <boost/asio/post.hpp>
 #include <array>
-#include <cstring>
 #include <limits>
 #include <nlohmann/json.hpp>
 
 #include "api/errors.h"
+#include "server/http_heads.h"
 #include "server/log.h"
 #include "server/ops.h"
 #include "tiles/store_deadline.h"
@@ -32,32 +32,6 @@ bool client_gone(beast::error_code ec) {
   return ec == beast::error::timeout || ec == net::error::eof || ec == http::error::end_of_stream ||
          ec == http::error::partial_message || ec == net::error::connection_reset ||
          ec == net::error::operation_aborted || ec == net::error::broken_pipe;
-}
-// Request smuggling defence: the only transfer coding we read is chunked [RFC 9112 §6.1]. A body
-// whose last coding is not chunked has no knowable length (400 and close, §6.3); other codings
-// before it we cannot decode (501, and close too: the body is not read). Beast would read the
-// former to the end of the stream and hand us the latter still compressed.
-std::optional<api::Response> refuse_transfer_encoding(const http::request_header<>& h) {
-  const auto te = h[http::field::transfer_encoding];
-  if (te.empty() || (beast::iequals(te, "chunked") && h.count(http::field::transfer_encoding) == 1)) return std::nullopt;
-  const std::size_t comma = te.rfind(',');
-  std::string_view last = comma == std::string_view::npos ? te : te.substr(comma + 1);
-  while (!last.empty() && (last.front() == ' ' || last.front() == '\t')) last.remove_prefix(1);
-  if (!beast::iequals(last, "chunked") || h.count(http::field::transfer_encoding) > 1)
-    return api::error_response(400, "bad_transfer_encoding", "Transfer-Encoding must be chunked (or absent), not '" + std::string(te) + "'");
-  return api::error_response(501, "unsupported_transfer_encoding", "the only transfer coding understood is chunked, not '" + std::string(te) + "'");
-}
-// The client's address behind a proxy: the last X-Forwarded-For entry, the one the proxy in front
-// of us appended (earlier ones the client may have made up). `peer` if there is none or it is not
-// an IP address.
-std::string forwarded_client(std::string_view forwarded_for, const std::string& peer) {
-  const std::size_t comma = forwarded_for.rfind(',');
-  std::string last(comma == std::string_view::npos ? forwarded_for : forwarded_for.substr(comma + 1));
-  last.erase(0, last.find_first_not_of(" \t"));
-  last.erase(last.find_last_not_of(" \t") + 1);
-  boost::system::error_code ec;
-  const auto address = net::ip::make_address(last, ec);
-  return ec ? peer : address.to_string();
 }
 }  // namespace
 
@@ -150,60 +124,20 @@ void Session::on_header(beast::error_code ec) {
   version_ = h.version();
   keep_alive_ = h.keep_alive();
   target_ = std::string(h.target());
-  req_ = api::Request{};
-  req_.method = std::string(h.method_string());
-  const std::size_t q = target_.find('?');
-  req_.path = target_.substr(0, q);
-  req_.query = q == std::string::npos ? "" : target_.substr(q + 1);
-  req_.host = std::string(h[http::field::host]);
-  req_.forwarded_proto = std::string(h["X-Forwarded-Proto"]);
-  req_.if_none_match = std::string(h[http::field::if_none_match]);
-  req_.if_match = std::string(h[http::field::if_match]);
-  req_.accept = std::string(h[http::field::accept]);
-  req_.authorization = std::string(h[http::field::authorization]);
-  req_.origin = std::string(h[http::field::origin]);
-  req_.client_address = state_.options.trust_forwarded_for
-                            ? forwarded_client(h["X-Forwarded-For"], remote_address_)
-                            : remote_address_;
+  req_ = request_from_header(h, remote_address_, state_.options.trust_forwarded_for);
   preflight_method_ = std::string(h[http::field::access_control_request_method]);
   const bool expect_continue = beast::iequals(h[http::field::expect], "100-continue");
-  if (auto refusal = refuse_transfer_encoding(h)) {
-    keep_alive_ = false;  // the body's length is unknown: the rest of the stream cannot be trusted
-    return send(std::move(*refusal));
-  }
-
-  if (api::Router::is_upload(req_.method, req_.path)) {
-    auto length = header_parser_->content_length();
-    if (length && *length > state_.options.max_upload_bytes) {
-      keep_alive_ = false;  // the body is not read, so the connection cannot be reused
-      return send(api::error_response(413, "upload_too_large",
-                                      "uploads are limited to " + std::to_string(state_.options.max_upload_bytes) + " bytes"));
-    }
-    if (auto refusal = state_.router.authorize(req_)) {  // before a byte of the body is staged
-      keep_alive_ = false;  // the body is not read, so the connection cannot be reused
-      return send(std::move(*refusal));
-    }
-    upload_.emplace(state_.upload_context);
-    if (auto refusal = upload_->admit(req_, length ? std::optional(*length) : std::nullopt)) {
-      keep_alive_ = false;  // the body is not read, so the connection cannot be reused
-      return send(std::move(*refusal));
-    }
-    upload_parser_.emplace(std::move(*header_parser_));
-    upload_parser_->body_limit(state_.options.max_upload_bytes);
-  } else if (header_parser_->is_done()) {  // no body (most GETs): answer straight away
+  const bool upload = api::Router::is_upload(req_.method, req_.path);
+  std::optional<api::Response> refusal = refuse_transfer_encoding(h);
+  if (!refusal && !upload && header_parser_->is_done()) {  // no body (most GETs): answer straight away
     header_parser_.reset();
     return answer();
-  } else {
-    // Beast checks a Content-Length against the body limit while parsing the header, which was
-    // done under no limit; so a declared length is checked here (chunked bodies by the parser).
-    auto length = header_parser_->content_length();
-    if (length && *length > state_.options.max_body_bytes) {
-      keep_alive_ = false;  // the body is not read, so the connection cannot be reused
-      return send(api::error_response(413, "body_too_large",
-                                      "request bodies are limited to " + std::to_string(state_.options.max_body_bytes) + " bytes"));
-    }
-    string_parser_.emplace(std::move(*header_parser_));
-    string_parser_->body_limit(state_.options.max_body_bytes);
+  }
+  if (!refusal) refusal = upload ? start_upload() : start_body();
+  if (refusal) {
+    // The body is not read (or its length is unknown): the rest of the stream cannot be trusted.
+    keep_alive_ = false;
+    return send(std::move(*refusal));
   }
   header_parser_.reset();
 
@@ -214,6 +148,33 @@ void Session::on_header(beast::error_code ec) {
     });
   }
   read_body();
+}
+
+// An upload is refused before a byte of its body is read for its declared size, its credentials
+// or its admission (upload_staging.h); admitted, its body is read in pieces (read_upload()).
+std::optional<api::Response> Session::start_upload() {
+  const auto length = header_parser_->content_length();
+  if (length && *length > state_.options.max_upload_bytes)
+    return api::error_response(413, "upload_too_large",
+                               "uploads are limited to " + std::to_string(state_.options.max_upload_bytes) + " bytes");
+  if (auto refusal = state_.router.authorize(req_)) return refusal;
+  upload_.emplace(state_.upload_context);
+  if (auto refusal = upload_->admit(req_, length ? std::optional(*length) : std::nullopt)) return refusal;
+  upload_parser_.emplace(std::move(*header_parser_));
+  upload_parser_->body_limit(state_.options.max_upload_bytes);
+  return std::nullopt;
+}
+
+// Beast checks a Content-Length against the body limit while parsing the header, which was done
+// under no limit; so a declared length is checked here (chunked bodies by the parser).
+std::optional<api::Response> Session::start_body() {
+  const auto length = header_parser_->content_length();
+  if (length && *length > state_.options.max_body_bytes)
+    return api::error_response(
+        413, "body_too_large", "request bodies are limited to " + std::to_string(state_.options.max_body_bytes) + " bytes");
+  string_parser_.emplace(std::move(*header_parser_));
+  string_parser_->body_limit(state_.options.max_body_bytes);
+  return std::nullopt;
 }
 
 void Session::read_body() {
@@ -350,14 +311,7 @@ void Session::on_peer_read(beast::error_code ec, std::size_t bytes) {
   if (after != AfterWatch::kNothing) next(after == AfterWatch::kClose);
 }
 
-// Appends "Name: value\r\n"; values with line breaks are dropped rather than let split the header.
-static void append_field(std::string& out, std::string_view name, std::string_view value) {
-  if (std::memchr(value.data(), '\r', value.size()) || std::memchr(value.data(), '\n', value.size())) return;
-  out.append(name).append(": ").append(value).append("\r\n");
-}
-
-// The response head is written by hand and sent with the body in one gather write: Beast's
-// serializer costs several times more per request than everything else on the cached-tile path.
+// The head is written by hand and sent with the body in one gather write (http_heads.h).
 void Session::send(api::Response r) {
   // An upload's parser, staging folder and slot end before the client hears back, so it never
   // sees the upload's leftovers.
@@ -367,27 +321,14 @@ void Session::send(api::Response r) {
   if (watching_) stream_.cancel();  // the watch's handler ends it; on_write waits for that
   current_ = std::move(r);
   if (current_.route.empty()) current_.route = "error";
-  const int status = current_.status;
-  const bool bodiless_status = status < 200 || status == 204 || status == 304;
-  const std::size_t size = current_.body ? current_.body->size() : 0;
-  const bool send_body = !bodiless_status && req_.method != "HEAD" && size > 0;
+  const bool send_body = !bodiless_status(current_.status) && req_.method != "HEAD" && current_.body &&
+                         !current_.body->empty();
   const bool keep = keep_alive_ && !state_.draining.load();
-
   head_.clear();
-  head_.append(version_ == 10 ? "HTTP/1.0 " : "HTTP/1.1 ")
-      .append(std::to_string(status))
-      .append(" ")
-      .append(http::obsolete_reason(http::int_to_status(unsigned(status))))
-      .append("\r\n");
-  append_field(head_, "Server", "zoomwarp");
-  if (!current_.content_type.empty()) append_field(head_, "Content-Type", current_.content_type);
-  for (const auto& [name, value] : current_.headers) append_field(head_, name, value);
-  if (req_.method != "OPTIONS")  // a preflight's answer has its own (answer())
-    for (const auto& [name, value] : state_.options.cors.response(req_.method, req_.origin)) append_field(head_, name, value);
-  if (!bodiless_status) append_field(head_, "Content-Length", std::to_string(size));
-  if (!keep) append_field(head_, "Connection", "close");
-  else if (version_ == 10) append_field(head_, "Connection", "keep-alive");
-  head_.append("\r\n");
+  append_response_head(head_, current_, version_,
+                       req_.method == "OPTIONS" ? HeaderList{}  // a preflight's answer has its own (answer())
+                                                : state_.options.cors.response(req_.method, req_.origin),
+                       keep);
 
   const std::array<net::const_buffer, 2> buffers = {
       net::buffer(head_), send_body ? net::buffer(*current_.body) : net::const_buffer()};

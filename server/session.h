@@ -1,8 +1,8 @@
 // One HTTP connection: read a request header, then its body, answer it on this thread or on a
 // worker, write the response, repeat while keep-alive holds. The session is the socket's side of
-// it: the Beast reads and writes, timeouts, keep-alive and framing errors. An upload's admission
-// and staging file are UploadStaging's (upload_staging.h), to which the session hands the body's
-// pieces as they arrive.
+// it: the Beast reads and writes, timeouts, keep-alive and framing errors. What a head means in
+// api terms is http_heads.h's; an upload's admission and staging file are UploadStaging's
+// (upload_staging.h), to which the session hands the body's pieces as they arrive.
 //
 // A request computed on the CPU workers carries a StopToken (api::Request::stop) whose deadline is
 // --request-timeout after the request was read, queue time included. While it is with a worker the
@@ -91,6 +91,8 @@ class Session : public std::enable_shared_from_this<Session> {
   void read_header();
   void read_header_bytes();
   void on_header(boost::beast::error_code ec);
+  std::optional<api::Response> start_upload();
+  std::optional<api::Response> start_body();
   void read_body();
   void on_body(boost::beast::error_code ec);
   void read_upload();
