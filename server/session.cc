@@ -4,14 +4,13 @@
 #include <boost/asio/write.hpp>
 #include <boost/asio/post.hpp>
 #include <array>
-#include <cstring>
 #include <limits>
 #include <nlohmann/json.hpp>
 
 #include "api/errors.h"
+#include "server/http_heads.h"
 #include "server/log.h"
 #include "server/ops.h"
-#include "tiles/header_sniff.h"
 #include "tiles/store_deadline.h"
 #include "tiles/store_errors.h"
 
@@ -34,32 +33,6 @@ bool client_gone(beast::error_code ec) {
          ec == http::error::partial_message || ec == net::error::connection_reset ||
          ec == net::error::operation_aborted || ec == net::error::broken_pipe;
 }
-// Request smuggling defence: the only transfer coding we read is chunked [RFC 9112 §6.1]. A body
-// whose last coding is not chunked has no knowable length (400 and close, §6.3); other codings
-// before it we cannot decode (501, and close too: the body is not read). Beast would read the
-// former to the end of the stream and hand us the latter still compressed.
-std::optional<api::Response> refuse_transfer_encoding(const http::request_header<>& h) {
-  const auto te = h[http::field::transfer_encoding];
-  if (te.empty() || (beast::iequals(te, "chunked") && h.count(http::field::transfer_encoding) == 1)) return std::nullopt;
-  const std::size_t comma = te.rfind(',');
-  std::string_view last = comma == std::string_view::npos ? te : te.substr(comma + 1);
-  while (!last.empty() && (last.front() == ' ' || last.front() == '\t')) last.remove_prefix(1);
-  if (!beast::iequals(last, "chunked") || h.count(http::field::transfer_encoding) > 1)
-    return api::error_response(400, "bad_transfer_encoding", "Transfer-Encoding must be chunked (or absent), not '" + std::string(te) + "'");
-  return api::error_response(501, "unsupported_transfer_encoding", "the only transfer coding understood is chunked, not '" + std::string(te) + "'");
-}
-// The client's address behind a proxy: the last X-Forwarded-For entry, the one the proxy in front
-// of us appended (earlier ones the client may have made up). `peer` if there is none or it is not
-// an IP address.
-std::string forwarded_client(std::string_view forwarded_for, const std::string& peer) {
-  const std::size_t comma = forwarded_for.rfind(',');
-  std::string last(comma == std::string_view::npos ? forwarded_for : forwarded_for.substr(comma + 1));
-  last.erase(0, last.find_first_not_of(" \t"));
-  last.erase(last.find_last_not_of(" \t") + 1);
-  boost::system::error_code ec;
-  const auto address = net::ip::make_address(last, ec);
-  return ec ? peer : address.to_string();
-}
 }  // namespace
 
 Session::Session(net::ip::tcp::socket&& socket, ServerState& state)
@@ -74,7 +47,7 @@ Session::Session(net::ip::tcp::socket&& socket, ServerState& state)
 }
 
 Session::~Session() {
-  discard_upload();
+  upload_.reset();  // first: a drain that finds no session left may end the process at once
   --state_.open_connections;
   std::lock_guard lock(state_.sessions_mu);
   state_.sessions.erase(this);
@@ -151,56 +124,20 @@ void Session::on_header(beast::error_code ec) {
   version_ = h.version();
   keep_alive_ = h.keep_alive();
   target_ = std::string(h.target());
-  req_ = api::Request{};
-  req_.method = std::string(h.method_string());
-  const std::size_t q = target_.find('?');
-  req_.path = target_.substr(0, q);
-  req_.query = q == std::string::npos ? "" : target_.substr(q + 1);
-  req_.host = std::string(h[http::field::host]);
-  req_.forwarded_proto = std::string(h["X-Forwarded-Proto"]);
-  req_.if_none_match = std::string(h[http::field::if_none_match]);
-  req_.if_match = std::string(h[http::field::if_match]);
-  req_.accept = std::string(h[http::field::accept]);
-  req_.authorization = std::string(h[http::field::authorization]);
-  req_.origin = std::string(h[http::field::origin]);
-  req_.client_address = state_.options.trust_forwarded_for
-                            ? forwarded_client(h["X-Forwarded-For"], remote_address_)
-                            : remote_address_;
+  req_ = request_from_header(h, remote_address_, state_.options.trust_forwarded_for);
   preflight_method_ = std::string(h[http::field::access_control_request_method]);
   const bool expect_continue = beast::iequals(h[http::field::expect], "100-continue");
-  if (auto refusal = refuse_transfer_encoding(h)) {
-    keep_alive_ = false;  // the body's length is unknown: the rest of the stream cannot be trusted
-    return send(std::move(*refusal));
-  }
-
-  if (api::Router::is_upload(req_.method, req_.path)) {
-    auto length = header_parser_->content_length();
-    if (length && *length > state_.options.max_upload_bytes) {
-      keep_alive_ = false;  // the body is not read, so the connection cannot be reused
-      return send(api::error_response(413, "upload_too_large",
-                                      "uploads are limited to " + std::to_string(state_.options.max_upload_bytes) + " bytes"));
-    }
-    if (auto refusal = state_.router.authorize(req_)) {  // before a byte of the body is staged
-      keep_alive_ = false;  // the body is not read, so the connection cannot be reused
-      return send(std::move(*refusal));
-    }
-    if (auto refusal = admit_upload()) return send(std::move(*refusal));
-    upload_parser_.emplace(std::move(*header_parser_));
-    upload_parser_->body_limit(state_.options.max_upload_bytes);
-  } else if (header_parser_->is_done()) {  // no body (most GETs): answer straight away
+  const bool upload = api::Router::is_upload(req_.method, req_.path);
+  std::optional<api::Response> refusal = refuse_transfer_encoding(h);
+  if (!refusal && !upload && header_parser_->is_done()) {  // no body (most GETs): answer straight away
     header_parser_.reset();
     return answer();
-  } else {
-    // Beast checks a Content-Length against the body limit while parsing the header, which was
-    // done under no limit; so a declared length is checked here (chunked bodies by the parser).
-    auto length = header_parser_->content_length();
-    if (length && *length > state_.options.max_body_bytes) {
-      keep_alive_ = false;  // the body is not read, so the connection cannot be reused
-      return send(api::error_response(413, "body_too_large",
-                                      "request bodies are limited to " + std::to_string(state_.options.max_body_bytes) + " bytes"));
-    }
-    string_parser_.emplace(std::move(*header_parser_));
-    string_parser_->body_limit(state_.options.max_body_bytes);
+  }
+  if (!refusal) refusal = upload ? start_upload() : start_body();
+  if (refusal) {
+    // The body is not read (or its length is unknown): the rest of the stream cannot be trusted.
+    keep_alive_ = false;
+    return send(std::move(*refusal));
   }
   header_parser_.reset();
 
@@ -211,6 +148,33 @@ void Session::on_header(beast::error_code ec) {
     });
   }
   read_body();
+}
+
+// An upload is refused before a byte of its body is read for its declared size, its credentials
+// or its admission (upload_staging.h); admitted, its body is read in pieces (read_upload()).
+std::optional<api::Response> Session::start_upload() {
+  const auto length = header_parser_->content_length();
+  if (length && *length > state_.options.max_upload_bytes)
+    return api::error_response(413, "upload_too_large",
+                               "uploads are limited to " + std::to_string(state_.options.max_upload_bytes) + " bytes");
+  if (auto refusal = state_.router.authorize(req_)) return refusal;
+  upload_.emplace(state_.upload_context);
+  if (auto refusal = upload_->admit(req_, length ? std::optional(*length) : std::nullopt)) return refusal;
+  upload_parser_.emplace(std::move(*header_parser_));
+  upload_parser_->body_limit(state_.options.max_upload_bytes);
+  return std::nullopt;
+}
+
+// Beast checks a Content-Length against the body limit while parsing the header, which was done
+// under no limit; so a declared length is checked here (chunked bodies by the parser).
+std::optional<api::Response> Session::start_body() {
+  const auto length = header_parser_->content_length();
+  if (length && *length > state_.options.max_body_bytes)
+    return api::error_response(
+        413, "body_too_large", "request bodies are limited to " + std::to_string(state_.options.max_body_bytes) + " bytes");
+  string_parser_.emplace(std::move(*header_parser_));
+  string_parser_->body_limit(state_.options.max_body_bytes);
+  return std::nullopt;
 }
 
 void Session::read_body() {
@@ -235,58 +199,13 @@ void Session::on_body(beast::error_code ec) {
   answer();
 }
 
-// The upload holds an ingest slot from here to the end of its ingest (given back by
-// discard_upload()); with none free it is refused before its body is read.
-std::optional<api::Response> Session::admit_upload() {
-  const std::uint64_t bytes = header_parser_->content_length().value_or(state_.options.max_upload_bytes);
-  upload_slot_ = state_.uploads.try_admit(bytes);
-  std::optional<api::Response> refusal;
-  if (!upload_slot_) {
-    refusal = api::error_response(503, "ingest_busy", "the server is ingesting as many uploads as it can; retry shortly");
-    refusal->set_header("Retry-After", "1");
-    refusal->route = "overloaded";
-  } else if ((refusal = rate_limit_upload(bytes))) {
-    upload_slot_.reset();
-  } else {
-    return std::nullopt;
-  }
-  keep_alive_ = false;  // the body is not read, so the connection cannot be reused
-  return refusal;
-}
-
-// --upload-rate and --upload-bytes-per-day: a request with a valid key is counted against its key
-// wherever it comes from, one without against its client address. The upload is counted from the
-// header (Content-Length; a chunked one as --max-upload), so it is refused before its body is read.
-std::optional<api::Response> Session::rate_limit_upload(std::uint64_t bytes) {
-  std::string key_id;  // "" for no valid key: metrics count those together, never per address
-  if (const api::Authenticator* auth = state_.router.config().access.keys; auth && !req_.authorization.empty()) {
-    const auto result = auth->authenticate(req_.authorization);
-    if (result.outcome == api::Authenticator::Outcome::kValid) key_id = result.principal.key_id;
-  }
-  const std::string client = key_id.empty() ? "address:" + req_.client_address : "key:" + key_id;
-  const auto refusal = state_.upload_limits.admit(client, bytes, std::chrono::steady_clock::now());
-  if (!refusal) {
-    state_.metrics.observe_upload(key_id);
-    return std::nullopt;
-  }
-  state_.metrics.observe_rate_limited(key_id, std::string(refusal->limit));
-  api::Response r = api::error_response(
-      429, "rate_limited",
-      std::string(refusal->limit == "bytes_per_day" ? "over the upload bytes per day" : "over the uploads per minute") +
-          " allowed to " + (key_id.empty() ? "this address" : "this key") + "; retry after " +
-          std::to_string(refusal->retry_after_seconds) + " s");
-  r.set_header("Retry-After", std::to_string(refusal->retry_after_seconds));
-  r.route = "rate_limited";
-  return r;
-}
-
-// Reads the next piece of the upload's body into upload_chunk_; the body timeout is the longest
-// pause allowed between two pieces (a stalled upload is dropped and its staging folder removed).
+// Reads the next piece of the upload's body into its staging's space(); the body timeout is the
+// longest pause allowed between two pieces (a stalled upload is dropped, its staging folder removed).
 void Session::read_upload() {
-  if (upload_chunk_.empty()) upload_chunk_.resize(tiles::kHeaderSniffBytes);
+  const std::span<std::uint8_t> space = upload_->space();
   auto& body = upload_parser_->get().body();
-  body.data = upload_chunk_.data() + upload_filled_;
-  body.size = upload_chunk_.size() - upload_filled_;
+  body.data = space.data();
+  body.size = space.size();
   body.more = true;
   if (upload_parser_->is_done()) return on_upload_chunk({});  // no body at all (Content-Length: 0)
   stream_.expires_after(state_.options.body_timeout);
@@ -294,86 +213,21 @@ void Session::read_upload() {
                         [self = shared_from_this()](beast::error_code ec, std::size_t) { self->on_upload_chunk(ec); });
 }
 
-// Until the first kHeaderSniffBytes (or the whole body) are in, nothing is written: they are
-// checked first, and a refused upload leaves no file behind and is not read on.
+// Hands what the read brought to the staging (upload_staging.h), which may refuse the upload.
 void Session::on_upload_chunk(beast::error_code ec) {
-  if (ec == http::error::need_buffer) ec = {};  // upload_chunk_ is full: not an error
+  if (ec == http::error::need_buffer) ec = {};  // the space given is full: not an error
   if (ec) return on_body(ec);
-  upload_filled_ = upload_chunk_.size() - upload_parser_->get().body().size;
+  const std::size_t n = upload_->space().size() - upload_parser_->get().body().size;
   const bool done = upload_parser_->is_done();
-  if (!upload_file_.is_open()) {
-    if (!done && upload_filled_ < upload_chunk_.size()) return read_upload();
-    if (upload_filled_ == 0) return finish_upload();  // empty body: the router says what is wrong
-    std::optional<api::Response> refusal = refuse_upload_head(done);
-    if (!refusal) refusal = open_upload_file();
-    if (refusal) {
-      keep_alive_ = false;  // the rest of the body is not read
-      return send(std::move(*refusal));
-    }
+  std::optional<api::Response> refusal = upload_->add(n, done);
+  if (!refusal && done) refusal = upload_->finish();
+  if (refusal) {
+    keep_alive_ = false;  // the rest of the body is not read
+    return send(std::move(*refusal));
   }
-  upload_file_.write(upload_chunk_.data(), upload_filled_, ec);
-  upload_filled_ = 0;
-  if (ec) {
-    keep_alive_ = false;
-    log_event("error", "cannot stage an upload", {{"error", ec.message()}});
-    return send(api::error_response(503, "store_unavailable", "the upload cannot be stored now"));
-  }
-  if (done) return finish_upload();
-  read_upload();
-}
-
-// 415 for a format ingest does not read, 422 for a header that cannot be right, 413 for a size
-// over the ingest limits — the same answers ingest would give, without the body.
-std::optional<api::Response> Session::refuse_upload_head(bool whole_body) const {
-  using Status = tiles::SniffedHeader::Status;
-  const tiles::SniffedHeader h = tiles::sniff_image_header(upload_chunk_.data(), upload_filled_);
-  const tiles::SourceLimits& limits = state_.router.config().ingest.limits;
-  switch (h.status) {
-    case Status::kUnknownFormat:
-      return api::error_response(415, "unsupported_format", "the upload is not a JPEG, PNG, TIFF, WebP, JPEG 2000, HEIF or AVIF image");
-    case Status::kCorrupt:
-      return api::error_response(422, "corrupt_image", "the image header is unreadable: " + h.problem);
-    case Status::kIncomplete:
-      if (whole_body) return api::error_response(422, "corrupt_image", "the image ends inside its header");
-      return std::nullopt;  // the decoder at ingest reads on and decides
-    case Status::kOk:
-      break;
-  }
-  const auto max_side = std::uint64_t(limits.max_dimension);
-  if (h.width > max_side || h.height > max_side || h.width * h.height > limits.max_pixels)
-    return api::error_response(413, "image_too_large",
-                               "the image is " + std::to_string(h.width) + "x" + std::to_string(h.height) +
-                                   " pixels; the limits are " + std::to_string(limits.max_pixels) + " pixels and " +
-                                   std::to_string(max_side) + " per side");
-  return std::nullopt;
-}
-
-std::optional<api::Response> Session::open_upload_file() {
-  std::string error;
-  try {
-    upload_dir_ = state_.store.make_staging_dir();
-    req_.body_file = upload_dir_ + "/upload";
-    beast::error_code ec;
-    upload_file_.open(req_.body_file.c_str(), beast::file_mode::write, ec);
-    if (ec) error = ec.message();
-  } catch (const std::exception& e) {
-    error = e.what();
-  }
-  if (error.empty()) return std::nullopt;
-  log_event("error", "cannot stage an upload", {{"error", error}});
-  return api::error_response(503, "store_unavailable", "the upload cannot be stored now");
-}
-
-void Session::finish_upload() {
-  beast::error_code ec;
-  if (upload_file_.is_open()) upload_file_.close(ec);
+  if (!done) return read_upload();
   upload_parser_.reset();
-  upload_chunk_ = {};
-  if (ec) {
-    keep_alive_ = false;
-    log_event("error", "cannot stage an upload", {{"error", ec.message()}});
-    return send(api::error_response(503, "store_unavailable", "the upload cannot be stored now"));
-  }
+  req_.body_file = upload_->file();
   answer();
 }
 
@@ -457,41 +311,24 @@ void Session::on_peer_read(beast::error_code ec, std::size_t bytes) {
   if (after != AfterWatch::kNothing) next(after == AfterWatch::kClose);
 }
 
-// Appends "Name: value\r\n"; values with line breaks are dropped rather than let split the header.
-static void append_field(std::string& out, std::string_view name, std::string_view value) {
-  if (std::memchr(value.data(), '\r', value.size()) || std::memchr(value.data(), '\n', value.size())) return;
-  out.append(name).append(": ").append(value).append("\r\n");
-}
-
-// The response head is written by hand and sent with the body in one gather write: Beast's
-// serializer costs several times more per request than everything else on the cached-tile path.
+// The head is written by hand and sent with the body in one gather write (http_heads.h).
 void Session::send(api::Response r) {
-  discard_upload();  // before the client hears back, so it never sees the upload's leftovers
+  // An upload's parser, staging folder and slot end before the client hears back, so it never
+  // sees the upload's leftovers.
+  upload_parser_.reset();
+  upload_.reset();
   with_worker_ = false;
   if (watching_) stream_.cancel();  // the watch's handler ends it; on_write waits for that
   current_ = std::move(r);
   if (current_.route.empty()) current_.route = "error";
-  const int status = current_.status;
-  const bool bodiless_status = status < 200 || status == 204 || status == 304;
-  const std::size_t size = current_.body ? current_.body->size() : 0;
-  const bool send_body = !bodiless_status && req_.method != "HEAD" && size > 0;
+  const bool send_body = !bodiless_status(current_.status) && req_.method != "HEAD" && current_.body &&
+                         !current_.body->empty();
   const bool keep = keep_alive_ && !state_.draining.load();
-
   head_.clear();
-  head_.append(version_ == 10 ? "HTTP/1.0 " : "HTTP/1.1 ")
-      .append(std::to_string(status))
-      .append(" ")
-      .append(http::obsolete_reason(http::int_to_status(unsigned(status))))
-      .append("\r\n");
-  append_field(head_, "Server", "zoomwarp");
-  if (!current_.content_type.empty()) append_field(head_, "Content-Type", current_.content_type);
-  for (const auto& [name, value] : current_.headers) append_field(head_, name, value);
-  if (req_.method != "OPTIONS")  // a preflight's answer has its own (answer())
-    for (const auto& [name, value] : state_.options.cors.response(req_.method, req_.origin)) append_field(head_, name, value);
-  if (!bodiless_status) append_field(head_, "Content-Length", std::to_string(size));
-  if (!keep) append_field(head_, "Connection", "close");
-  else if (version_ == 10) append_field(head_, "Connection", "keep-alive");
-  head_.append("\r\n");
+  append_response_head(head_, current_, version_,
+                       req_.method == "OPTIONS" ? HeaderList{}  // a preflight's answer has its own (answer())
+                                                : state_.options.cors.response(req_.method, req_.origin),
+                       keep);
 
   const std::array<net::const_buffer, 2> buffers = {
       net::buffer(head_), send_body ? net::buffer(*current_.body) : net::const_buffer()};
@@ -548,21 +385,6 @@ void Session::linger() {
   stream_.async_read_some(buffer_.prepare(64 * 1024), [self = shared_from_this()](beast::error_code ec, std::size_t) {
     if (!ec) self->linger();
   });
-}
-
-// Ends whatever an upload holds: its parser, its staging folder and its ingest slot.
-void Session::discard_upload() {
-  upload_slot_.reset();
-  upload_parser_.reset();
-  upload_chunk_ = {};
-  upload_filled_ = 0;
-  if (upload_file_.is_open()) {
-    beast::error_code ignored;
-    upload_file_.close(ignored);
-  }
-  if (upload_dir_.empty()) return;
-  state_.store.discard(upload_dir_);
-  upload_dir_.clear();
 }
 
 }  // namespace zoomwarp::server

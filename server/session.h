@@ -1,5 +1,8 @@
-// One HTTP connection: read a request header, then its body (uploads stream to a file), answer it
-// on this thread or on a worker, write the response, repeat while keep-alive holds.
+// One HTTP connection: read a request header, then its body, answer it on this thread or on a
+// worker, write the response, repeat while keep-alive holds. The session is the socket's side of
+// it: the Beast reads and writes, timeouts, keep-alive and framing errors. What a head means in
+// api terms is http_heads.h's; an upload's admission and staging file are UploadStaging's
+// (upload_staging.h), to which the session hands the body's pieces as they arrive.
 //
 // A request computed on the CPU workers carries a StopToken (api::Request::stop) whose deadline is
 // --request-timeout after the request was read, queue time included. While it is with a worker the
@@ -22,14 +25,14 @@
 #include <optional>
 #include <string>
 #include <unordered_map>
-#include <vector>
 
 #include "api/router.h"
 #include "server/http_server_options.h"
 #include "server/metrics.h"
-#include "server/upload_admission.h"
-#include "server/worker_pool.h"
 #include "server/store_monitor.h"
+#include "server/upload_admission.h"
+#include "server/upload_staging.h"
+#include "server/worker_pool.h"
 #include "tiles/store.h"
 #include "warp/core/stop_token.h"
 
@@ -38,8 +41,8 @@ namespace zoomwarp::server {
 class Session;
 
 // What the listener and every session share. Thread-safety: the references and options are fixed
-// after construction; the atomics and `uploads` may be used from any thread, `sessions` under
-// `sessions_mu`.
+// after construction; the atomics, `uploads` and `upload_limits` may be used from any thread,
+// `sessions` under `sessions_mu`.
 struct ServerState {
   ServerState(HttpServerOptions o, tiles::Store& s, api::Router& r, WorkerPool& c, WorkerPool& i, Metrics& m)
       : options(std::move(o)),
@@ -62,6 +65,8 @@ struct ServerState {
   std::atomic<std::size_t> open_connections{0};        // sessions alive, against max_connections
   UploadAdmission uploads{options.upload_slots, options.max_staging_bytes};
   api::RateLimits upload_limits{options.upload_limits};
+  UploadContext upload_context{store, uploads, upload_limits, metrics, router.config().access.keys,
+                               router.config().ingest.limits, options.max_upload_bytes};
 
   std::mutex sessions_mu;
   std::unordered_map<Session*, std::weak_ptr<Session>> sessions;  // for draining
@@ -82,27 +87,26 @@ class Session : public std::enable_shared_from_this<Session> {
   auto get_executor() { return stream_.get_executor(); }
 
  private:
+  // Reading a request: its header, then its body (or the refusal to read it).
   void read_header();
   void read_header_bytes();
   void on_header(boost::beast::error_code ec);
+  std::optional<api::Response> start_upload();
+  std::optional<api::Response> start_body();
   void read_body();
   void on_body(boost::beast::error_code ec);
+  void read_upload();
+  void on_upload_chunk(boost::beast::error_code ec);
+  // Answering it, here or on a worker while the socket is watched for the client leaving.
   void answer();
   void submit(WorkerPool& pool);
   void watch_peer();
   void on_peer_read(boost::beast::error_code ec, std::size_t bytes);
-  void send(api::Response res);
+  // Writing the response, then reading the next request or closing.
+  void send(api::Response r);
   void on_write(bool close, boost::beast::error_code ec);
-  void next(bool close);  // after a response: read the next request, or close
+  void next(bool close);
   void linger();
-  void discard_upload();
-  std::optional<api::Response> admit_upload();
-  std::optional<api::Response> rate_limit_upload(std::uint64_t bytes);
-  void read_upload();
-  void on_upload_chunk(boost::beast::error_code ec);
-  std::optional<api::Response> refuse_upload_head(bool whole_body) const;
-  std::optional<api::Response> open_upload_file();
-  void finish_upload();
 
   boost::beast::tcp_stream stream_;
   boost::beast::flat_buffer buffer_;
@@ -112,13 +116,9 @@ class Session : public std::enable_shared_from_this<Session> {
 
   std::optional<boost::beast::http::request_parser<boost::beast::http::empty_body>> header_parser_;
   std::optional<boost::beast::http::request_parser<boost::beast::http::string_body>> string_parser_;
-  // An upload is read through a buffer_body in chunks: its first chunk is checked (format, size)
-  // before anything is written, then each chunk is appended to the staging file.
+  // An upload is read through a buffer_body in pieces, into the space its staging gives.
   std::optional<boost::beast::http::request_parser<boost::beast::http::buffer_body>> upload_parser_;
-  std::vector<std::uint8_t> upload_chunk_;
-  std::size_t upload_filled_ = 0;  // bytes of upload_chunk_ holding body not yet written
-  boost::beast::file upload_file_;
-  UploadAdmission::Slot upload_slot_;
+  std::optional<UploadStaging> upload_;  // from the upload's admission until it is answered
   boost::beast::http::response<boost::beast::http::empty_body> continue_;
 
   api::Request req_;
@@ -129,7 +129,6 @@ class Session : public std::enable_shared_from_this<Session> {
   bool idle_ = true;
   bool fresh_ = true;  // no request read yet
   std::chrono::steady_clock::time_point accepted_ = std::chrono::steady_clock::now();
-  std::string upload_dir_;
   std::chrono::steady_clock::time_point started_;
   std::shared_ptr<warp::StopToken> stop_;  // of the request with a worker, shared with its job
   bool with_worker_ = false;      // the request is queued or running in a worker pool
