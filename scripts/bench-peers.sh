@@ -805,7 +805,8 @@ machine() {
   # The build type of the binary measured (the container ships Release; scripts/build.sh makes
   # RelWithDebInfo unless CMAKE_BUILD_TYPE says otherwise).
   local build_type
-  build_type=$(sed -n 's/^CMAKE_BUILD_TYPE:[A-Z]*=//p' "$(dirname "$zoomwarp_bin")/../CMakeCache.txt" 2>/dev/null)
+  # a binary copied out of its build tree has no CMakeCache.txt beside it: "unknown", not a failure
+  build_type=$(sed -n 's/^CMAKE_BUILD_TYPE:[A-Z]*=//p' "$(dirname "$zoomwarp_bin")/../CMakeCache.txt" 2>/dev/null || true)
   echo "- versions: zoomwarp $zoomwarp_version (${build_type:-unknown} build), $("$nginx_bin" -v 2>&1 | sed 's#.*/##; s#^#nginx #'), iipsrv $(dpkg-query -W -f='${Version}' iipimage-server) (Debian iipimage-server), $(vips --version), $(wrk -v 2>&1 | head -n 1 | awk '{ print $1, $2 }')"
 }
 
