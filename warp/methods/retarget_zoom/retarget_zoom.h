@@ -4,7 +4,7 @@
 //
 // The mesh: a conforming Delaunay mesh of the image (meshing/coarse_mesh.h, the curator's lines
 // as edges) whose area bound is the largest leaf of the forest's finest stored level (500 px²
-// for images up to ~20 MP, the runtime threshold at 100 %), capped at kMaxVertices — about 6 MP
+// for images up to ~20 MP, the runtime threshold at 100 %), capped at kMaxVertices — about 5.5 MP
 // at 500 px²; larger images get proportionally larger triangles. The cap bounds the first solve
 // of a screen aspect, which a first view waits for (issue 28): with the rotation term and the
 // fold-over guard's refactorizations, a 16 MP photograph's 23 841 vertices took 3.2 s at
