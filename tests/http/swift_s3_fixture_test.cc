@@ -217,10 +217,14 @@ TEST(SwiftS3Fixture, DISABLED_ChildHoldingAPausedServer) {
   std::this_thread::sleep_for(std::chrono::minutes(5));
 }
 
-TEST(SwiftS3Fixture, ItsProcessesEndWhenTheTestProcessIsKilled) {
-  SwiftS3& parent = SwiftS3::shared();  // started before, so the child's start is measured alone
-  TempDir dir;
-  const std::string log = dir.path() + "/child.log";
+// A child test process holding its own paused server (the test above), and that server's folder.
+struct ChildServer {
+  pid_t pid = -1;
+  std::string state_dir;
+};
+
+// Starts the child and waits until its server is up and paused; FAILs (with pid -1) otherwise.
+void start_child_holding_a_paused_server(const std::string& log, ChildServer& out) {
   const std::string self = fs::read_symlink("/proc/self/exe");
   std::string filter = "--gtest_filter=SwiftS3Fixture.DISABLED_ChildHoldingAPausedServer";
   std::string disabled = "--gtest_also_run_disabled_tests";
@@ -242,44 +246,77 @@ TEST(SwiftS3Fixture, ItsProcessesEndWhenTheTestProcessIsKilled) {
     ::execv(argv[0], argv.data());
     ::_exit(127);
   }
-  std::string state_dir;
   const auto t0 = Clock::now();
   const std::regex line(R"(state_dir=(\S+)\nproxy paused)");
   while (seconds_since(t0) < 90) {
     std::smatch m;
     const std::string text = read_file(log);
     if (std::regex_search(text, m, line)) {
-      state_dir = m[1];
-      break;
+      out = {child, m[1]};
+      std::cout << "the child's server started in " << seconds_since(t0) << " s" << std::endl;
+      return;
     }
     int status = 0;
     if (::waitpid(child, &status, WNOHANG) == child) FAIL() << "the child ended:\n" << text;
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
-  if (state_dir.empty()) {
-    ::kill(child, SIGKILL);
-    ::waitpid(child, nullptr, 0);
-    FAIL() << "the child did not start its server:\n" << read_file(log);
-  }
-  std::cout << "the child's server started in " << seconds_since(t0) << " s" << std::endl;
-  EXPECT_NE(state_dir, parent.state_dir());
-  const std::vector<pid_t> before = marked_processes(state_dir);
-  EXPECT_EQ(before.size(), 6u) << "watchdog, memcached and four Swift servers:\n" << read_file(state_dir + "/pids");
-
   ::kill(child, SIGKILL);
   ::waitpid(child, nullptr, 0);
+  FAIL() << "the child did not start its server:\n" << read_file(log);
+}
+
+// Kills the child; then, with HANG_UP, sends its server's process group what the kernel sends an
+// orphaned process group that holds a stopped process when it becomes orphaned (SIGHUP, then
+// SIGCONT: POSIX, "_exit"). Whether and when the kernel does so depends on who reaps the
+// fixture's processes on the machine: the same session's init or subreaper, or one outside it.
+// Then checks that every process of that server and its folder are gone.
+void kill_child_and_expect_its_server_gone(const ChildServer& child, bool hang_up) {
+  const std::vector<pid_t> before = marked_processes(child.state_dir);
+  EXPECT_EQ(before.size(), 6u) << "watchdog, memcached and four Swift servers:\n"
+                               << read_file(child.state_dir + "/pids");
+  const pid_t group = std::stoi(read_file(child.state_dir + "/pgid"));
+  ::kill(child.pid, SIGKILL);
+  ::waitpid(child.pid, nullptr, 0);
   const auto killed = Clock::now();
   const std::string killed_utc = utc_now();
-  // A bound for a hang, not a timing: here it takes ~0.3 s, and a loaded CI machine once took 20.
-  while ((!marked_processes(state_dir).empty() || fs::exists(state_dir)) && seconds_since(killed) < 60) {
+  if (hang_up) {
+    ::kill(-group, SIGHUP);
+    ::kill(-group, SIGCONT);
+  }
+  // A bound for a hang, not a timing: it takes ~0.3 s.
+  while ((!marked_processes(child.state_dir).empty() || fs::exists(child.state_dir)) && seconds_since(killed) < 60) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   std::cout << "killed the child at " << killed_utc << "; its processes and folder were gone "
             << seconds_since(killed) << " s after the SIGKILL" << std::endl;
-  EXPECT_TRUE(marked_processes(state_dir).empty()) << "left behind after the test process was killed";
-  EXPECT_FALSE(fs::exists(state_dir)) << state_dir << " left behind; the watchdog's log:\n"
-                                      << read_file(state_dir + ".watchdog.log");
-  EXPECT_FALSE(fs::exists(state_dir + ".watchdog.log")) << "the log of a watchdog that did its work is removed";
+  EXPECT_TRUE(marked_processes(child.state_dir).empty()) << "left behind after the test process was killed";
+  EXPECT_FALSE(fs::exists(child.state_dir)) << child.state_dir << " left behind; the watchdog's log:\n"
+                                            << read_file(child.state_dir + ".watchdog.log");
+  EXPECT_FALSE(fs::exists(child.state_dir + ".watchdog.log")) << "the log of a watchdog that did its work is removed";
+}
+
+TEST(SwiftS3Fixture, ItsProcessesEndWhenTheTestProcessIsKilled) {
+  SwiftS3& parent = SwiftS3::shared();  // started before, so the child's start is measured alone
+  TempDir dir;
+  ChildServer child;
+  start_child_holding_a_paused_server(dir.path() + "/child.log", child);
+  if (child.pid < 0) return;
+  EXPECT_NE(child.state_dir, parent.state_dir());
+  kill_child_and_expect_its_server_gone(child, false);
+  EXPECT_TRUE(parent.healthy()) << "another process's server is not touched";
+}
+
+// CI twice found the folder of a killed child left behind: every process gone, the watchdog's log
+// ending after stop.sh's first round of SIGKILLs. The watchdog and stop.sh had ended half-way, as a
+// signal to their group ends them (reproduced here with SIGHUP; which signal CI's machine sent, and
+// why, is not known: the kernel's orphaned-group SIGHUP is the likeliest).
+TEST(SwiftS3Fixture, ItsWatchdogOutlivesAHangupOfItsGroup) {
+  SwiftS3& parent = SwiftS3::shared();
+  TempDir dir;
+  ChildServer child;
+  start_child_holding_a_paused_server(dir.path() + "/child.log", child);
+  if (child.pid < 0) return;
+  kill_child_and_expect_its_server_gone(child, true);
   EXPECT_TRUE(parent.healthy()) << "another process's server is not touched";
 }
 
