@@ -170,6 +170,22 @@ TEST(PolyfemElement, PartitionOfUnity) {
   }
 }
 
+// The values alone (what sampling uses) are serendipity_basis's to the bit: the samplings, and
+// with them the stored chord deviations, do not depend on which of the two made them.
+TEST(PolyfemElement, ValuesAloneAreTheBasisValuesBitForBit) {
+  for (const Polygon& poly : polygons()) {
+    const auto diagonals = warp::serendipity_coefficients(poly);
+    for (const Point& p : inside_points(poly, 20)) {
+      SCOPED_TRACE(describe(poly, p));
+      const Basis b = basis(poly, p);
+      std::vector<double> psi;
+      warp::serendipity_values(poly, diagonals, p, psi);
+      ASSERT_EQ(psi.size(), b.psi.size());
+      for (std::size_t k = 0; k < psi.size(); ++k) EXPECT_EQ(psi[k], b.psi[k]) << k;
+    }
+  }
+}
+
 // Per diagonal c^{ii} + c^{jj} + 2·(c^{i,i−1} + c^{i,i+1} + c^{j,j−1} + c^{j,j+1}) = 2 — what Σψ = 1
 // needs (serendipity.h) — over all n(n − 3)/2 diagonals, all edge coefficients positive.
 TEST(PolyfemElement, DiagonalCoefficientsSumToTwo) {

@@ -256,6 +256,24 @@ TEST(PolyfemExport, ChordErrorIsBoundedByTheCellDeviationAndShrinksWithTheLevel)
   EXPECT_LT(worst[2], 0.5);
 }
 
+// The model's δ_c of levels 0–3 from one sampling at level 4 (polyfem_chord_deviations) are those
+// of sampling each level on its own, to the bit: the finer lattice holds the coarser ones' points.
+TEST(PolyfemExport, ChordDeviationsOfAllLevelsAtOnceAreEachLevelsOwn) {
+  const warp::PolygonMesh m = jittered_mesh();
+  const warp::PolyfemSolution s = warp::solve_polyfem(m, disc_saliency());
+  const std::vector<Point> g = warp::polyfem_g_field(s);
+  for (int c = 0; c < int(m.cells.size()); ++c) {
+    const std::vector<Point> all = warp::polyfem_chord_deviations(m, s.nodes, c, 4, g);
+    ASSERT_EQ(all.size(), 4u);
+    for (int level = 0; level < 4; ++level) {
+      const Point own = warp::polyfem_chord_deviation(warp::sample_polyfem_cell(m, s.nodes, c, level + 1), g);
+      EXPECT_EQ(all[level].x, own.x) << "cell " << c << " level " << level;
+      EXPECT_EQ(all[level].y, own.y) << "cell " << c << " level " << level;
+    }
+  }
+  EXPECT_THROW(warp::polyfem_chord_deviations(m, s.nodes, 0, 0, g), std::invalid_argument);
+}
+
 // A constant saliency gives the exact stretch (G = x/W, y/H): no aspect folds it.
 TEST(PolyfemSystem, TheStretchIsFoldFreeAtEveryAspect) {
   const warp::PolygonMesh m = jittered_mesh();

@@ -4,14 +4,18 @@
 #include "warp/meshing/cvt_mesh.h"
 
 #include <CGAL/Delaunay_triangulation_2.h>
+#include <CGAL/Triangulation_face_base_with_info_2.h>
 
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <random>
 #include <stdexcept>
 #include <string>
+
+#include "warp/core/parallel_for.h"
 
 namespace zoomwarp::warp {
 
@@ -19,7 +23,9 @@ namespace {
 
 using cgal_cdt::K;
 using Vb = CGAL::Triangulation_vertex_base_with_info_2<int, K>;  // info: seed index, −1 for a mirror
-using Tds = CGAL::Triangulation_data_structure_2<Vb>;
+// info: the face's Voronoi vertex in voronoi_cells (−1 before it is looked up)
+using Fb = CGAL::Triangulation_face_base_with_info_2<int, K>;
+using Tds = CGAL::Triangulation_data_structure_2<Vb, Fb>;
 using Delaunay = CGAL::Delaunay_triangulation_2<K, Tds>;
 
 [[noreturn]] void refuse(const std::string& why) { throw std::invalid_argument("cvt mesh: " + why); }
@@ -85,13 +91,17 @@ Delaunay mirrored_triangulation(const std::vector<Point>& seeds, double w, doubl
 
 // The mirrored triangulation's dual restricted to the seeds' cells: the clipped Voronoi diagram.
 PolygonMesh voronoi_cells(const std::vector<Point>& seeds, double w, double h) {
-  const Delaunay dt = mirrored_triangulation(seeds, w, h);
+  Delaunay dt = mirrored_triangulation(seeds, w, h);
+  for (auto f : dt.all_face_handles()) f->info() = -1;
   const double tolerance = 1e-9 * std::max(w, h);
   PolygonMesh mesh;
   mesh.width = w;
   mesh.height = h;
   mesh.cells.resize(seeds.size());
-  // Few hundred vertices: a linear search for a coincident one is cheap enough.
+  // A circumcentre within `tolerance` of a vertex already made is that vertex (the first made):
+  // cocircular seeds give one Voronoi vertex from several faces. Few hundred vertices: a linear
+  // search is cheap enough, once per face (the face's info keeps the answer for its other
+  // seeds, the one the search would give again: vertices are only ever appended).
   const auto vertex_of = [&](K::Point_2 c) {
     Point p{c.x(), c.y()};
     for (double* coordinate : {&p.x, &p.y}) {
@@ -111,7 +121,8 @@ PolygonMesh voronoi_cells(const std::vector<Point>& seeds, double w, double h) {
     auto face = dt.incident_faces(v), end = face;
     do {
       if (dt.is_infinite(face)) throw std::logic_error("cvt mesh: a seed on the hull of its mirror images");
-      const int k = vertex_of(dt.circumcenter(face));
+      if (face->info() < 0) face->info() = vertex_of(dt.circumcenter(face));
+      const int k = face->info();
       if (cell.empty() || (cell.back() != k && cell.front() != k)) cell.push_back(k);
     } while (++face != end);
   }
@@ -127,8 +138,9 @@ void lloyd(std::vector<Point>& seeds, const cv::Mat& rho, double w, double h, co
   const double sx = w / rho.cols, sy = h / rho.rows;
   for (int iteration = 0; iteration < options.lloyd_iterations; ++iteration) {
     const PolygonMesh cells = voronoi_cells(seeds, w, h);
-    double max_move = 0;
-    for (int i = 0; i < n; ++i) {
+    // Each cell's centroid on its own (the cells in parallel), then the seeds moved in order.
+    std::vector<std::optional<Point>> centroid(n);
+    parallel_for(n, [&](int i) {
       const std::vector<int>& cell = cells.cells[i];
       double top = h, bottom = 0;
       for (int v : cell) {
@@ -157,8 +169,12 @@ void lloyd(std::vector<Point>& seeds, const cv::Mat& rho, double w, double h, co
           my += m * y;
         }
       }
-      if (mass <= 0) continue;
-      const Point c{mx / mass, my / mass};
+      if (mass > 0) centroid[i] = Point{mx / mass, my / mass};
+    });
+    double max_move = 0;
+    for (int i = 0; i < n; ++i) {
+      if (!centroid[i]) continue;
+      const Point c = *centroid[i];
       max_move = std::max(max_move, std::hypot(c.x - seeds[i].x, c.y - seeds[i].y));
       seeds[i] = c;
     }

@@ -64,4 +64,11 @@ void polyfem_point_weights(const PolygonMesh& mesh, const PolyfemNodes& nodes, i
 // about twofold per level there (fourfold elsewhere).
 Point polyfem_chord_deviation(const CellSampling& finer, const std::vector<Point>& displacement);
 
+// polyfem_chord_deviation of sample_polyfem_cell(mesh, nodes, cell, k + 1) for k = 0 … levels − 1,
+// the same numbers to the bit, from one sampling at `levels` (whose lattice holds every coarser
+// one's points): δ_c per level for the model (polyfem_model.h) at about 3/4 of the cost.
+// Throws std::invalid_argument unless 1 ≤ levels ≤ kMaxPolyfemLevel.
+std::vector<Point> polyfem_chord_deviations(const PolygonMesh& mesh, const PolyfemNodes& nodes, int cell, int levels,
+                                            const std::vector<Point>& displacement);
+
 }  // namespace zoomwarp::warp

@@ -1,7 +1,9 @@
 #include "warp/methods/polyfem/polyfem_model.h"
 
+#include <algorithm>
 #include <stdexcept>
 
+#include "warp/core/parallel_for.h"
 #include "warp/meshing/cvt_mesh.h"
 #include "warp/methods/method_lines.h"
 #include "warp/methods/model_bytes.h"
@@ -36,12 +38,11 @@ PolyfemModel build_polyfem_model(const MethodInput& input, const PolyfemOptions&
                              options, method_lines(input));
   m.fold_free = polyfem_fold_free_range(m.mesh, m.solution, options);
   const std::vector<Point> g = polyfem_g_field(m.solution);
-  for (int c = 0; c < int(m.mesh.cells.size()); ++c) {
-    std::array<Point, PolyfemModel::kChordLevels> delta;
-    for (int level = 0; level < PolyfemModel::kChordLevels; ++level)
-      delta[level] = polyfem_chord_deviation(sample_polyfem_cell(m.mesh, m.solution.nodes, c, level + 1), g);
-    m.chord.push_back(delta);
-  }
+  m.chord.resize(m.mesh.cells.size());
+  parallel_for(int(m.mesh.cells.size()), [&](int c) {
+    const std::vector<Point> levels = polyfem_chord_deviations(m.mesh, m.solution.nodes, c, PolyfemModel::kChordLevels, g);
+    std::copy(levels.begin(), levels.end(), m.chord[c].begin());
+  });
   return m;
 }
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "warp/core/parallel_for.h"
 #include "warp/core/uniform_zoom.h"
 #include "warp/core/zoom_curve.h"
 
@@ -22,12 +23,11 @@ PolyfemRetargeting::PolyfemRetargeting(double width, double height, PolyfemModel
       height_(height),
       model_(std::move(model)),
       g_field_(polyfem_g_field(model_.solution)) {
-  for (int level = 0; level < kPreparedLevels; ++level) {
-    std::vector<CellSampling> cells;
-    for (int c = 0; c < int(model_.mesh.cells.size()); ++c)
-      cells.push_back(sample_polyfem_cell(model_.mesh, model_.solution.nodes, c, level));
-    prepared_.push_back(std::move(cells));
-  }
+  const int cells = int(model_.mesh.cells.size());
+  prepared_.assign(kPreparedLevels, std::vector<CellSampling>(cells));
+  parallel_for(kPreparedLevels * cells, [&](int i) {
+    prepared_[i / cells][i % cells] = sample_polyfem_cell(model_.mesh, model_.solution.nodes, i % cells, i / cells);
+  });
   // One sampling per cell holding both check levels' triangles (level 2's samples are level 3's).
   for (int c = 0; c < int(model_.mesh.cells.size()); ++c) {
     CellSampling both = prepared_[kCheckLevels[1]][c];

@@ -9,6 +9,7 @@
 #include <map>
 #include <stdexcept>
 
+#include "warp/core/parallel_for.h"
 #include "warp/methods/polyfem/polyfem_lines.h"
 #include "warp/methods/polyfem/serendipity.h"
 
@@ -60,66 +61,87 @@ struct Assembled {
   Eigen::VectorXd load_x, load_y;
 };
 
+// One cell's share of K (m × m, row-major over its local nodes) and of the loads (∫ s ∇B_a).
+struct CellIntegrals {
+  std::vector<double> k;
+  std::vector<Point> load;
+};
+
+CellIntegrals integrate_cell_stiffness(const PolyfemElement& e, std::size_t m, const ScalarMap& saliency,
+                                       const PolyfemOptions& options) {
+  const std::vector<Point>& polygon = e.polygon;
+  const Point& centroid = e.centroid;
+  CellIntegrals out{std::vector<double>(m * m, 0.0), std::vector<Point>(m, Point{0, 0})};
+  // The quadrature points with their weights (area × s), and the basis' gradients there (m a
+  // point, point after point).
+  struct Sample {
+    double area_weight, s;
+  };
+  std::vector<Sample> samples;
+  std::vector<Point> gradients;
+  std::vector<double> psi;
+  std::vector<Point> grad;
+  std::vector<Point> quadrature_sum(m, Point{0, 0});
+  double cell_area = 0;
+  integrate_cell(e, options.max_triangle_area, [&](const Point& p, double w) {
+    serendipity_basis(polygon, e.diagonals, p, psi, grad);
+    for (std::size_t a = 0; a < m; ++a)
+      quadrature_sum[a] = {quadrature_sum[a].x + w * grad[a].x, quadrature_sum[a].y + w * grad[a].y};
+    cell_area += w;
+    samples.push_back({w, options.saliency_floor + (1 - options.saliency_floor) * saliency.at(p)});
+    gradients.insert(gradients.end(), grad.begin(), grad.begin() + std::ptrdiff_t(m));
+  });
+  // Polynomial consistency (ours, after [Talischi]'s corrected quadrature for polygonal
+  // elements): the basis is rational, so quadrature misses ∫ ∇B_a = ∮ B_a·n, which the patch
+  // test needs exactly. On the boundary B_a is the 1-D P2 basis of each edge's three nodes
+  // (∫ = L/6 at either end, 2L/3 at the midpoint), so ∮ B_a·n is exact; each gradient is
+  // shifted by one constant per cell so that the quadrature sum equals it.
+  std::vector<Point> boundary_sum(m, Point{0, 0});
+  const std::size_t n = polygon.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const Point a = polygon[i], b = polygon[(i + 1) % n];
+    Point normal{b.y - a.y, a.x - b.x};  // |normal| = edge length; pointed away from the centroid
+    if (normal.x * ((a.x + b.x) / 2 - centroid.x) + normal.y * ((a.y + b.y) / 2 - centroid.y) < 0)
+      normal = {-normal.x, -normal.y};
+    const auto add = [&](std::size_t node, double share) {
+      boundary_sum[node] = {boundary_sum[node].x + share * normal.x, boundary_sum[node].y + share * normal.y};
+    };
+    add(i, 1.0 / 6), add((i + 1) % n, 1.0 / 6), add(n + i, 2.0 / 3);
+  }
+  std::vector<Point> shift(m);
+  for (std::size_t a = 0; a < m; ++a)
+    shift[a] = {(boundary_sum[a].x - quadrature_sum[a].x) / cell_area, (boundary_sum[a].y - quadrature_sum[a].y) / cell_area};
+  for (std::size_t q = 0; q < samples.size(); ++q) {
+    const double w = samples[q].area_weight * samples[q].s;
+    Point* g = gradients.data() + q * m;
+    for (std::size_t a = 0; a < m; ++a) g[a] = {g[a].x + shift[a].x, g[a].y + shift[a].y};
+    for (std::size_t a = 0; a < m; ++a) {
+      out.load[a] = {out.load[a].x + w * g[a].x, out.load[a].y + w * g[a].y};
+      for (std::size_t b = 0; b < m; ++b) out.k[a * m + b] += w * (g[a].x * g[b].x + g[a].y * g[b].y);
+    }
+  }
+  return out;
+}
+
+// The cells integrated in parallel, then summed in cell order, so K is the same to the bit on
+// any number of threads.
 Assembled assemble(const PolygonMesh& mesh, const PolyfemNodes& nodes, const ScalarMap& saliency,
                    const PolyfemOptions& options) {
   const int n_nodes = int(nodes.positions.size());
+  std::vector<CellIntegrals> cells(mesh.cells.size());
+  parallel_for(int(mesh.cells.size()), [&](int c) {
+    cells[c] = integrate_cell_stiffness(PolyfemElement(mesh, c), nodes.cell_nodes[c].size(), saliency, options);
+  });
   std::vector<Eigen::Triplet<double>> triplets;
   Assembled out{Eigen::SparseMatrix<double>(n_nodes, n_nodes), Eigen::VectorXd::Zero(n_nodes), Eigen::VectorXd::Zero(n_nodes)};
-  std::vector<double> psi;
-  std::vector<Point> grad;
   for (std::size_t c = 0; c < mesh.cells.size(); ++c) {
-    const PolyfemElement e(mesh, int(c));
-    const std::vector<Point>& polygon = e.polygon;
-    const Point& centroid = e.centroid;
     const std::vector<int>& local = nodes.cell_nodes[c];
     const std::size_t m = local.size();
-    std::vector<double> k(m * m, 0.0);
-    // The quadrature points with their weights (area × s) and the basis' gradients there.
-    struct Sample {
-      double area_weight, s;
-      std::vector<Point> grad;
-    };
-    std::vector<Sample> samples;
-    std::vector<Point> quadrature_sum(m, Point{0, 0});
-    double cell_area = 0;
-    integrate_cell(e, options.max_triangle_area, [&](const Point& p, double w) {
-      serendipity_basis(polygon, e.diagonals, p, psi, grad);
-      for (std::size_t a = 0; a < m; ++a)
-        quadrature_sum[a] = {quadrature_sum[a].x + w * grad[a].x, quadrature_sum[a].y + w * grad[a].y};
-      cell_area += w;
-      samples.push_back({w, options.saliency_floor + (1 - options.saliency_floor) * saliency.at(p), grad});
-    });
-    // Polynomial consistency (ours, after [Talischi]'s corrected quadrature for polygonal
-    // elements): the basis is rational, so quadrature misses ∫ ∇B_a = ∮ B_a·n, which the patch
-    // test needs exactly. On the boundary B_a is the 1-D P2 basis of each edge's three nodes
-    // (∫ = L/6 at either end, 2L/3 at the midpoint), so ∮ B_a·n is exact; each gradient is
-    // shifted by one constant per cell so that the quadrature sum equals it.
-    std::vector<Point> boundary_sum(m, Point{0, 0});
-    const std::size_t n = polygon.size();
-    for (std::size_t i = 0; i < n; ++i) {
-      const Point a = polygon[i], b = polygon[(i + 1) % n];
-      Point normal{b.y - a.y, a.x - b.x};  // |normal| = edge length; pointed away from the centroid
-      if (normal.x * ((a.x + b.x) / 2 - centroid.x) + normal.y * ((a.y + b.y) / 2 - centroid.y) < 0)
-        normal = {-normal.x, -normal.y};
-      const auto add = [&](std::size_t node, double share) {
-        boundary_sum[node] = {boundary_sum[node].x + share * normal.x, boundary_sum[node].y + share * normal.y};
-      };
-      add(i, 1.0 / 6), add((i + 1) % n, 1.0 / 6), add(n + i, 2.0 / 3);
+    for (std::size_t a = 0; a < m; ++a) {
+      out.load_x[local[a]] += cells[c].load[a].x;
+      out.load_y[local[a]] += cells[c].load[a].y;
+      for (std::size_t b = 0; b < m; ++b) triplets.emplace_back(local[a], local[b], cells[c].k[a * m + b]);
     }
-    std::vector<Point> shift(m);
-    for (std::size_t a = 0; a < m; ++a)
-      shift[a] = {(boundary_sum[a].x - quadrature_sum[a].x) / cell_area, (boundary_sum[a].y - quadrature_sum[a].y) / cell_area};
-    for (Sample& q : samples) {
-      const double w = q.area_weight * q.s;
-      for (std::size_t a = 0; a < m; ++a) q.grad[a] = {q.grad[a].x + shift[a].x, q.grad[a].y + shift[a].y};
-      for (std::size_t a = 0; a < m; ++a) {
-        out.load_x[local[a]] += w * q.grad[a].x;
-        out.load_y[local[a]] += w * q.grad[a].y;
-        for (std::size_t b = 0; b < m; ++b) k[a * m + b] += w * (q.grad[a].x * q.grad[b].x + q.grad[a].y * q.grad[b].y);
-      }
-    }
-    for (std::size_t a = 0; a < m; ++a)
-      for (std::size_t b = 0; b < m; ++b) triplets.emplace_back(local[a], local[b], k[a * m + b]);
   }
   out.stiffness.setFromTriplets(triplets.begin(), triplets.end());
   return out;
@@ -271,9 +293,8 @@ AspectRange polyfem_fold_free_range(const PolygonMesh& mesh, const PolyfemSoluti
                                     const PolyfemOptions& options) {
   check_mesh(mesh);
   const double W = mesh.width, H = mesh.height;
-  double u_low = -1, u_high = AspectRange::kUnboundedAspect - 1;
   // Narrows (u_low, u_high) to the roots of 1 + B·u + C·u² nearest 0.
-  const auto bound = [&](double B, double C) {
+  const auto bound = [](double B, double C, double& u_low, double& u_high) {
     if (C == 0) {
       if (B > 0) u_low = std::max(u_low, -1 / B);
       if (B < 0) u_high = std::min(u_high, -1 / B);
@@ -288,11 +309,14 @@ AspectRange polyfem_fold_free_range(const PolygonMesh& mesh, const PolyfemSoluti
       if (root < 0) u_low = std::max(u_low, root);
     }
   };
-  std::vector<double> psi;
-  std::vector<Point> grad;
-  for (std::size_t c = 0; c < mesh.cells.size(); ++c) {
-    const PolyfemElement e(mesh, int(c));
+  // Per cell (the cells in parallel), then the narrowest of all: min and max, in any order.
+  std::vector<std::pair<double, double>> cell_range(mesh.cells.size());
+  parallel_for(int(mesh.cells.size()), [&](int c) {
+    const PolyfemElement e(mesh, c);
     const std::vector<int>& local = solution.nodes.cell_nodes[c];
+    double u_low = -1, u_high = AspectRange::kUnboundedAspect - 1;
+    std::vector<double> psi;
+    std::vector<Point> grad;
     integrate_cell(e, options.max_triangle_area, [&](const Point& p, double) {
       serendipity_basis(e.polygon, e.diagonals, p, psi, grad);
       Point gx{0, 0}, gy{0, 0};  // ∇G_x, ∇G_y
@@ -300,9 +324,12 @@ AspectRange polyfem_fold_free_range(const PolygonMesh& mesh, const PolyfemSoluti
         gx = {gx.x + solution.g_x[local[a]] * grad[a].x, gx.y + solution.g_x[local[a]] * grad[a].y};
         gy = {gy.x + solution.g_y[local[a]] * grad[a].x, gy.y + solution.g_y[local[a]] * grad[a].y};
       }
-      bound(1 + W * gx.x - H * gy.y, W * gx.x * (1 - H * gy.y) + W * H * gx.y * gy.x);
+      bound(1 + W * gx.x - H * gy.y, W * gx.x * (1 - H * gy.y) + W * H * gx.y * gy.x, u_low, u_high);
     });
-  }
+    cell_range[c] = {u_low, u_high};
+  });
+  double u_low = -1, u_high = AspectRange::kUnboundedAspect - 1;
+  for (const auto& [low, high] : cell_range) u_low = std::max(u_low, low), u_high = std::min(u_high, high);
   return {1 + u_low, 1 + u_high};
 }
 

@@ -26,28 +26,74 @@ Dual sqrt(Dual a) {
   return {r, a.dx / (2 * r), a.dy / (2 * r)};
 }
 
-// λ as dual numbers (the formulas in the header).
-std::vector<Dual> mvc(const std::vector<Point>& polygon, const Point& p) {
+// A point's coordinates as the variables: dual numbers when gradients are wanted, plain doubles
+// when only values are. The value parts of the dual arithmetic are the same operations in the
+// same order as the plain ones, so both give the same values bit for bit.
+template <class T>
+T variable(double value, int axis);
+template <>
+double variable<double>(double value, int) { return value; }
+template <>
+Dual variable<Dual>(double value, int axis) { return {value, axis == 0 ? 1.0 : 0.0, axis == 1 ? 1.0 : 0.0}; }
+
+// Per-thread working arrays: one evaluation per quadrature point or sample, hundreds of
+// thousands per image, and allocating them each time cost as much as the arithmetic.
+template <class T>
+struct Scratch {
+  std::vector<T> dx, dy, r, tan_half, lambda, xi_vertex, xi_edge;
+};
+template <class T>
+Scratch<T>& scratch() {
+  static thread_local Scratch<T> s;
+  return s;
+}
+
+// λ (the formulas in the header), into s.lambda.
+template <class T>
+void mvc(const std::vector<Point>& polygon, const Point& p, Scratch<T>& s) {
+  using std::sqrt;
   const std::size_t n = polygon.size();
-  const Dual px{p.x, 1, 0}, py{p.y, 0, 1};
-  std::vector<Dual> dx(n), dy(n), r(n), tan_half(n);
+  const T px = variable<T>(p.x, 0), py = variable<T>(p.y, 1);
+  s.dx.resize(n), s.dy.resize(n), s.r.resize(n), s.tan_half.resize(n), s.lambda.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
-    dx[i] = polygon[i].x - px;
-    dy[i] = polygon[i].y - py;
-    r[i] = sqrt(dx[i] * dx[i] + dy[i] * dy[i]);
+    s.dx[i] = polygon[i].x - px;
+    s.dy[i] = polygon[i].y - py;
+    s.r[i] = sqrt(s.dx[i] * s.dx[i] + s.dy[i] * s.dy[i]);
   }
   for (std::size_t i = 0; i < n; ++i) {
-    const std::size_t k = (i + 1) % n;
-    tan_half[i] = (r[i] * r[k] - (dx[i] * dx[k] + dy[i] * dy[k])) / (dx[i] * dy[k] - dy[i] * dx[k]);
+    const std::size_t k = i + 1 == n ? 0 : i + 1;
+    s.tan_half[i] = (s.r[i] * s.r[k] - (s.dx[i] * s.dx[k] + s.dy[i] * s.dy[k])) / (s.dx[i] * s.dy[k] - s.dy[i] * s.dx[k]);
   }
-  std::vector<Dual> w(n);
-  Dual sum;
+  T sum{};
   for (std::size_t i = 0; i < n; ++i) {
-    w[i] = (tan_half[(i + n - 1) % n] + tan_half[i]) / r[i];
-    sum = sum + w[i];
+    s.lambda[i] = (s.tan_half[i == 0 ? n - 1 : i - 1] + s.tan_half[i]) / s.r[i];
+    sum = sum + s.lambda[i];
   }
-  for (Dual& wi : w) wi = wi / sum;
-  return w;
+  for (T& l : s.lambda) l = l / sum;
+}
+
+// ξ_ii at vertex i into s.xi_vertex, ξ_{i,i+1} at edge i into s.xi_edge (the header's basis),
+// from s.lambda.
+template <class T>
+void serendipity_xi(const std::vector<SerendipityDiagonal>& diagonals, Scratch<T>& s) {
+  const std::vector<T>& l = s.lambda;
+  const std::size_t n = l.size();
+  auto prev = [n](std::size_t k) { return k == 0 ? n - 1 : k - 1; };
+  s.xi_vertex.resize(n), s.xi_edge.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    s.xi_vertex[i] = l[i] * l[i];
+    s.xi_edge[i] = l[i] * l[i + 1 == n ? 0 : i + 1];
+  }
+  for (const SerendipityDiagonal& d : diagonals) {
+    const std::size_t i = std::size_t(d.i), j = std::size_t(d.j);
+    const T mu = l[i] * l[j];
+    s.xi_vertex[i] = s.xi_vertex[i] + d.c_ii * mu;
+    s.xi_vertex[j] = s.xi_vertex[j] + d.c_jj * mu;
+    s.xi_edge[i] = s.xi_edge[i] + d.c_i_next * mu;
+    s.xi_edge[prev(i)] = s.xi_edge[prev(i)] + d.c_i_prev * mu;
+    s.xi_edge[j] = s.xi_edge[j] + d.c_j_next * mu;
+    s.xi_edge[prev(j)] = s.xi_edge[prev(j)] + d.c_j_prev * mu;
+  }
 }
 
 void require_polygon(const std::vector<Point>& polygon) {
@@ -76,7 +122,9 @@ double along(const Point& o, const Point& u, const Point& a, const Point& b) {
 
 void mean_value_coordinates(const std::vector<Point>& polygon, const Point& p, std::vector<double>& lambda,
                             std::vector<Point>& gradient) {
-  const std::vector<Dual> l = mvc(polygon, p);
+  Scratch<Dual>& s = scratch<Dual>();
+  mvc(polygon, p, s);
+  const std::vector<Dual>& l = s.lambda;
   lambda.resize(l.size());
   gradient.resize(l.size());
   for (std::size_t i = 0; i < l.size(); ++i) {
@@ -110,34 +158,32 @@ std::vector<SerendipityDiagonal> serendipity_coefficients(const std::vector<Poin
 
 void serendipity_basis(const std::vector<Point>& polygon, const std::vector<SerendipityDiagonal>& diagonals,
                        const Point& p, std::vector<double>& psi, std::vector<Point>& gradient) {
-  const std::vector<Dual> l = mvc(polygon, p);
-  const std::size_t n = l.size();
-  auto prev = [n](std::size_t k) { return (k + n - 1) % n; };
-  // ξ_ii at vertex i, ξ_{i,i+1} at edge i.
-  std::vector<Dual> xi_vertex(n), xi_edge(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    xi_vertex[i] = l[i] * l[i];
-    xi_edge[i] = l[i] * l[(i + 1) % n];
-  }
-  for (const SerendipityDiagonal& d : diagonals) {
-    const std::size_t i = std::size_t(d.i), j = std::size_t(d.j);
-    const Dual mu = l[i] * l[j];
-    xi_vertex[i] = xi_vertex[i] + d.c_ii * mu;
-    xi_vertex[j] = xi_vertex[j] + d.c_jj * mu;
-    xi_edge[i] = xi_edge[i] + d.c_i_next * mu;
-    xi_edge[prev(i)] = xi_edge[prev(i)] + d.c_i_prev * mu;
-    xi_edge[j] = xi_edge[j] + d.c_j_next * mu;
-    xi_edge[prev(j)] = xi_edge[prev(j)] + d.c_j_prev * mu;
-  }
+  Scratch<Dual>& s = scratch<Dual>();
+  mvc(polygon, p, s);
+  serendipity_xi(diagonals, s);
+  const std::size_t n = polygon.size();
   psi.resize(2 * n);
   gradient.resize(2 * n);
   for (std::size_t i = 0; i < n; ++i) {
-    const Dual vertex = xi_vertex[i] - xi_edge[i] - xi_edge[prev(i)];
-    const Dual edge = 4 * xi_edge[i];
+    const Dual vertex = s.xi_vertex[i] - s.xi_edge[i] - s.xi_edge[i == 0 ? n - 1 : i - 1];
+    const Dual edge = 4 * s.xi_edge[i];
     psi[i] = vertex.v;
     gradient[i] = {vertex.dx, vertex.dy};
     psi[n + i] = edge.v;
     gradient[n + i] = {edge.dx, edge.dy};
+  }
+}
+
+void serendipity_values(const std::vector<Point>& polygon, const std::vector<SerendipityDiagonal>& diagonals,
+                        const Point& p, std::vector<double>& psi) {
+  Scratch<double>& s = scratch<double>();
+  mvc(polygon, p, s);
+  serendipity_xi(diagonals, s);
+  const std::size_t n = polygon.size();
+  psi.resize(2 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    psi[i] = s.xi_vertex[i] - s.xi_edge[i] - s.xi_edge[i == 0 ? n - 1 : i - 1];
+    psi[n + i] = 4 * s.xi_edge[i];
   }
 }
 
