@@ -2,11 +2,11 @@
 
 #include <algorithm>
 #include <atomic>
-#include <exception>
-#include <mutex>
-#include <system_error>
+#include <limits>
 #include <thread>
 #include <vector>
+
+#include "tiles/parallel_jobs.h"
 
 namespace zoomwarp::warp {
 
@@ -15,38 +15,23 @@ int analysis_parallelism() {
   return threads;
 }
 
+// Ingest's job runner (tiles/parallel_jobs.h) with no memory budget: it starts its threads from
+// the caller for the call. Once a body has thrown, the indices not yet begun return at once.
 void parallel_for(int n, const std::function<void(int)>& body) {
-  const int threads = std::min(n, analysis_parallelism());
-  if (threads <= 1) {
-    for (int i = 0; i < n; ++i) body(i);
-    return;
-  }
-  std::atomic<int> next{0};
   std::atomic<bool> failed{false};
-  std::mutex error_mutex;
-  std::exception_ptr error;
-  const auto work = [&] {
-    for (int i = next++; i < n && !failed; i = next++) {
+  std::vector<tiles::Job> jobs;
+  jobs.reserve(std::size_t(std::max(n, 0)));
+  for (int i = 0; i < n; ++i)
+    jobs.push_back({[&, i] {
+      if (failed) return;
       try {
         body(i);
       } catch (...) {
-        std::lock_guard lock(error_mutex);
-        if (!error) error = std::current_exception();
         failed = true;
+        throw;
       }
-    }
-  };
-  std::vector<std::thread> helpers;
-  for (int t = 1; t < threads; ++t) {
-    try {
-      helpers.emplace_back(work);
-    } catch (const std::system_error&) {
-      break;  // no thread to be had: the ones started and this one do the work
-    }
-  }
-  work();
-  for (std::thread& helper : helpers) helper.join();
-  if (error) std::rethrow_exception(error);
+    }});
+  tiles::run_jobs(jobs, analysis_parallelism(), std::numeric_limits<std::size_t>::max());
 }
 
 }  // namespace zoomwarp::warp
