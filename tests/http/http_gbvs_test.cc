@@ -188,6 +188,13 @@ TEST_F(Gbvs, DegenerateShapesGetAGbvsMapAndViews) {
       EXPECT_EQ(screen.width, 360);
       EXPECT_EQ(screen.height, 640);
     }
+    // Its stored map is read as it was written, not taken for a damaged one and made again on
+    // every load (a 2×10000 image's 1×1024 map once was: its scale, width over width, is 0.5).
+    std::istringstream log(server_->log());
+    for (std::string line; std::getline(log, line);) {
+      const json j = json::parse(line, nullptr, false);
+      EXPECT_FALSE(j.is_object() && j.value("image", "") == id && j.value("level", "") != "info") << line;
+    }
   }
 }
 

@@ -10,6 +10,10 @@
 
 namespace zoomwarp::warp {
 
+// The pyramid level read_reduced_image reads: the first whose long side is at most
+// kSignificanceMaxSide (the last level if none is). Its size is every saliency map's.
+int analysis_level(const tiles::Manifest& manifest);
+
 // Throws std::runtime_error when the pyramid cannot be read.
 tiles::Raster read_reduced_image(const tiles::ImageEntry& image, tiles::PyramidReader& reader);
 

@@ -1,6 +1,5 @@
 #include "warp/analysis/saliency_files.h"
 
-#include <cmath>
 #include <cstdint>
 
 #include "warp/analysis/analysis_image.h"
@@ -53,9 +52,10 @@ SignificanceMap read_saliency_map_file(const tiles::ImageEntry& image, const cha
     auto [payload, format] = checked_payload(file, std::move(bytes), magics.floats_untrailed, magics.floats);
     map = float_map(file, payload.substr(magics.floats.size()), format);
   }
-  // The map covers the image: its sides are the image's times the scale, give or take rounding.
-  if (std::abs(map.width - map.scale * image.manifest.width) > 1 ||
-      std::abs(map.height - map.scale * image.manifest.height) > 2)
+  // Made from this image's analysis image, so of its size. (Not the sides times `scale`, give or
+  // take rounding: scale is width over width, and a 2×10000 image's 1×1024 map has 0.5 for 0.1024.)
+  const int level = analysis_level(image.manifest);
+  if (map.width != image.manifest.level_width(level) || map.height != image.manifest.level_height(level))
     throw ModelFileError(file, "made for another image size");
   return map;
 }
