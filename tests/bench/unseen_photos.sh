@@ -18,8 +18,10 @@ while [ $# -gt 0 ]; do
     *) echo "unseen_photos.sh: unknown argument '$1' (--help)" >&2; exit 2 ;;
   esac
 done
-# The photographs of the package (KDE's own photo wallpapers); the other ones are renders.
-photos=(Autumn BytheWater ColdRipple ColorfulCups DarkestHour EveningGlow FallenLeaf Grey Kite OneStandsOut Path summer_1am)
+# The photographs of the package (KDE's own photo wallpapers); the other ones are renders. Not
+# EveningGlow and BytheWater: they are samples/boats_lake_sunset.jpg and
+# samples/planks_by_the_water.jpg, which the tests see.
+photos=(Autumn ColdRipple ColorfulCups DarkestHour FallenLeaf Grey Kite OneStandsOut Path summer_1am)
 mkdir -p "$out/deb" "$out/photos"
 if ! ls "$out"/deb/plasma-workspace-wallpapers_*.deb > /dev/null 2>&1; then
   (cd "$out/deb" && apt-get download -q plasma-workspace-wallpapers)

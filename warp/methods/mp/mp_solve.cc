@@ -26,6 +26,8 @@ constexpr double kStageTolerance = 1e-4;
 // the samples take ≤ 250).
 constexpr double kLeastShapeStage = 1.0 / 1024;
 constexpr int kRunSteps = 100, kSolveSteps = 1000;
+// Step 6 tries this many lower object scales, the last the fit scale (ours).
+constexpr int kScaleSteps = 3;
 // The fold barrier's weight in the shape continuation's stages, over ε (ours): at ε the stretch
 // energy squeezes some triangles nearly flat (area ratio ~1e-4 on the samples), and the next
 // stage's change of the objects' map then folds them at any step size; ×30 keeps them open. The
@@ -644,9 +646,10 @@ double extent_bound(const MpModel& model, const std::vector<int>& object_of, boo
 }
 
 
-// The solve's fixed data (step 0): z (step 1), the edges eq. 10 prices, the lines' source
-// lengths, the stretch's triangle areas; the preconditions of mp_solve checked on the way.
-Problem make_problem(const MpModel& model, double target_w, double target_h, const MpSolveOptions& options) {
+// The solve's fixed data at object scale z (step 1 or 6): the objects' maps, the edges eq. 10
+// prices, the lines' source lengths, the stretch's triangle areas; the preconditions of mp_solve
+// checked on the way.
+Problem make_problem(const MpModel& model, double target_w, double target_h, double z, const MpSolveOptions& options) {
   if (!(model.width > 0 && model.height > 0 && target_w > 0 && target_h > 0))
     throw std::invalid_argument("mp_solve: sizes must be positive");
   const size_t n = model.mesh.vertices.size();
@@ -655,7 +658,7 @@ Problem make_problem(const MpModel& model, double target_w, double target_h, con
   pb.tw = target_w;
   pb.th = target_h;
   pb.line_weight = options.line_weight;
-  pb.z = mp_object_scale(model, target_w, target_h, options.beta);
+  pb.z = z;
   pb.object_of.assign(n, -1);
   for (size_t o = 0; o < model.objects.size(); ++o) {
     Borders touch;
@@ -700,6 +703,10 @@ Problem make_problem(const MpModel& model, double target_w, double target_h, con
 // What the solve has done so far (its MpSolution) and the hard parametrization's Newton system,
 // shared by every run of that layout.
 struct Progress {
+  Progress(const Problem& pb, const StopToken* stop_token) : stop(stop_token) {
+    sol.object_scale = pb.z;
+    sol.object_scales = pb.object_scale;
+  }
   MpSolution sol;
   NewtonSystem hard_system;
   const StopToken* stop = nullptr;
@@ -850,6 +857,44 @@ void penalty_continuation(const Problem& pb, const Layout& hard, double rigid_en
   }
 }
 
+// Steps 2 and 3: the rigid start, and if that folds, the shape continuation. True when either
+// ended rigid (run.sol then holds the result).
+bool rigid_solve(const Problem& pb, Progress& run) {
+  const Layout hard = make_layout(pb, true, pb.object_scale);
+  const std::vector<Point> poles = rigid_poles(pb, hard);
+  const Extension extend(pb);
+  return final_run(pb, hard, rigid_start(pb, extend, poles), poles, run) || shape_continuation(pb, extend, run);
+}
+
+// Step 6 (ours): eq. 3 was not reached at z — every path from the stretch stalled where the
+// objects at z leave the background too little room to bend into without collapsing, and the
+// penalty result (`failed`) is neither rigid nor open (samples/planks_by_the_water.jpg at 9:16:
+// 19 px from eq. 3, triangles at 1e-11 of their area, lines bent 6 px). z then steps toward the
+// fit scale z_fit = min(W'/W, H'/H), where the objects shrink at least as much as the stretch in
+// both directions, halving the distance each time (kScaleSteps, the last z_fit itself), each
+// step taking steps 2–3 from the stretch with its own step budget. The first that ends rigid
+// stands; if none does (or z ≤ z_fit already), `failed` does.
+MpSolution lowered_scale_solve(const MpModel& model, double target_w, double target_h, const MpSolveOptions& options,
+                               MpSolution failed) {
+  const double z_fit = std::min(target_w / model.width, target_h / model.height);
+  const double z = failed.object_scale;
+  if (!(z > z_fit)) return failed;
+  int iterations = failed.iterations;
+  for (int k = 1; k <= kScaleSteps; ++k) {
+    const double zk = k == kScaleSteps ? z_fit : z_fit + std::ldexp(z - z_fit, -k);
+    const Problem pb = make_problem(model, target_w, target_h, zk, options);
+    Progress run(pb, options.stop);
+    const bool rigid = rigid_solve(pb, run);
+    iterations += run.sol.iterations;
+    if (rigid) {
+      run.sol.iterations = iterations;
+      return run.sol;
+    }
+  }
+  failed.iterations = iterations;
+  return failed;
+}
+
 }  // namespace
 
 double mp_edge_energy(Point d, double l) {
@@ -942,11 +987,9 @@ std::vector<MpEdge> mp_ideal_edges(const MpModel& model, double target_w, double
 }
 
 MpSolution mp_solve(const MpModel& model, double target_w, double target_h, const MpSolveOptions& options) {
-  const Problem pb = make_problem(model, target_w, target_h, options);  // step 1 within
-  Progress run;
-  run.stop = options.stop;
-  run.sol.object_scale = pb.z;
-  run.sol.object_scales = pb.object_scale;
+  const double z = mp_object_scale(model, target_w, target_h, options.beta);  // step 1
+  const Problem pb = make_problem(model, target_w, target_h, z, options);
+  Progress run(pb, options.stop);
   const Layout hard = make_layout(pb, true, pb.object_scale);
 
   if (const auto [q, poles] = warm_start(pb, options); !q.empty() && final_run(pb, hard, q, poles, run)) {
@@ -958,12 +1001,10 @@ MpSolution mp_solve(const MpModel& model, double target_w, double target_h, cons
     final_run(pb, hard, q, poles, run);
     return run.sol;
   }
-  const std::vector<Point> poles = rigid_poles(pb, hard);  // step 2
-  const Extension extend(pb);
-  if (final_run(pb, hard, rigid_start(pb, extend, poles), poles, run)) return run.sol;
-  if (shape_continuation(pb, extend, run)) return run.sol;  // step 3
+  if (rigid_solve(pb, run)) return run.sol;                   // steps 2 and 3
   penalty_continuation(pb, hard, options.rigid_enough, run);  // step 4
-  return run.sol;
+  if (run.sol.rigid) return run.sol;
+  return lowered_scale_solve(model, target_w, target_h, options, std::move(run.sol));  // step 6
 }
 
 }  // namespace zoomwarp::warp

@@ -9,7 +9,7 @@
 // Everything is in analysis pixels (model.width × model.height onto target_w × target_h).
 //
 // The solve, in order (each step a function of mp_solve.cc: make_problem, rigid_start,
-// shape_continuation, penalty_continuation, final_run):
+// shape_continuation, penalty_continuation, final_run, lowered_scale_solve):
 //   1. z = mp_object_scale(): one scale for all objects, ≤ 1 and small enough that every row and
 //      column keeps a background scale ≥ β·W'/W (β·H'/H), so the ideal lengths of eq. 8 stay
 //      positive; z = 1 at W' = W, H' = H. Ours: each object's bounding box too (the row tables
@@ -48,13 +48,20 @@
 //      Newton run to |∇E|∞ < 1e-7·(W' + H') or a relative decrease < 1e-12 — if the substitution
 //      folds nothing; otherwise the continuation goes on, and after μ = 1e6 its result stands,
 //      rigid = false and rigidity_residual saying how far from rigid it is.
+//   6. Only if that ends not rigid (ours, issue 30): z lowered toward the fit scale
+//      z_fit = min(W'/W, H'/H) — z_fit + (z − z_fit)/2, /4, then z_fit — each with steps 2–3 from
+//      the stretch and its own step budget; the first rigid result stands (object_scale says
+//      which z), else step 5's. Where two objects on a border leave the background too little
+//      room, every path stalled and the penalty result collapsed triangles to 1e-11 of their area
+//      (samples/planks_by_the_water.jpg at 9:16: z = 0.98, rigid at 0.69).
 //   Every run adds the rotation term (ours, rotation_weight below: eq. 8's row and column scales
 //   shear the background around the objects, and the salient region beside them leaned 15–38°)
 //   and a fold barrier to E (ours, fold_barrier below): eq. 10 puts no price on a collapsing
 //   triangle, and where its descent points across a fold the fold-free line search
 //   alone stalls against it (α_max shrinking tenfold per step). The barrier is 0 with zero
 //   gradient at the uniform stretch, so the identity and the pure stretch stay exact.
-//   A Newton run takes at most 100 steps, a solve 1000 in all (then the runs left end at once).
+//   A Newton run takes at most 100 steps, a solve 1000 in all at each z (then the runs left end
+//   at once).
 //   With a warm start (the positions solved for a nearby target) the solve scales them onto the
 //   new rectangle, substitutes eq. 3 and runs step 5 alone; if that folds, it starts cold.
 //   The energy is not convex: different paths can end in different minima (on the samples the
@@ -110,7 +117,7 @@ struct MpSolveOptions {
 struct MpSolution {
   std::vector<Point> positions;  // per mesh vertex, analysis px of the target rectangle
   std::vector<Point> poles;      // Q_O per object
-  double object_scale = 1;       // z
+  double object_scale = 1;       // z, as step 6 left it
   std::vector<Point> object_scales;  // per object, the diagonal of its map under eq. 3 (above)
   bool rigid = true;             // eq. 3 holds exactly (step 5 ran); false: the penalty result
   double rigidity_residual = 0;  // max over object vertices of |Q_i − Q_O − diag(s)(P_i − P_O)|, px
