@@ -271,11 +271,10 @@ TEST(IcazLocalSolve, VisibleVerticesMatchTheWholeSolve) {
 // The coarse warp a view's refinement is judged on, solved here as icaz.cc solves it (same mesh,
 // weights, lines and tolerance; deterministic, so the same positions).
 std::vector<Point> coarse_warp(const warp::ImageModel& m, const warp::ZoomGeometry& g) {
-  warp::WarpOptions options;
-  options.tolerance = 0.05 / g.screen_scale;
-  options.fixed_line_normals = true;
   const warp::ShapeWarp coarse(m.coarse.mesh, warp::triangle_weights(m.coarse.mesh, m.significance, m.w_min), m.width,
                                m.height, m.straight_lines);
+  warp::WarpOptions options = warp::Icaz::solve_options(coarse, nullptr);
+  options.tolerance = 0.05 / g.screen_scale;
   return coarse.solve(g.target_width, g.target_height, options).positions;
 }
 

@@ -172,11 +172,17 @@ double Icaz::node_weight(int node, bool grow) {
 // accelerated iterations whatever the lines (bounded cost, limits.h): the coarse warp starts from
 // the affine stretch, which keeps lines straight and gives their orientation, and the fine level
 // from the coarse result, whose lines are straight already [ICAZ §6.2, nested iteration].
-WarpOptions Icaz::tolerance_for(const ZoomGeometry& g, const StopToken* stop) {
+WarpOptions Icaz::solve_options(const ShapeWarp& coarse, const StopToken* stop) {
   WarpOptions o;
-  o.tolerance = 0.05 / g.screen_scale;
   o.fixed_line_normals = true;
   o.stop = stop;
+  o.rotation_weight = coarse.factored_once() ? 0 : kRotationWeight;
+  return o;
+}
+
+WarpOptions Icaz::tolerance_for(const ZoomGeometry& g, const StopToken* stop) const {
+  WarpOptions o = solve_options(coarse_, stop);
+  o.tolerance = 0.05 / g.screen_scale;
   return o;
 }
 
@@ -267,8 +273,8 @@ double Icaz::anchor_gap(int j, int level, const StopToken* stop) {
   const double tw = model_.width * std::exp(middle_u * kFinestAnchorStep / 2);
   const double th = model_.height * std::exp(-middle_u * kFinestAnchorStep / 2);
   const std::vector<Point> middle = anchor_blend(middle_u, stride, tw, th, stop);
-  WarpOptions o;
-  o.max_iterations = 1, o.fold_guard = false, o.fixed_line_normals = true, o.stop = stop;
+  WarpOptions o = solve_options(coarse_, stop);
+  o.max_iterations = 1, o.fold_guard = false;
   const WarpResult step = coarse_.solve(tw, th, o, middle);
   double gap = 0;
   for (std::size_t i = 0; i < middle.size(); ++i)
@@ -284,10 +290,8 @@ const Icaz::CachedWarp& Icaz::anchor(int j, const StopToken* stop) {
     it->second.last_used = ++coarse_clock_;
     return it->second;
   }
-  WarpOptions o;
+  WarpOptions o = solve_options(coarse_, stop);
   o.tolerance = kAnchorTolerance;
-  o.fixed_line_normals = true;
-  o.stop = stop;
   WarpResult r = coarse_.solve(anchor_width(j), anchor_height(j), o);
   make_room(anchors_);
   const bool guarded = r.guard_rounds > 0 || r.affine_blend > 0;
