@@ -47,7 +47,7 @@ RetargetZoom::Positions RetargetZoom::warped(double tw, double th, WarpResult* s
   WarpOptions options;
   options.tolerance = 0.05;
   options.fixed_line_normals = true;
-  options.rotation_weight = kRotationWeight;
+  options.rotation_weight = warp_.factored_once() ? 0 : kRotationWeight;
   options.stop = stop;
   *stats = warp_.solve(tw, th, options);
   Positions solved = std::make_shared<const std::vector<Point>>(std::move(stats->positions));

@@ -58,7 +58,9 @@ class RetargetZoom : public Retargeter {
   static constexpr int kCachedSizes = 16;
   // WarpOptions::rotation_weight of the whole-image warp (ours, issue 30; docs/algorithms.md):
   // the corpus's worst salient rotation p95 at 360×640 from 10.6° (ρ = 0) to 8.5° (1) and 6.2°
-  // (3), the gain within 3 %; the first solve of an aspect takes about twice as long.
+  // (3), the gain within 3 %; the first solve of an aspect takes about twice as long. As ICAZ's
+  // (Icaz::kRotationWeight), only where the lines need the joint path anyway: without lines
+  // (lines=none) the energy is the paper's and the mesh that of before issue 30.
   static constexpr double kRotationWeight = 3;
   // The retargeted images' tiles kept, all sizes together: the tiles a 480×360 screen's zoom 0 … 0.5
   // read on a 20 MP image at one aspect are ~20 MB.
