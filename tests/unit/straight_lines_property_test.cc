@@ -6,8 +6,10 @@
 // the boats' horizon and gunwales past the bound, so the measure sees what the default fixed.
 // planks_by_the_water.jpg, a 1 MP photograph (analysed at 640×400), is where mp's object scale z
 // could not be reached on a 9:16 screen: without mp_solve's step 6 the planks' lines bent 5.9 px
-// around triangles squeezed to 1e-11 of their area. The boats at 1280 px are where ICAZ's lines
-// leaned the boats past 10° before its rotation term (Icaz::kRotationWeight).
+// around triangles squeezed to 1e-11 of their area. The boats at 1280 px: the same photograph made
+// 1280 px wide by vips (EveningGlow in tests/bench/unseen_photos.sh) leaned 10.05° under ICAZ
+// before its rotation term (Icaz::kRotationWeight); this copy, OpenImageIO's resize, 9.5° then
+// and 6.8° now.
 #include <gtest/gtest.h>
 
 #include <cmath>
