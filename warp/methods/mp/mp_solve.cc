@@ -857,10 +857,9 @@ void penalty_continuation(const Problem& pb, const Layout& hard, double rigid_en
   }
 }
 
-// Steps 2 and 3: the rigid start, and if that folds, the shape continuation. True when either
-// ended rigid (run.sol then holds the result).
-bool rigid_solve(const Problem& pb, Progress& run) {
-  const Layout hard = make_layout(pb, true, pb.object_scale);
+// Steps 2 and 3 in the hard layout `hard` of pb: the rigid start, and if that folds, the shape
+// continuation. True when either ended rigid (run.sol then holds the result).
+bool rigid_solve(const Problem& pb, const Layout& hard, Progress& run) {
   const std::vector<Point> poles = rigid_poles(pb, hard);
   const Extension extend(pb);
   return final_run(pb, hard, rigid_start(pb, extend, poles), poles, run) || shape_continuation(pb, extend, run);
@@ -884,7 +883,7 @@ MpSolution lowered_scale_solve(const MpModel& model, double target_w, double tar
     const double zk = k == kScaleSteps ? z_fit : z_fit + std::ldexp(z - z_fit, -k);
     const Problem pb = make_problem(model, target_w, target_h, zk, options);
     Progress run(pb, options.stop);
-    const bool rigid = rigid_solve(pb, run);
+    const bool rigid = rigid_solve(pb, make_layout(pb, true, pb.object_scale), run);
     iterations += run.sol.iterations;
     if (rigid) {
       run.sol.iterations = iterations;
@@ -1001,7 +1000,7 @@ MpSolution mp_solve(const MpModel& model, double target_w, double target_h, cons
     final_run(pb, hard, q, poles, run);
     return run.sol;
   }
-  if (rigid_solve(pb, run)) return run.sol;                   // steps 2 and 3
+  if (rigid_solve(pb, hard, run)) return run.sol;             // steps 2 and 3
   penalty_continuation(pb, hard, options.rigid_enough, run);  // step 4
   if (run.sol.rigid) return run.sol;
   return lowered_scale_solve(model, target_w, target_h, options, std::move(run.sol));  // step 6
