@@ -77,13 +77,15 @@ std::vector<int> visible_triangles(const Mesh& mesh, const std::vector<Point>& s
 }
 
 // Traditional zooming of a (possibly warped) image of size tw × th: uniform scale from
-// fit-to-screen (z = 0) to 1:1 (z = 1); the view centre goes to the screen centre, clamped so
+// fit-to-screen or cover-the-screen (z = 0, r.frame) to 1:1 (z = 1); the view centre goes to the screen centre, clamped so
 // that no blank shows along an axis where the image is larger than the screen, and centred
 // (letterboxed) along an axis where it is smaller.
 ZoomPlacement zoom_placement(double tw, double th, const ViewRequest& r, const Point& centre_warped) {
   ZoomPlacement out;
   const double sw = r.screen_width, sh = r.screen_height, z = std::clamp(std::isfinite(r.zoom) ? r.zoom : 0.0, 0.0, 1.0);
-  const double fit = std::min(sw / tw, sh / th);
+  // z = 0 shows the whole image or covers the screen with it (ZoomFrame); for a target
+  // of the screen's aspect the two are the same.
+  const double fit = r.frame.cover ? std::max(sw / tw, sh / th) : std::min(sw / tw, sh / th);
   const double scale = r.curve == ZoomCurve::kLinear ? (1 - z) * fit + z : fit * std::pow(1 / fit, z);
   auto axis = [&](double c, double size, double screen, bool* clamped) {
     const double extent = size * scale;

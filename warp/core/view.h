@@ -18,6 +18,7 @@ struct ViewRequest {
   double cx = 0, cy = 0;  // view centre, image pixels
   int screen_width = 480, screen_height = 360;
   ZoomCurve curve = ZoomCurve::kGeometric;
+  ZoomFrame frame;  // what zoom 0 shows; the default is the paper's global view (fit=warp)
   double max_screen_area = 500;  // px², the paper's runtime threshold [ICAZ §6.1]
   // The request's deadline and cancel flag, checked between steps (Stopped is thrown); none: runs
   // to the end. Not owned.

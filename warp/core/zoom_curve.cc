@@ -5,14 +5,22 @@
 
 namespace zoomwarp::warp {
 
-ZoomGeometry zoom_geometry(double W, double H, double sw, double sh, double z, ZoomCurve curve) {
+double frame_aspect(const ZoomFrame& frame, double sw, double sh) {
+  return std::isfinite(frame.aspect) && frame.aspect > 0 ? frame.aspect : sw / sh;
+}
+
+ZoomGeometry zoom_geometry(double W, double H, double sw, double sh, double z, ZoomCurve curve, ZoomFrame frame) {
   z = std::clamp(std::isfinite(z) ? z : 0.0, 0.0, 1.0);
-  const double screen_aspect = sw / sh, image_aspect = W / H;
-  const double aspect = (1 - z) * screen_aspect + z * image_aspect;
+  const double screen_aspect = sw / sh, image_aspect = W / H, aspect0 = frame_aspect(frame, sw, sh);
+  const double aspect = (1 - z) * aspect0 + z * image_aspect;
   ZoomGeometry g;
   g.target_width = std::sqrt(W * H * aspect);
   g.target_height = std::sqrt(W * H / aspect);
-  const double full_view_w = std::sqrt(W * H * screen_aspect);  // the whole z = 0 target
+  // The z = 0 viewing area: the screen-shaped rectangle inside the z = 0 target; with the screen's
+  // aspect, the whole target (the paper's global view).
+  const double full_view_w = aspect0 == screen_aspect
+                                 ? std::sqrt(W * H * screen_aspect)
+                                 : std::min(std::sqrt(W * H * aspect0), std::sqrt(W * H / aspect0) * screen_aspect);
   double view_w = curve == ZoomCurve::kLinear ? (1 - z) * full_view_w + z * sw
                                               : full_view_w * std::pow(sw / full_view_w, z);
   // Fit the viewing area inside the warped image, but never shrink it below the screen (a

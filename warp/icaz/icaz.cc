@@ -347,7 +347,8 @@ View Icaz::view_in(const ViewRequest& req, bool grow) {
   check_stop(req.stop);
   View out;
   out.forest_epoch = forest_epoch_;
-  const ZoomGeometry g = zoom_geometry(model_.width, model_.height, req.screen_width, req.screen_height, req.zoom, req.curve);
+  const ZoomGeometry g = zoom_geometry(model_.width, model_.height, req.screen_width, req.screen_height, req.zoom, req.curve,
+                                        req.frame);
   out.geometry = g;
   const Point centre{std::clamp(req.cx, 0.0, model_.width), std::clamp(req.cy, 0.0, model_.height)};
 

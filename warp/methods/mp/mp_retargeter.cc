@@ -62,7 +62,7 @@ View MpRetargeting::view(const ViewRequest& r) {
   check_view_request(r);
   check_stop(r.stop);
   // The z = 0 target of ICAZ: the screen's aspect ratio, the image's area [ICAZ §5.1].
-  const ZoomGeometry g = zoom_geometry(width_, height_, r.screen_width, r.screen_height, 0, r.curve);
+  const ZoomGeometry g = zoom_geometry(width_, height_, r.screen_width, r.screen_height, 0, r.curve, r.frame);
   Solved s = warped(g.target_width, g.target_height, r.stop);
   const double sx = g.target_width / s.target_width, sy = g.target_height / s.target_height;
   for (Point& p : s.positions) p = {p.x * sx, p.y * sy};

@@ -44,7 +44,7 @@ View PatchRetargeting::view(const ViewRequest& r) {
   check_view_request(r);
   check_stop(r.stop);
   // The z = 0 target of ICAZ: the screen's aspect ratio, the image's area [ICAZ §5.1].
-  const ZoomGeometry g = zoom_geometry(width_, height_, r.screen_width, r.screen_height, 0, r.curve);
+  const ZoomGeometry g = zoom_geometry(width_, height_, r.screen_width, r.screen_height, 0, r.curve, r.frame);
   WarpResult stats;
   const std::vector<Point> q = warped(g.target_width, g.target_height, &stats.affine_blend, r.stop);
   stats.converged = true;

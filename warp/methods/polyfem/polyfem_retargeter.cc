@@ -162,7 +162,7 @@ View PolyfemRetargeting::view(const ViewRequest& r, PolyfemViewStats* stats) {
   check_view_request(r);
   check_stop(r.stop);
   // The z = 0 target of ICAZ: the screen's aspect ratio, the image's area [ICAZ §5.1].
-  const ZoomGeometry g = zoom_geometry(width_, height_, r.screen_width, r.screen_height, 0, r.curve);
+  const ZoomGeometry g = zoom_geometry(width_, height_, r.screen_width, r.screen_height, 0, r.curve, r.frame);
   const double tw = g.target_width, th = g.target_height;
   const std::shared_ptr<const Target> t = target(tw, th, r.stop);
   check_stop(r.stop);

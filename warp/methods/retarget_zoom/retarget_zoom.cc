@@ -60,7 +60,7 @@ RetargetZoom::Warped RetargetZoom::warped_view(const ViewRequest& r) {
   check_stop(r.stop);
   Warped out;
   // The z = 0 target of ICAZ: the screen's aspect ratio, the image's area [ICAZ §5.1].
-  out.geometry = zoom_geometry(width_, height_, r.screen_width, r.screen_height, 0, r.curve);
+  out.geometry = zoom_geometry(width_, height_, r.screen_width, r.screen_height, 0, r.curve, r.frame);
   out.warp = warped(out.geometry.target_width, out.geometry.target_height, &out.stats, r.stop);
   const Point centre = request_centre(r, width_, height_);
   out.centre = locate(mesh(), *out.warp, centre, locator_.find(centre));

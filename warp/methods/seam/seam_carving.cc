@@ -157,9 +157,9 @@ std::shared_ptr<const CarveTable> SeamCarving::table(bool vertical, int seams) {
                      std::make_shared<const CarveTable>(carve(vertical ? maps_.vertical : maps_.horizontal, seams)));
 }
 
-CarvedImage SeamCarving::carved(int sw, int sh) {
+CarvedImage SeamCarving::carved(double sw, double sh) {
   CarvedImage c;
-  // Removal only [Avidan07 §4]: the side that is too long for the screen's aspect shrinks.
+  // Removal only [Avidan07 §4]: the side that is too long for the target's aspect shrinks.
   c.vertical = width_ * sh < height_ * sw;
   c.width = c.vertical ? width_ : std::min(width_, height_ * sw / sh);
   c.height = c.vertical ? std::min(height_, width_ * sh / sw) : height_;
@@ -179,7 +179,9 @@ CarvedImage SeamCarving::carved(int sw, int sh) {
 SeamCarving::ScreenLayout SeamCarving::layout(const ViewRequest& r) {
   check_view_request(r);
   const int sw = r.screen_width, sh = r.screen_height;
-  ScreenLayout out{carved(sw, sh), {}, {}, {}, {}};
+    // The target is the screen's shape, or the frame's aspect (fit=auto, warp/window/fit.h).
+  const bool framed = frame_aspect(r.frame, sw, sh) != double(sw) / sh;
+  ScreenLayout out{framed ? carved(r.frame.aspect, 1) : carved(sw, sh), {}, {}, {}, {}};
   const CarvedImage& c = out.carved;
   // Traditional zoom into the carved image [ICAZ §6.1]: its rectangle through core's geometry.
   const Mesh rect{{{0, 0}, {c.width, 0}, {c.width, c.height}, {0, c.height}}, {{0, 1, 2}, {0, 2, 3}}};

@@ -90,8 +90,9 @@ class SeamCarving final : public Retargeter {
   std::vector<Point> screen_sources(const ViewRequest& request) override;
   std::size_t memory_bytes() override;
 
-  // The carving for a screen of sw × sh (its carve table cached, the 8 most recent kept).
-  CarvedImage carved(int screen_width, int screen_height);
+  // The carving to a target of aspect ratio sw / sh — a screen's, or a request's ZoomFrame's
+  // (its carve table cached, the 8 most recent kept).
+  CarvedImage carved(double sw, double sh);
 
  private:
   // Where a request's screen pixels come from: the carving, the zoom into it, and per screen
