@@ -110,6 +110,7 @@ struct Icaz::CoarseWarp {
 
 Icaz::Icaz(ImageModel model, const IcazOptions& options)
     : model_(std::move(model)),
+      profile_(warp::significance_profile(model_.significance, model_.edits, model_.width, model_.height)),
       options_(options),
       coarse_(model_.coarse.mesh, triangle_weights(model_.coarse.mesh, model_.significance, model_.w_min),
               model_.width, model_.height, model_.straight_lines),

@@ -30,6 +30,7 @@
 #include "warp/core/stop_token.h"
 #include "warp/core/view.h"
 #include "warp/core/zoom_curve.h"
+#include "warp/window/view_window.h"
 
 namespace zoomwarp::warp {
 
@@ -89,6 +90,10 @@ class Icaz {
   Geomorph geomorph(const View& from, const View& to, const StopToken* stop = nullptr);
 
   const ImageModel& model() const { return model_; }
+
+  // Where the model's significance lies along each axis: what fit= places its window by
+  // (window/view_window.h), for every method's views of this version and saliency kind.
+  const SignificanceProfile& significance_profile() const { return profile_; }
 
   // WarpOptions::rotation_weight of every solve of a model that holds lines (ours, issue 30;
   // docs/algorithms.md, ICAZ): holding each line whole leans the salient shapes beside it (the
@@ -157,6 +162,7 @@ class Icaz {
   void count_coarse_bytes();
 
   const ImageModel model_;
+  const SignificanceProfile profile_;
   const IcazOptions options_;
   const ShapeWarp coarse_;
   double sig_lo_ = 0, sig_hi_ = 1;  // range of root means: maps significance to [w_min, 1]

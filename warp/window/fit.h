@@ -1,0 +1,52 @@
+// `fit=` of a view (issue 41): what zoom 0 does with an image whose aspect ratio is not the
+// screen's. A warp of the whole image onto a phone screen squeezes what matters about as much as
+// a uniform stretch would once the aspect change is large; RetargetMe's study [Rubinstein10]
+// found that people prefer cropping, or crop and warp together, at such changes. So:
+//
+//   auto  warp within a distortion budget and crop what matters least for the rest: the warp's
+//         target keeps at most `max_distortion` of the aspect change (its uniform stretch), the
+//         screen shows the part of it with the screen's aspect (view_window.h places it). An
+//         aspect change within the budget is warped whole, as `warp`.
+//   warp  the whole image warped to the screen's aspect ([ICAZ §5.1]'s global view). For now
+//         the default (kDefaultFit).
+//   crop  a content-aware crop: no warp, the screen covered by the image, placed as `auto` is.
+//   pad   the whole image undistorted, with bands.
+//
+// Plain data; thread-safe.
+#pragma once
+
+#include <optional>
+#include <string_view>
+
+namespace zoomwarp::warp {
+
+enum class Fit { kAuto, kWarp, kCrop, kPad };
+
+// The accepted `max_distortion=` values: the largest ratio of a uniform stretch's two scales the
+// warp absorbs. 1 crops everything away that does not fit (as `crop`, but warped); the upper end
+// is beyond any screen a client has (4096×16 against 16×4096 is 65 536, but no view is worth
+// that: past 8 the result is a sliver either way).
+inline constexpr double kMinMaxDistortion = 1.0, kMaxMaxDistortion = 8.0;
+
+// The default budget, chosen on pictures and on measures the methods do not optimise
+// (docs/compare.md, "fit=auto"): at 1.5 a salient shape on screen is at most about 1.5 times wider
+// than tall where it was square — what the eye still reads as the same shape.
+inline constexpr double kDefaultMaxDistortion = 1.5;
+
+// What a view without `fit=` gets: `warp`, the views of before fit=, until auto's figures on unseen
+// photographs are in (issue 41, docs/compare.md); the web viewer asks for auto itself.
+inline constexpr Fit kDefaultFit = Fit::kWarp;
+
+struct FitOptions {
+  Fit fit = kDefaultFit;
+  double max_distortion = kDefaultMaxDistortion;
+};
+
+std::string_view fit_name(Fit fit);
+std::optional<Fit> parse_fit(std::string_view name);  // "auto", "warp", "crop", "pad"; else none
+
+// Whether views of this fit warp the image: crop and pad do not, so any method draws them by
+// traditional zoom.
+inline bool fit_warps(Fit fit) { return fit == Fit::kAuto || fit == Fit::kWarp; }
+
+}  // namespace zoomwarp::warp

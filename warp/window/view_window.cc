@@ -1,0 +1,188 @@
+#include "warp/window/view_window.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "warp/core/triangle_locator.h"
+#include "warp/core/uniform_zoom.h"
+
+namespace zoomwarp::warp {
+
+SignificanceProfile significance_profile(const SignificanceMap& map, const std::vector<SignificanceEdit>& edits,
+                                         double width, double height) {
+  SignificanceProfile p;
+  p.width = width, p.height = height;
+  p.column_mass.assign(std::max(map.width, 0), 0.0), p.row_mass.assign(std::max(map.height, 0), 0.0);
+  p.column_important = p.column_mass, p.row_important = p.row_mass;
+  for (int y = 0; y < map.height; ++y)
+    for (int x = 0; x < map.width; ++x) {
+      const double v = map.at(x, y);
+      p.column_mass[x] += v, p.row_mass[y] += v;
+    }
+  // The important regions painted on a blank map of the same grid (the regions are polygons in
+  // image pixels; paint_polygon rasterises them as the significance edits were).
+  SignificanceMap important{map.width, map.height, map.scale, std::vector<float>(map.values.size(), 0.0f)};
+  bool any = false;
+  for (const SignificanceEdit& e : edits)
+    if (e.weight >= kImportantWeight) paint_polygon(important, e.polygon, 1.0f), any = true;
+  if (any)
+    for (int y = 0; y < map.height; ++y)
+      for (int x = 0; x < map.width; ++x)
+        if (important.at(x, y) > 0) p.column_important[x] += 1, p.row_important[y] += 1;
+  return p;
+}
+
+namespace {
+
+// Mass of bins [0, t) for a fractional bin index t (each bin spread evenly over its width).
+struct Cumulative {
+  std::vector<double> prefix;  // prefix[k] = Σ bins [0, k)
+  explicit Cumulative(const std::vector<double>& bins) : prefix(bins.size() + 1, 0.0) {
+    for (std::size_t k = 0; k < bins.size(); ++k) prefix[k + 1] = prefix[k] + bins[k];
+  }
+  double at(double t) const {
+    const double n = double(prefix.size() - 1);
+    t = std::clamp(t, 0.0, n);
+    const std::size_t k = std::min(std::size_t(t), prefix.size() - 2);
+    return prefix[k] + (t - double(k)) * (prefix[k + 1] - prefix[k]);
+  }
+  double between(double a, double b) const { return at(b) - at(a); }
+};
+
+// The start (image px) of the `length`-long window along an axis of `extent` px with the most
+// important area, then the most mass; of equal ones, the one nearest the middle.
+double best_start(const std::vector<double>& mass, const std::vector<double>& important, double extent, double length) {
+  const double n = double(mass.size());
+  if (n == 0 || length >= extent) return 0;
+  const double bins_per_px = n / extent, span = length * bins_per_px, last = n - span;
+  const Cumulative m(mass), imp(important);
+  const double eps_imp = 1e-9 * std::max(1.0, imp.at(n)), eps_mass = 1e-9 * std::max(1.0, m.at(n));
+  double best = last / 2, best_imp = imp.between(best, best + span), best_mass = m.between(best, best + span);
+  // Every start on the bins' grid, and the last: between two grid points both window ends move
+  // over one bin each, so the masses are linear there and the best is at one of them.
+  const int steps = int(std::ceil(last));
+  for (int k = 0; k <= steps; ++k) {
+    const double s = std::min(double(k), last);
+    const double i = imp.between(s, s + span), v = m.between(s, s + span);
+    const bool better = i > best_imp + eps_imp ||
+                        (i >= best_imp - eps_imp &&
+                         (v > best_mass + eps_mass || (v >= best_mass - eps_mass && std::abs(s - last / 2) < std::abs(best - last / 2))));
+    if (better) best = s, best_imp = i, best_mass = v;
+  }
+  return best / bins_per_px;
+}
+
+struct Budget {
+  bool crops = false;
+  double aspect0 = 0;  // the target's aspect at z = 0
+};
+
+// a₀ for `fit` (see the header): the image's for crop; for auto the screen's while the aspect
+// change is within the budget, else the image's divided (multiplied, for a tall image) by it.
+Budget budget(const SignificanceProfile& p, const FitOptions& fit, double sw, double sh) {
+  const double image_aspect = p.width / p.height, screen_aspect = sw / sh, change = image_aspect / screen_aspect;
+  if (fit.fit == Fit::kCrop) return {image_aspect != screen_aspect, image_aspect};
+  if (fit.fit != Fit::kAuto || std::max(change, 1 / change) <= fit.max_distortion) return {false, 0};
+  return {true, change > 1 ? image_aspect / fit.max_distortion : image_aspect * fit.max_distortion};
+}
+
+}  // namespace
+
+WindowFrame window_frame(const SignificanceProfile& p, const FitOptions& fit, int sw, int sh, bool warps) {
+  if (!std::isfinite(fit.max_distortion) || fit.max_distortion < kMinMaxDistortion || fit.max_distortion > kMaxMaxDistortion)
+    throw std::invalid_argument("max_distortion must be between " + std::to_string(kMinMaxDistortion) + " and " +
+                                std::to_string(kMaxMaxDistortion));
+  WindowFrame out;
+  if (fit.fit == Fit::kWarp || fit.fit == Fit::kPad || (fit.fit == Fit::kAuto && !warps)) return out;
+  if (!(p.width > 0 && p.height > 0 && sw > 0 && sh > 0)) return out;
+  const Budget b = budget(p, fit, sw, sh);
+  if (!b.crops) return out;
+  const double screen_aspect = double(sw) / sh;
+  ViewWindow& w = out.window;
+  w.along_x = b.aspect0 > screen_aspect;
+  // The screen shows the screen-shaped part of the a₀ target: a_S/a₀ of its width (a₀/a_S of its
+  // height), taken as that share of the source.
+  const double extent = w.along_x ? p.width : p.height;
+  w.length = std::min(extent, w.along_x ? p.width * screen_aspect / b.aspect0 : p.height * b.aspect0 / screen_aspect);
+  w.crops = w.length < extent;
+  if (!w.crops) return out;
+  w.start = w.along_x ? best_start(p.column_mass, p.column_important, extent, w.length)
+                      : best_start(p.row_mass, p.row_important, extent, w.length);
+  out.frame = {b.aspect0, true};
+  return out;
+}
+
+double window_offset(const ViewWindow& w, const SignificanceProfile& p) {
+  if (!w.crops) return 0;
+  return w.start + w.length / 2 - (w.along_x ? p.width : p.height) / 2;
+}
+
+double warped_window_offset(const View& v, const ViewWindow& w, const SignificanceProfile& p) {
+  const std::vector<double>& mass = w.along_x ? p.column_mass : p.row_mass;
+  const std::vector<double>& important = w.along_x ? p.column_important : p.row_important;
+  const double extent = w.along_x ? p.width : p.height;
+  const double target = w.along_x ? v.geometry.target_width : v.geometry.target_height;
+  const double view = w.along_x ? v.geometry.view_width : v.geometry.view_height;
+  const int n = int(mass.size());
+  if (!w.crops || n == 0 || v.source.triangles.empty() || v.warped.size() != v.source.vertices.size() || !(target > view))
+    return window_offset(w, p);
+  // u[k]: where the k-th bin edge of the profile's axis lands in the warped image, along the
+  // image's middle line (kept non-decreasing: a fold would only make it so locally).
+  const TriangleLocator locator(v.source);
+  const auto along = [&](const Point& q) { return w.along_x ? q.x : q.y; };
+  std::vector<double> u(std::size_t(n) + 1);
+  for (int k = 0; k <= n; ++k) {
+    const double t = extent * k / n;
+    const Point q = w.along_x ? Point{t, p.height / 2} : Point{p.width / 2, t};
+    u[k] = along(locate(v.source, v.warped, q, locator.find(q)));
+    if (k > 0) u[k] = std::max(u[k], u[k - 1]);
+  }
+  // The source position (in bins) that lands at warped coordinate x: u inverted piecewise linearly.
+  const auto bin_at = [&](double x) {
+    if (x <= u.front()) return 0.0;
+    if (x >= u.back()) return double(n);
+    const std::size_t k = std::size_t(std::upper_bound(u.begin(), u.end(), x) - u.begin());  // u[k-1] <= x < u[k]
+    const double span = u[k] - u[k - 1];
+    return double(k - 1) + (span > 0 ? (x - u[k - 1]) / span : 0.0);
+  };
+  // The screen-wide warped window with the most important area (counted a small margin inside
+  // its edges, so that a region is not kept only to the pixel) and then the most significance;
+  // candidates: every warped bin edge as the window's start or end, and both ends of the target.
+  const Cumulative m(mass), imp(important);
+  const double margin = 0.02 * view, last = target - view;
+  const double eps_imp = 1e-9 * std::max(1.0, imp.at(n)), eps_mass = 1e-9 * std::max(1.0, m.at(n));
+  double best = -1, best_imp = 0, best_mass = 0;
+  const auto consider = [&](double s) {
+    s = std::clamp(s, 0.0, last);
+    const double i = imp.between(bin_at(s + margin), bin_at(s + view - margin));
+    const double v_mass = m.between(bin_at(s), bin_at(s + view));
+    const bool better = best < 0 || i > best_imp + eps_imp ||
+                        (i >= best_imp - eps_imp &&
+                         (v_mass > best_mass + eps_mass ||
+                          (v_mass >= best_mass - eps_mass && std::abs(s - last / 2) < std::abs(best - last / 2))));
+    if (better) best = s, best_imp = i, best_mass = v_mass;
+  };
+  consider(0), consider(last);
+  for (double x : u) consider(x), consider(x - view);
+  // The source point that lands at the chosen window's middle: the request centre that places it.
+  return bin_at(best + view / 2) * extent / n - extent / 2;
+}
+
+ViewRequest panned_view(const ViewRequest& r, const WindowFrame& f, double offset, const SignificanceProfile& p) {
+  ViewRequest out = r;
+  out.frame = f.frame;
+  if (!f.window.crops || !std::isfinite(offset)) return out;
+  const double z = std::clamp(std::isfinite(r.zoom) ? r.zoom : 0.0, 0.0, 1.0);
+  if (f.window.along_x) out.cx = std::clamp(r.cx + offset * (1 - z), 0.0, p.width);
+  else out.cy = std::clamp(r.cy + offset * (1 - z), 0.0, p.height);
+  return out;
+}
+
+ViewRequest framed_view(const ViewRequest& r, const FitOptions& fit, const SignificanceProfile& p, bool warps) {
+  const WindowFrame f = window_frame(p, fit, r.screen_width, r.screen_height, warps);
+  return panned_view(r, f, window_offset(f.window, p), p);
+}
+
+}  // namespace zoomwarp::warp

@@ -1,0 +1,91 @@
+// The viewing window of `fit=auto` and `fit=crop` (fit.h, issue 41): which part of the image a
+// view at zoom 0 crops to, chosen once for every method. Every method maps the whole image onto a
+// target of the request's ZoomFrame aspect and shows the screen-shaped part of it around the
+// request's centre (core/zoom_curve.h, core/uniform_zoom.h); this part sets that aspect and moves
+// the centre so that what is cropped is what matters least:
+//
+//   the target aspect a₀ keeps at most `max_distortion` of the aspect change: for an image wider
+//   than the screen (a_I = W/H > a_S = w/h by more than the budget B) a₀ = a_I / B, so the screen
+//   shows a source window about L = W·a_S/a₀ wide (taller images alike, along y);
+//
+//   the window is the L-long interval along that axis with the most curator-important area (the
+//   curator's regions of weight ≥ kImportantWeight), and among those the most significance — so a
+//   region the curator marked important is never cropped while less important content could be
+//   instead, and faces (painted fully significant) weigh as much as anything;
+//
+//   the request's centre c pans it: the view centres on c + d·(1 − z), d the best window's offset
+//   from the image centre, so a request centred on the image (every client's default) shows the
+//   best window, a pan of the overview moves it by as much, and the offset fades out as the
+//   zoom goes to 1, where the view is the exact crop around c. Continuous in z and in c.
+//
+// Plain functions on plain data; thread-safe.
+#pragma once
+
+#include <vector>
+
+#include "warp/core/view.h"
+#include "warp/saliency/significance.h"
+#include "warp/window/fit.h"
+
+namespace zoomwarp::warp {
+
+// A curator's region counts as marked important from this weight on (SignificanceEdit::weight ∈
+// [0, 1]; 1 = "most important", the viewer's default for "important").
+inline constexpr float kImportantWeight = 0.5f;
+
+// Where an image's significance lies along each axis, at the map's resolution: per map column
+// (row) the sum of its significance, and the number of its pixels inside a region the curator
+// marked important. Made once per engine (warp/icaz/icaz.h keeps one per version and saliency).
+struct SignificanceProfile {
+  double width = 0, height = 0;  // the image, px
+  std::vector<double> column_mass, row_mass;
+  std::vector<double> column_important, row_important;
+};
+
+SignificanceProfile significance_profile(const SignificanceMap& map, const std::vector<SignificanceEdit>& edits,
+                                         double width, double height);
+
+// What zoom 0 shows along the axis the screen crops: the source interval [start, start + length)
+// (image px). `crops` false: nothing is cropped (the whole image is shown, warped or not).
+struct ViewWindow {
+  bool crops = false;
+  bool along_x = true;
+  double start = 0, length = 0;
+};
+
+// The frame every view of a fit gets, and its best window before any pan.
+struct WindowFrame {
+  ZoomFrame frame;  // the default (the screen's aspect, whole) when nothing is cropped
+  ViewWindow window;
+};
+
+// The frame and best window of `fit` for a screen (both sides > 0) on the profile's image. `warps`
+// is false for a method that does not warp (traditional zoom): auto and warp then show the whole
+// image as before, crop covers the screen. crop and pad set the frame for traditional zoom, which
+// draws them whatever the method (fit_warps). Throws std::invalid_argument for a max_distortion
+// outside [kMinMaxDistortion, kMaxMaxDistortion] or not finite.
+WindowFrame window_frame(const SignificanceProfile& profile, const FitOptions& fit, int screen_width, int screen_height,
+                         bool warps = true);
+
+// The best window's offset from the image centre along its axis (image px): where a request
+// centred on the image moves to, for a method that does not warp.
+double window_offset(const ViewWindow& window, const SignificanceProfile& profile);
+
+// The same for a warp: the warp enlarges what matters, so the source window does not fill the
+// screen as it did in the source. From `zoom0`, a method's view at zoom 0 of a request with the
+// window's frame (any centre), the window is chosen again where the method draws it — the
+// screen-wide stretch of the warped image with the most important area (a margin of 2 % inside
+// its edges), then the most significance, the profile's bins placed through the warp along the
+// image's middle line — and the offset is that of the source point landing in its middle.
+double warped_window_offset(const View& zoom0, const ViewWindow& window, const SignificanceProfile& profile);
+
+// The request a method draws: `f`'s frame, and the centre moved by `offset` along the window's
+// axis, fading out with the zoom (c + offset·(1 − z), clamped to the image).
+ViewRequest panned_view(const ViewRequest& request, const WindowFrame& f, double offset, const SignificanceProfile& profile);
+
+// window_frame, then panned_view by window_offset: the request framed without a method's warp
+// (the api refines the offset through the method's warp, api/framed_views.h).
+ViewRequest framed_view(const ViewRequest& request, const FitOptions& fit, const SignificanceProfile& profile,
+                        bool warps = true);
+
+}  // namespace zoomwarp::warp
