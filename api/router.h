@@ -25,6 +25,7 @@
 
 #include "api/authorize.h"
 #include "api/cached_responses.h"
+#include "api/framed_views.h"
 #include "api/deepzoom.h"
 #include "api/http_types.h"
 #include "api/iiif.h"
@@ -161,6 +162,7 @@ class Router {
   ImageAccess access_;
   CachedResponses responses_;
   WarpEngines engines_;
+  ViewFraming framing_{engines_};  // fit= of /viewport and /mesh (api/framed_views.h)
   tiles::StoredTiles stored_tiles_;
   std::atomic<std::uint64_t> passed_through_{0};
 };

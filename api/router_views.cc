@@ -8,6 +8,7 @@
 
 #include "api/edit_body.h"
 #include "api/errors.h"
+#include "api/framed_views.h"
 #include "api/http_caching.h"
 #include "api/mesh_json.h"
 #include "api/responses.h"
@@ -95,11 +96,12 @@ std::optional<Response> Router::view_route(const Request& req, const PathParams&
   return responses_.image_response(req, *entry, what, q.canonical(), may_compute, [&](const tiles::ImageEntry& e) {
     try {
       // Whatever the method, it draws through a Retargeter (api/view_methods.h), its warp for this
-      // screen made first (in the background: every view of that screen shares it).
-      const std::shared_ptr<warp::Retargeter> engine = engines_.view_engine(
-          e, *q.method, q.saliency, q.lines, req.stop, q.view.screen_width, q.view.screen_height);
+      // screen made first (in the background: every view of that screen shares it), the request
+      // framed for fit= first (api/framed_views.h).
+      const FramedQuery framed = framing_.frame(e, q, req.stop);
+      const std::shared_ptr<warp::Retargeter>& engine = framed.engine;
       if (route == ViewRoute::kViewport) {
-        const tiles::Raster screen = engine->render(q.view, e, reader_);
+        const tiles::Raster screen = engine->render(framed.view, e, reader_);
         warp::check_stop(req.stop);  // not worth encoding a view nobody waits for any more
         tiles::EncodeOptions encode = config_.encode;
         if (q.quality > 0) encode.jpeg_quality = encode.webp_quality = encode.avif_quality = encode.jxl_quality = q.quality;
@@ -110,9 +112,10 @@ std::optional<Response> Router::view_route(const Request& req, const PathParams&
                        "method=" + std::string(q.method_name()) + " carves pixels away and has no mesh; use /viewport?method=" +
                            std::string(q.method_name()));
       const std::string tile_ext = e.manifest.has_alpha() ? "png" : "jpg";
-      if (!q.from) return body_response("application/json", mesh_json(e.manifest, q, engine->view(q.view), nullptr, config_.dzi, tile_ext));
+      if (!framed.from)
+        return body_response("application/json", mesh_json(e.manifest, q, engine->view(framed.view), nullptr, config_.dzi, tile_ext));
       warp::View to;
-      const warp::Geomorph morph = engine->geomorph(*q.from, q.view, &to);
+      const warp::Geomorph morph = engine->geomorph(*framed.from, framed.view, &to);
       return body_response("application/json", mesh_json(e.manifest, q, to, &morph, config_.dzi, tile_ext));
     } catch (const std::invalid_argument& err) {
       throw ApiError(400, "invalid_view", err.what());

@@ -80,6 +80,12 @@ ViewQuery parse_view_query(std::string_view raw_query, ViewRoute route, double W
       if (value == "geometric") q.view.curve = warp::ZoomCurve::kGeometric;
       else if (value == "linear") q.view.curve = warp::ZoomCurve::kLinear;
       else bad("curve must be geometric or linear, not '" + value + "'");
+    } else if (name == "fit") {
+      const auto fit = warp::parse_fit(value);
+      if (!fit) bad("fit must be auto, warp, crop or pad, not '" + value + "'");
+      q.fit.fit = *fit;
+    } else if (name == "max_distortion") {
+      q.fit.max_distortion = in_range(name, number(name, value), warp::kMinMaxDistortion, warp::kMaxMaxDistortion);
     } else if (route == ViewRoute::kMesh && name == "from_zoom") from_zoom = in_range(name, number(name, value), 0, 1);
     else if (route == ViewRoute::kMesh && name == "from_cx") from_cx = in_range(name, number(name, value), 0, W);
     else if (route == ViewRoute::kMesh && name == "from_cy") from_cy = in_range(name, number(name, value), 0, H);
@@ -127,6 +133,15 @@ std::string ViewQuery::canonical() const {
   out.append(",");
   append_g17(out, view.cy);
   out.append("|s=").append(std::to_string(view.screen_width)).append("x").append(std::to_string(view.screen_height));
+  // fit=warp draws what every view drew before fit= (issue 41): its key is the key of then, so an
+  // ETag from then still revalidates; the other fits draw other views and have keys of their own.
+  if (fit.fit != warp::Fit::kWarp) {
+    out.append("|fit=").append(warp::fit_name(fit.fit));
+    if (fit.fit == warp::Fit::kAuto) {
+      out.append(",");
+      append_g17(out, fit.max_distortion);
+    }
+  }
   if (from) {
     out.append("|from=");
     append_g17(out, from->zoom);

@@ -8,6 +8,8 @@
 //   lines    auto (default) | curator | none   which lines a method keeps straight
 //            (warp/analysis/line_set.h); ignored (taken as curator) by a method that takes none
 //   curve    geometric (default) | linear
+//   fit      auto (default) | warp | crop | pad   what zoom 0 does where the image's aspect is not
+//            the screen's (warp/window/fit.h); max_distortion 1…8, default 1.5: auto's budget
 //   from_zoom, from_cx, from_cy   (mesh only) the previous view, for the geomorph pair
 //   format   jpg (default) | png | webp,  quality 1…100   (viewport only)
 //   expires, sig   a signed URL's (api/url_signing.h): accepted once each, checked by the router,
@@ -26,6 +28,7 @@
 #include "tiles/image_format.h"
 #include "warp/analysis/line_set.h"
 #include "warp/core/view.h"
+#include "warp/window/fit.h"
 
 namespace zoomwarp::api {
 
@@ -34,6 +37,7 @@ struct ViewQuery {
   const ViewMethod* method = &default_view_method();  // never null
   warp::Saliency saliency = warp::Saliency::kDefault;
   warp::LineSet lines = warp::LineSet::kAuto;
+  warp::FitOptions fit;  // framed by warp/window before a method draws (api/framed_views.h)
   std::optional<warp::ViewRequest> from;  // from_* given (all three optional, default: this view's)
   tiles::ImageFormat format = tiles::ImageFormat::kJpeg;
   int quality = 0;  // 0: the server's default

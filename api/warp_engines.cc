@@ -164,9 +164,11 @@ std::shared_ptr<warp::Retargeter> WarpEngines::retargeter_for_screen(const tiles
                                                                      const warp::RetargetingMethod& method,
                                                                      warp::Saliency saliency, warp::LineSet lines,
                                                                      int screen_width, int screen_height,
-                                                                     const warp::StopToken* stop) {
+                                                                     const warp::StopToken* stop, warp::ZoomFrame frame) {
   const std::string key = retargeter_key(image, method, saliency, lines);
-  const std::string screen = std::to_string(screen_width) + "x" + std::to_string(screen_height);
+  // The warp is per target size: the screen and the frame's aspect (warp/window/fit.h).
+  const double aspect = warp::frame_aspect(frame, screen_width, screen_height);
+  const std::string screen = std::to_string(screen_width) + "x" + std::to_string(screen_height) + "@" + std::to_string(aspect);
   // The engines whose warp for a screen has been computed, by address: an engine evicted and
   // loaded again is another object, whose caches are empty.
   const auto warmed = [&](const std::shared_ptr<warp::Retargeter>& engine) {
@@ -182,11 +184,12 @@ std::shared_ptr<warp::Retargeter> WarpEngines::retargeter_for_screen(const tiles
   // of time leaves both to finish, so that its retry is answered from them.
   tiles::BackgroundFlights<Engine>::Future flight;
   try {
-    flight = background_.run(key + "|" + screen, [this, key, image, &method, saliency, lines, screen_width, screen_height] {
+    flight = background_.run(key + "|" + screen, [this, key, image, &method, saliency, lines, screen_width, screen_height, frame] {
       const auto engine = std::get<std::shared_ptr<warp::Retargeter>>(
           engines_.get(key, [&] { return Engine(load_retargeter(image, method, saliency, lines)); }).value);
       warp::ViewRequest whole;  // zoom 0: the whole retargeted image, no deadline
       whole.cx = 0, whole.cy = 0, whole.screen_width = screen_width, whole.screen_height = screen_height;
+      whole.frame = frame;
       try {
         engine->view(whole);
       } catch (const warp::NoMesh&) {
@@ -207,12 +210,12 @@ std::shared_ptr<warp::Retargeter> WarpEngines::retargeter_for_screen(const tiles
 std::shared_ptr<warp::Retargeter> WarpEngines::view_engine(const tiles::ImageEntry& image, const ViewMethod& method,
                                                            warp::Saliency saliency, warp::LineSet lines,
                                                            const warp::StopToken* stop, int screen_width,
-                                                           int screen_height) {
+                                                           int screen_height, warp::ZoomFrame frame) {
   if (!method.registered)
     return std::make_shared<warp::IcazRetargeter>(
         get(image, method.reads_saliency ? saliency : warp::Saliency::kDefault, lines, stop), method.icaz_zoom);
   if (screen_width > 0 && screen_height > 0)
-    return retargeter_for_screen(image, *method.registered, saliency, lines, screen_width, screen_height, stop);
+    return retargeter_for_screen(image, *method.registered, saliency, lines, screen_width, screen_height, stop, frame);
   return retargeter(image, *method.registered, saliency, lines, stop);
 }
 

@@ -78,20 +78,22 @@ class WarpEngines {
 
   // The same, with its warp for a `screen_width`×`screen_height` screen computed (in the
   // background: every view of that screen shares it). Throws as get() does.
+  // `frame` is the views' (warp/window/fit.h): their warp's target aspect at zoom 0.
   std::shared_ptr<warp::Retargeter> retargeter_for_screen(const tiles::ImageEntry& image,
                                                           const warp::RetargetingMethod& method, warp::Saliency saliency,
                                                           warp::LineSet lines, int screen_width, int screen_height,
-                                                          const warp::StopToken* stop = nullptr);
+                                                          const warp::StopToken* stop = nullptr,
+                                                          warp::ZoomFrame frame = {});
 
   // What draws `method`'s views of the version (api/view_methods.h), so that routes and tools
   // never ask which method they hold: api's own through the version's shared ICAZ operator
   // (get(), wrapped by warp/methods/icaz_retargeter.h; traditional zoom reads no saliency map), a
   // registered one as retargeter() — or, given a screen (both sides > 0), as
-  // retargeter_for_screen(), its warp for that screen made first. Throws as get() does.
+  // retargeter_for_screen(), its warp for that screen (and frame) made first. Throws as get() does.
   std::shared_ptr<warp::Retargeter> view_engine(const tiles::ImageEntry& image, const ViewMethod& method,
                                                 warp::Saliency saliency, warp::LineSet lines,
                                                 const warp::StopToken* stop = nullptr, int screen_width = 0,
-                                                int screen_height = 0);
+                                                int screen_height = 0, warp::ZoomFrame frame = {});
 
   // The engines' bytes as last measured (for /metrics).
   std::size_t memory_bytes();

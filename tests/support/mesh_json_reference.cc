@@ -70,6 +70,8 @@ std::string reference_mesh_json(const tiles::Manifest& image, const ViewQuery& q
                     {"h", q.view.screen_height},
                     {"method", std::string(q.method_name())},
                     {"curve", q.view.curve == warp::ZoomCurve::kLinear ? "linear" : "geometric"},
+                    {"fit", std::string(warp::fit_name(q.fit.fit))},
+                    {"max_distortion", q.fit.max_distortion},
                     {"target", {{"width", milli(g.target_width)}, {"height", milli(g.target_height)}}},
                     {"viewing_area",
                      {{"x", milli(view.view_x)}, {"y", milli(view.view_y)}, {"width", milli(g.view_width)}, {"height", milli(g.view_height)}}},

@@ -1,0 +1,47 @@
+#include "api/framed_views.h"
+
+#include "warp/window/view_window.h"
+
+namespace zoomwarp::api {
+
+FramedQuery ViewFraming::frame(const tiles::ImageEntry& image, const ViewQuery& q, const warp::StopToken* stop,
+                               bool for_screen) {
+  const bool warps = warp::fit_warps(q.fit.fit);
+  const ViewMethod& method = warps ? *q.method : *find_view_method("traditional");
+  const bool method_warps = method.registered || method.icaz_zoom != warp::IcazRetargeter::Zoom::kTraditional;
+  const warp::Saliency saliency = q.method->reads_saliency ? q.saliency : warp::Saliency::kDefault;
+  const warp::SignificanceProfile& profile = engines_.get(image, saliency, q.lines, stop)->significance_profile();
+  const warp::WindowFrame wf = warp::window_frame(profile, q.fit, q.view.screen_width, q.view.screen_height, method_warps);
+  FramedQuery out;
+  out.engine = for_screen ? engines_.view_engine(image, method, saliency, q.lines, stop, q.view.screen_width,
+                                                 q.view.screen_height, wf.frame)
+                          : engines_.view_engine(image, method, saliency, q.lines, stop);
+  double offset = warp::window_offset(wf.window, profile);
+  if (wf.window.crops && method_warps && out.engine->has_mesh()) {
+    // The offset through the method's warp (see the header), once per key.
+    std::string key = image.manifest.id + "@" + image.manifest.version + "|" + std::string(method.name()) + "|" +
+                      std::string(warp::saliency_name(saliency)) + "|" + std::string(warp::line_set_name(q.lines)) + "|" +
+                      std::to_string(q.view.screen_width) + "x" + std::to_string(q.view.screen_height) + "|" +
+                      std::string(warp::fit_name(q.fit.fit)) + "," + std::to_string(q.fit.max_distortion) + "|" +
+                      (q.view.curve == warp::ZoomCurve::kLinear ? "linear" : "geometric");
+    std::optional<double> kept;
+    {
+      std::lock_guard lock(mu_);
+      if (const double* found = offsets_.find(key)) kept = *found;
+    }
+    if (kept) {
+      offset = *kept;
+    } else {
+      warp::ViewRequest zoom0 = q.view;
+      zoom0.zoom = 0, zoom0.cx = profile.width / 2, zoom0.cy = profile.height / 2, zoom0.stop = stop;
+      offset = warp::warped_window_offset(out.engine->view(warp::panned_view(zoom0, wf, offset, profile)), wf.window, profile);
+      std::lock_guard lock(mu_);
+      offsets_.put(std::move(key), offset);
+    }
+  }
+  out.view = warp::panned_view(q.view, wf, offset, profile);
+  if (q.from) out.from = warp::panned_view(*q.from, wf, offset, profile);
+  return out;
+}
+
+}  // namespace zoomwarp::api

@@ -1,0 +1,51 @@
+// A view query as it is drawn (issue 41): `fit=` applied once, before any method sees the request,
+// so that no route, tool or method frames views its own way. The engine is the query's method's —
+// or traditional zoom's for a fit that does not warp (crop, pad): a warp to the image's own aspect
+// is no warp — and the request (and a geomorph's from-view) is framed by warp/window/view_window.h
+// from the significance of the version's ICAZ engine of the query's saliency kind and line set
+// (which every method's engine reads anyway).
+//
+// Where a view crops (fit=auto beyond its budget, fit=crop), the window is centred as the method
+// draws it: the warp enlarges what matters, so the source window's centre is not the middle of
+// the warped window (warped_window_offset). That needs the method's view at zoom 0 once per
+// version, method, saliency, lines, screen and fit; the offsets are kept here (a few thousand,
+// the least recently used dropped), so a view costs what it cost before after the first.
+//
+// Thread safety: every member may be called from several threads at once.
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include "api/view_query.h"
+#include "api/warp_engines.h"
+#include "warp/methods/recent_cache.h"
+
+namespace zoomwarp::api {
+
+struct FramedQuery {
+  std::shared_ptr<warp::Retargeter> engine;
+  warp::ViewRequest view;
+  std::optional<warp::ViewRequest> from;
+};
+
+class ViewFraming {
+ public:
+  explicit ViewFraming(WarpEngines& engines) : engines_(engines) {}
+
+  // Throws as WarpEngines::view_engine does. `for_screen`: the engine's warp for the query's
+  // screen made first, in the background (the routes); false: the engine as loaded (compare).
+  FramedQuery frame(const tiles::ImageEntry& image, const ViewQuery& query, const warp::StopToken* stop,
+                    bool for_screen = true);
+
+ private:
+  static constexpr std::size_t kKeptOffsets = 4096;
+
+  WarpEngines& engines_;
+  std::mutex mu_;
+  warp::RecentCache<std::string, double> offsets_{kKeptOffsets};  // guarded by mu_
+};
+
+}  // namespace zoomwarp::api
