@@ -17,6 +17,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "api/framed_views.h"
 #include "api/view_methods.h"
 #include "api/warp_engines.h"
 #include "server/commands.h"
@@ -153,6 +154,7 @@ struct Settings {
   std::vector<double> zooms;
   warp::Saliency saliency = warp::Saliency::kDefault;
   warp::LineSet lines = warp::LineSet::kAuto;
+  warp::FitOptions fit;
   std::filesystem::path out;
   std::string file;      // an IMAGE file, or
   std::string image_id;  // an image of --store
@@ -169,6 +171,14 @@ Settings parse_settings(const Options& o) {
   const auto lines = warp::parse_line_set(o.str("lines"));
   if (!lines) throw std::invalid_argument("--lines must be auto, curator or none, not '" + o.str("lines") + "'");
   s.lines = *lines;
+  const auto fit = warp::parse_fit(o.str("fit"));
+  if (!fit) throw std::invalid_argument("--fit must be auto, warp, crop or pad, not '" + o.str("fit") + "'");
+  s.fit.fit = *fit;
+  char* end = nullptr;
+  const std::string budget = o.str("max-distortion");
+  s.fit.max_distortion = std::strtod(budget.c_str(), &end);
+  if (budget.empty() || *end != 0 || !(s.fit.max_distortion >= warp::kMinMaxDistortion && s.fit.max_distortion <= warp::kMaxMaxDistortion))
+    throw std::invalid_argument("--max-distortion must be a number from 1 to 8, not '" + budget + "'");
   s.out = o.str("out");
   if (s.out.empty()) throw std::invalid_argument("give the output folder with -o DIR");
   s.image_id = o.str("image");
@@ -218,6 +228,7 @@ std::vector<std::vector<warp::SheetCell>> run(const Settings& s, const tiles::Im
   std::vector<warp::Segment> lines = stored.lines;
   for (const warp::Segment& l : warp::suggested_lines(e, reader, stored)) lines.push_back(l);
   const std::vector<Contender> contenders = make_contenders(s, engines, e, plain_load_ms);
+  api::ViewFraming framing(engines);
 
   const bool progress = ::isatty(STDERR_FILENO);
   std::vector<std::vector<warp::SheetCell>> sheet;
@@ -227,18 +238,22 @@ std::vector<std::vector<warp::SheetCell>> run(const Settings& s, const tiles::Im
         {{"name", c.name}, {"has_mesh", c.engine->has_mesh()}, {"precompute_ms", c.precompute_ms}});
     std::vector<warp::SheetCell>& row = sheet.emplace_back();
     for (double z : s.zooms) {
-      warp::ViewRequest r;
-      r.zoom = z, r.cx = e.manifest.width / 2.0, r.cy = e.manifest.height / 2.0;
-      r.screen_width = s.screen_width, r.screen_height = s.screen_height;
+      api::ViewQuery q;  // as /viewport parses it: framed for --fit as the routes frame it
+      q.view.zoom = z, q.view.cx = e.manifest.width / 2.0, q.view.cy = e.manifest.height / 2.0;
+      q.view.screen_width = s.screen_width, q.view.screen_height = s.screen_height;
+      q.method = api::find_view_method(c.name), q.saliency = s.saliency, q.lines = s.lines, q.fit = s.fit;
+      if (!q.method->takes_lines()) q.lines = warp::LineSet::kCurator;
       Cell cell;
       cell.zoom = z;
       const auto start = Clock::now();
-      tiles::Raster shown = c.engine->render(r, e, reader);
+      const api::FramedQuery framed = framing.frame(e, q, nullptr, false);
+      const warp::ViewRequest& r = framed.view;
+      tiles::Raster shown = framed.engine->render(r, e, reader);
       cell.viewport_ms = ms_since(start);
-      const warp::View reference = plain->traditional(r);
-      cell.metrics = c.engine->has_mesh()
-                         ? warp::mesh_view_metrics(c.engine->view(r), reference, map, lines, s.screen_width, s.screen_height)
-                         : warp::raster_view_metrics(shown, c.engine->screen_sources(r), reference, map);
+      const warp::View reference = plain->traditional(q.view);
+      cell.metrics = framed.engine->has_mesh()
+                         ? warp::mesh_view_metrics(framed.engine->view(r), reference, map, lines, s.screen_width, s.screen_height)
+                         : warp::raster_view_metrics(shown, framed.engine->screen_sources(r), reference, map);
       report["rows"].push_back(cell_json(c.name, cell));
       row.push_back({std::move(shown), cell_label(c.name, cell)});
     }
@@ -258,6 +273,8 @@ int compare_command(const std::vector<std::string>& raw_args) {
       {"zoom", "0,0.5,1", "zoom levels, comma-separated, each in [0, 1]"},
       {"saliency", "default", "default or gbvs: the map that drives the methods and defines the salient region"},
       {"lines", "auto", "auto, curator or none: the lines the methods keep straight (the bend is measured on auto's)"},
+      {"fit", "warp", "auto, warp, crop or pad: what zoom 0 does where the aspect is not the screen's (fit= of a view)"},
+      {"max-distortion", "1.5", "fit=auto's budget, 1…8"},
       {"image", "", "an image id of --store instead of an IMAGE file"},
       {"out", "", "output folder (also -o)"},
   };
@@ -292,6 +309,8 @@ int compare_command(const std::vector<std::string>& raw_args) {
     report["screen"] = {s.screen_width, s.screen_height};
     report["saliency"] = std::string(warp::saliency_name(s.saliency));
     report["lines"] = std::string(warp::line_set_name(s.lines));
+    report["fit"] = std::string(warp::fit_name(s.fit.fit));
+    report["max_distortion"] = s.fit.max_distortion;
     report["zooms"] = s.zooms;
     report["methods"] = json::array();
     report["rows"] = json::array();

@@ -12,6 +12,7 @@
 #include <charconv>
 #include <condition_variable>
 #include <cstdio>
+#include <cstdlib>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -25,6 +26,7 @@
 #include "server/replay_report.h"
 #include "server/view_path.h"
 #include "tiles/image_id.h"
+#include "warp/window/fit.h"
 
 namespace zoomwarp::server {
 
@@ -61,6 +63,8 @@ std::vector<OptionSpec> replay_specs() {
       {"duration", "", "seconds to run, wrapping around the path (instead of --count)"},
       {"endpoint", "both", "mesh, viewport, or both (each action requests its mesh, then its viewport)"},
       {"method", "icaz", "any method GET /v1/methods lists; one without a mesh (seam) needs --endpoint viewport"},
+      {"fit", "auto", "what zoom 0 does with another aspect ratio: auto, warp, crop or pad (fit= of a view)"},
+      {"max-distortion", "", "fit=auto's budget, 1…8 (default: the server's, 1.5)"},
       {"format", "jpg", "viewport image format: jpg, png, webp, avif or jxl"},
       {"timeout", "30", "seconds a request may take before it counts as failed"},
       {"json", "0", "print the summary as one JSON object", true},
@@ -124,6 +128,14 @@ Config config_from(const Options& o) {
   }
   if (!method->description.has_mesh && endpoint != "viewport")
     throw std::invalid_argument("--method " + c.method + " has no mesh (GET /v1/methods): replay it with --endpoint viewport");
+  c.fit = choice(o, "fit", {"auto", "warp", "crop", "pad"});
+  c.max_distortion = o.str("max-distortion");
+  if (!c.max_distortion.empty()) {
+    char* end = nullptr;
+    const double v = std::strtod(c.max_distortion.c_str(), &end);
+    if (*end != 0 || !(v >= warp::kMinMaxDistortion && v <= warp::kMaxMaxDistortion))
+      throw std::invalid_argument("--max-distortion must be a number from 1 to 8, not '" + c.max_distortion + "'");
+  }
   c.format = choice(o, "format", {"jpg", "png", "webp", "avif", "jxl"});
   c.timeout = std::chrono::seconds(o.integer("timeout", 1, 3600));
   c.json = o.flag("json");
@@ -192,7 +204,8 @@ std::vector<PlannedRequest> plan_requests(const std::vector<ViewAction>& actions
   for (const auto& a : actions) {
     const std::string query = "?zoom=" + decimal(a.zoom) + "&cx=" + decimal(a.cx) + "&cy=" + decimal(a.cy) +
                               "&w=" + std::to_string(a.width) + "&h=" + std::to_string(a.height) +
-                              "&method=" + c.method;
+                              "&method=" + c.method + "&fit=" + c.fit +
+                              (c.max_distortion.empty() ? "" : "&max_distortion=" + c.max_distortion);
     for (Endpoint e : c.endpoints)
       plan.push_back({series_of(e, a.kind), image_target(c) + "/" + kEndpointNames[int(e)] + query +
                                                 (e == Endpoint::kViewport ? "&format=" + c.format : "")});

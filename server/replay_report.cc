@@ -77,6 +77,7 @@ void print_summary_json(const Summary& s, const Workload& w) {
   json out = {{"image", w.image},
               {"paths", w.paths},
               {"method", w.method},
+              {"fit", w.fit},
               {"clients", w.clients},
               {"seconds", s.seconds},
               {"requests", s.requests},
@@ -89,10 +90,10 @@ void print_summary_json(const Summary& s, const Workload& w) {
 }
 
 void print_summary(const Summary& s, const Workload& w, std::size_t actions) {
-  std::printf("replayed %zu path%s (%zu actions) over %s with %d client%s, method %s: %lld requests in %.2f s, "
+  std::printf("replayed %zu path%s (%zu actions) over %s with %d client%s, method %s, fit %s: %lld requests in %.2f s, "
               "%.1f requests/s, %lld errors\n\n",
               w.paths.size(), w.paths.size() == 1 ? "" : "s", actions, w.image.c_str(), w.clients,
-              w.clients == 1 ? "" : "s", w.method.c_str(), (long long)s.requests, s.seconds, s.requests / s.seconds,
+              w.clients == 1 ? "" : "s", w.method.c_str(), w.fit.c_str(), (long long)s.requests, s.seconds, s.requests / s.seconds,
               (long long)s.errors);
   std::printf("%-9s %-6s %9s %7s %8s %8s %8s\n", "endpoint", "action", "requests", "errors", "p50 ms", "p95 ms",
               "p99 ms");

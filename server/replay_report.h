@@ -58,6 +58,8 @@ struct Workload {
   std::string image;
   std::vector<std::string> paths;
   std::string method;
+  std::string fit = "auto";      // fit= of every view (warp/window/fit.h)
+  std::string max_distortion;    // max_distortion= when given; empty: the server's default
   std::vector<Endpoint> endpoints;  // each action's requests in this order; the report's rows too
   int clients = 4;
 };
