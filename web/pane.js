@@ -26,12 +26,13 @@ const MIN_SCREEN = 16;
 const MAX_SCREEN = 4096;
 
 export class Pane {
-  // method: its /v1/methods entry {name, mesh, …}; saliency: a `saliency=` value; image: {id,
+  // method: its /v1/methods entry {name, mesh, …}; saliency: a `saliency=` value; fit: a `fit=`
+  // value (auto, the server's default: crop what matters least, warp within a budget); image: {id,
   // width, height}; tiles: the viewer's TileCache; counters: {meshRequests, viewportRequests},
   // shared by the viewer's panes; onChange: called when a load ended, with something new to draw
   // or not.
-  constructor({ method, saliency, image, renderer, tiles, counters, onChange }) {
-    Object.assign(this, { method: method.name, hasMesh: method.mesh, saliency, image, renderer, tiles, counters, onChange });
+  constructor({ method, saliency, fit = 'auto', image, renderer, tiles, counters, onChange }) {
+    Object.assign(this, { method: method.name, hasMesh: method.mesh, saliency, fit, image, renderer, tiles, counters, onChange });
     this.rect = { x: 0, y: 0, width: MIN_SCREEN, height: MIN_SCREEN };  // CSS pixels in the canvas
     this.wanted = null;  // {zoom, cx, cy}
     this.shown = null;   // what is drawn: {request, mesh, plan, texture, drawable, start}
@@ -125,10 +126,11 @@ export class Pane {
     return { request, mesh: screenQuad(request.w, request.h), plan: null, texture, texcoords: SCREEN_QUAD_TEXCOORDS };
   }
 
-  // /viewport or /mesh of `request` with this pane's method and saliency.
+  // /viewport or /mesh of `request` with this pane's method, saliency and fit.
   viewUrl(route, request, extra = {}) {
     const params = new URLSearchParams({
-      ...viewParams(request), w: request.w, h: request.h, method: this.method, saliency: this.saliency, ...extra,
+      ...viewParams(request), w: request.w, h: request.h, method: this.method, saliency: this.saliency, fit: this.fit,
+      ...extra,
     });
     return `/v1/images/${encodeURIComponent(this.image.id)}/${route}?${params}`;
   }

@@ -49,6 +49,7 @@ class Viewer {
     this.view = { zoom: 0, cx: image.width / 2, cy: image.height / 2 };
     this.panes = [];
     this.choices = [];
+    this.fit = 'auto';           // fit= of every pane's views (the fit menu)
     this.stateTimer = null;
     this.lines = [];
     this.suggested = [];         // automatically detected lines, shown in the line editor
@@ -142,6 +143,7 @@ class Viewer {
       return new Pane({
         method: describeMethod(this.catalogue, choice.method),
         saliency: choice.saliency,
+        fit: this.fit,
         image: this.image,
         renderer: this.renderer,
         tiles: this.tiles,
@@ -316,6 +318,17 @@ class Viewer {
     this.edited(await putLines(this.image.id, lines));
   }
 
+  // What zoom 0 does where the image's aspect is not the screen's (fit=: auto, warp, crop, pad):
+  // every pane fetches its view again.
+  setFit(fit) {
+    this.fit = fit;
+    for (const pane of this.panes) {
+      pane.fit = fit;
+      pane.invalidate();
+    }
+    this.say(`fit: ${fit}`);
+  }
+
   // A new image version: every pane fetches its view again, and the overlay the lines.
   edited(image) {
     this.image = { ...this.image, version: image.version };
@@ -387,6 +400,9 @@ function wireControls(viewer) {
     input.addEventListener('change', () => input.checked && viewer.setTool(input.value));
   }
   wireMethodMenus(viewer);
+  const fitMenu = document.getElementById('fit');
+  fitMenu.value = viewer.fit;
+  fitMenu.addEventListener('change', () => viewer.setFit(fitMenu.value));
 }
 
 // The method and saliency menus of the two panes and the side-by-side switch. They show the
