@@ -28,8 +28,11 @@
 #include "warp/analysis/detected_lines.h"
 #include "warp/analysis/line_set.h"
 #include "warp/analysis/method_files.h"
+#include "warp/analysis/analysis_image.h"
 #include "warp/compare/contact_sheet.h"
+#include "warp/compare/independent_saliency.h"
 #include "warp/compare/metrics.h"
+#include "warp/compare/smart_crop.h"
 #include "warp/core/limits.h"
 
 namespace zoomwarp::server {
@@ -154,7 +157,8 @@ struct Settings {
   std::vector<double> zooms;
   warp::Saliency saliency = warp::Saliency::kDefault;
   warp::LineSet lines = warp::LineSet::kAuto;
-  warp::FitOptions fit;
+  std::vector<warp::Fit> fits;  // a row per method and fit
+  double max_distortion = warp::kDefaultMaxDistortion;
   std::filesystem::path out;
   std::string file;      // an IMAGE file, or
   std::string image_id;  // an image of --store
@@ -171,13 +175,18 @@ Settings parse_settings(const Options& o) {
   const auto lines = warp::parse_line_set(o.str("lines"));
   if (!lines) throw std::invalid_argument("--lines must be auto, curator or none, not '" + o.str("lines") + "'");
   s.lines = *lines;
-  const auto fit = warp::parse_fit(o.str("fit"));
-  if (!fit) throw std::invalid_argument("--fit must be auto, warp, crop or pad, not '" + o.str("fit") + "'");
-  s.fit.fit = *fit;
+  for (const std::string& name : split(o.str("fits"), ',')) {
+    const auto fit = warp::parse_fit(name);
+    if (!fit) throw std::invalid_argument("--fits takes auto, warp, crop or pad separated by commas, not '" + name + "'");
+    if (std::find(s.fits.begin(), s.fits.end(), *fit) != s.fits.end())
+      throw std::invalid_argument("--fits names " + name + " twice");
+    s.fits.push_back(*fit);
+  }
+  if (s.fits.empty()) throw std::invalid_argument("--fits names no fit");
   char* end = nullptr;
   const std::string budget = o.str("max-distortion");
-  s.fit.max_distortion = std::strtod(budget.c_str(), &end);
-  if (budget.empty() || *end != 0 || !(s.fit.max_distortion >= warp::kMinMaxDistortion && s.fit.max_distortion <= warp::kMaxMaxDistortion))
+  s.max_distortion = std::strtod(budget.c_str(), &end);
+  if (budget.empty() || *end != 0 || !(s.max_distortion >= warp::kMinMaxDistortion && s.max_distortion <= warp::kMaxMaxDistortion))
     throw std::invalid_argument("--max-distortion must be a number from 1 to 8, not '" + budget + "'");
   s.out = o.str("out");
   if (s.out.empty()) throw std::invalid_argument("give the output folder with -o DIR");
@@ -228,39 +237,72 @@ std::vector<std::vector<warp::SheetCell>> run(const Settings& s, const tiles::Im
   std::vector<warp::Segment> lines = stored.lines;
   for (const warp::Segment& l : warp::suggested_lines(e, reader, stored)) lines.push_back(l);
   const std::vector<Contender> contenders = make_contenders(s, engines, e, plain_load_ms);
+
+  // Issue 41's judge: a saliency map no method optimises, and what a user would pick instead of a
+  // warp, the attention smart crop (drawn as traditional zoom covering the screen from its centre).
+  const tiles::Raster analysis = warp::read_reduced_image(e, reader);
+  const warp::SignificanceMap independent = warp::independent_saliency(analysis, e.manifest.width);
+  const warp::Point crop_centre =
+      warp::attention_crop_centre(analysis, e.manifest.width, e.manifest.height, s.screen_width, s.screen_height);
   api::ViewFraming framing(engines);
 
   const bool progress = ::isatty(STDERR_FILENO);
   std::vector<std::vector<warp::SheetCell>> sheet;
+  const auto measure = [&](const std::string& row_name, const std::string& fit, auto draw) {
+    std::vector<warp::SheetCell>& row = sheet.emplace_back();
+    for (double z : s.zooms) {
+      warp::ViewRequest r;
+      r.zoom = z, r.cx = e.manifest.width / 2.0, r.cy = e.manifest.height / 2.0;
+      r.screen_width = s.screen_width, r.screen_height = s.screen_height;
+      Cell cell;
+      cell.zoom = z;
+      const auto start = Clock::now();
+      const auto [engine, framed] = draw(r);
+      tiles::Raster shown = engine->render(framed, e, reader);
+      cell.viewport_ms = ms_since(start);
+      const warp::View reference = plain->traditional(r);
+      if (engine->has_mesh()) {
+        const warp::View view = engine->view(framed);
+        cell.metrics = warp::mesh_view_metrics(view, reference, map, lines, s.screen_width, s.screen_height);
+        cell.independent = warp::squash_measures(view, independent, s.screen_width, s.screen_height);
+      } else {
+        const std::vector<warp::Point> sources = engine->screen_sources(framed);
+        cell.metrics = warp::raster_view_metrics(shown, sources, reference, map);
+        cell.independent = warp::squash_measures_of_sources(sources, independent);
+      }
+      json row_json = cell_json(row_name, cell);
+      row_json["fit"] = fit;
+      report["rows"].push_back(row_json);
+      row.push_back({std::move(shown), cell_label(row_name, cell)});
+    }
+  };
   for (std::size_t k = 0; k < contenders.size(); ++k) {
     const Contender& c = contenders[k];
     report["methods"].push_back(
         {{"name", c.name}, {"has_mesh", c.engine->has_mesh()}, {"precompute_ms", c.precompute_ms}});
-    std::vector<warp::SheetCell>& row = sheet.emplace_back();
-    for (double z : s.zooms) {
-      api::ViewQuery q;  // as /viewport parses it: framed for --fit as the routes frame it
-      q.view.zoom = z, q.view.cx = e.manifest.width / 2.0, q.view.cy = e.manifest.height / 2.0;
-      q.view.screen_width = s.screen_width, q.view.screen_height = s.screen_height;
-      q.method = api::find_view_method(c.name), q.saliency = s.saliency, q.lines = s.lines, q.fit = s.fit;
+    for (warp::Fit fit : s.fits) {
+      api::ViewQuery q;  // as /viewport parses it, framed as the routes frame it
+      q.method = api::find_view_method(c.name), q.saliency = s.saliency, q.lines = s.lines;
+      q.fit = {fit, s.max_distortion};
       if (!q.method->takes_lines()) q.lines = warp::LineSet::kCurator;
-      Cell cell;
-      cell.zoom = z;
-      const auto start = Clock::now();
-      const api::FramedQuery framed = framing.frame(e, q, nullptr, false);
-      const warp::ViewRequest& r = framed.view;
-      tiles::Raster shown = framed.engine->render(r, e, reader);
-      cell.viewport_ms = ms_since(start);
-      const warp::View reference = plain->traditional(q.view);
-      cell.metrics = framed.engine->has_mesh()
-                         ? warp::mesh_view_metrics(framed.engine->view(r), reference, map, lines, s.screen_width, s.screen_height)
-                         : warp::raster_view_metrics(shown, framed.engine->screen_sources(r), reference, map);
-      report["rows"].push_back(cell_json(c.name, cell));
-      row.push_back({std::move(shown), cell_label(c.name, cell)});
+      const std::string fit_name(warp::fit_name(fit));
+      measure(s.fits.size() > 1 ? c.name + " " + fit_name : c.name, fit_name, [&](const warp::ViewRequest& r) {
+        q.view = r;
+        api::FramedQuery framed = framing.frame(e, q, nullptr, false);
+        return std::pair{framed.engine, framed.view};
+      });
     }
     if (progress)
       std::fprintf(stderr, "compare: %s done (%zu/%zu), precompute %.0f ms\n", c.name.c_str(), k + 1, contenders.size(),
                    c.precompute_ms);
   }
+  const std::shared_ptr<warp::Retargeter> traditional =
+      engines.view_engine(e, *api::find_view_method("traditional"), warp::Saliency::kDefault, s.lines);
+  measure("smart crop", "crop", [&](const warp::ViewRequest& r) {
+    warp::ViewRequest cropped = r;
+    cropped.cx = crop_centre.x, cropped.cy = crop_centre.y, cropped.frame.cover = true;
+    return std::pair{traditional, cropped};
+  });
   return sheet;
 }
 
@@ -273,8 +315,8 @@ int compare_command(const std::vector<std::string>& raw_args) {
       {"zoom", "0,0.5,1", "zoom levels, comma-separated, each in [0, 1]"},
       {"saliency", "default", "default or gbvs: the map that drives the methods and defines the salient region"},
       {"lines", "auto", "auto, curator or none: the lines the methods keep straight (the bend is measured on auto's)"},
-      {"fit", "warp", "auto, warp, crop or pad: what zoom 0 does where the aspect is not the screen's (fit= of a view)"},
-      {"max-distortion", "1.5", "fit=auto's budget, 1…8"},
+      {"fits", "auto,warp", "fit= values, comma-separated: a row per method and fit (auto, warp, crop, pad)"},
+      {"max-distortion", "1.4", "fit=auto's budget, 1…8"},
       {"image", "", "an image id of --store instead of an IMAGE file"},
       {"out", "", "output folder (also -o)"},
   };
@@ -309,8 +351,9 @@ int compare_command(const std::vector<std::string>& raw_args) {
     report["screen"] = {s.screen_width, s.screen_height};
     report["saliency"] = std::string(warp::saliency_name(s.saliency));
     report["lines"] = std::string(warp::line_set_name(s.lines));
-    report["fit"] = std::string(warp::fit_name(s.fit.fit));
-    report["max_distortion"] = s.fit.max_distortion;
+    report["fits"] = json::array();
+    for (warp::Fit f : s.fits) report["fits"].push_back(std::string(warp::fit_name(f)));
+    report["max_distortion"] = s.max_distortion;
     report["zooms"] = s.zooms;
     report["methods"] = json::array();
     report["rows"] = json::array();

@@ -17,10 +17,12 @@ struct Cell {
   double zoom = 0;
   warp::ViewMetrics metrics;
   double viewport_ms = 0;  // the rendered screen, first request of the cell (caches as they are)
+  warp::SquashMeasures independent;  // against warp/compare/independent_saliency.h's map (issue 41)
 };
 
-// Three lines that fit under a 360 px cell: method and zoom with folds and coverage; gain and
-// anisotropy; rotation (p95 / spread, degrees) and the worst line's bend (px).
+// Three lines that fit under a 360 px cell: method and zoom with folds and coverage; gain,
+// anisotropy and the squash measures under the independent map (salient anisotropy p90/p99, salient
+// coverage); rotation (p95 / spread, degrees) and the worst line's bend (px).
 std::vector<std::string> cell_label(const std::string& method, const Cell& c);
 
 // The cell's row of metrics.json ("rows"); a figure a method has no value for is null.

@@ -19,12 +19,13 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // Inside the screen rectangle, its far edges included (a line ending on the border is seen whole).
 bool on_screen(const Point& q, int sw, int sh) { return q.x >= 0 && q.y >= 0 && q.x <= sw && q.y <= sh; }
 
-// The top tenth of the map's pixels by value, ties broken by position so that a flat map still
-// gives exactly a tenth (deterministically).
-std::vector<char> salient_region(const SignificanceMap& map) {
+// The top 1/`parts` of the map's pixels by value, ties broken by position so that a flat map still
+// gives exactly that share (deterministically): the salient region of the gain (a tenth) and of
+// the squash measures (a fifth).
+std::vector<char> top_share(const SignificanceMap& map, std::size_t parts) {
   std::vector<int> order(map.values.size());
   std::iota(order.begin(), order.end(), 0);
-  const std::size_t k = (order.size() + 9) / 10;
+  const std::size_t k = (order.size() + parts - 1) / parts;
   std::nth_element(order.begin(), order.begin() + std::ptrdiff_t(k) - (k > 0), order.end(), [&](int a, int b) {
     return map.values[a] != map.values[b] ? map.values[a] > map.values[b] : a < b;
   });
@@ -32,6 +33,9 @@ std::vector<char> salient_region(const SignificanceMap& map) {
   for (std::size_t i = 0; i < k; ++i) salient[order[i]] = 1;
   return salient;
 }
+
+std::vector<char> salient_region(const SignificanceMap& map) { return top_share(map, 10); }
+std::vector<char> top_fifth(const SignificanceMap& map) { return top_share(map, 5); }
 
 // The linear part M = [m11 m12; m21 m22] of the affine map taking triangle (a, b, c) to
 // (a', b', c'): M·[b−a, c−a] = [b'−a', c'−a']. None for a degenerate source triangle.
@@ -332,6 +336,59 @@ ViewMetrics mesh_view_metrics(const View& view, const View& traditional, const S
   rotation_statistics(view, shown, out);
   if (!std::isnan(shown.anisotropy_salient)) out.anisotropy_salient = shown.anisotropy_salient;
   if (!std::isnan(shown.anisotropy_weighted)) out.anisotropy_weighted = shown.anisotropy_weighted;
+  out.squash = squash_measures(view, significance, sw, sh);
+  return out;
+}
+
+SquashMeasures squash_measures(const View& view, const SignificanceMap& map, int sw, int sh) {
+  SquashMeasures out;
+  if (map.values.empty()) return out;
+  const Mesh& mesh = view.source;
+  const std::vector<char> salient = top_fifth(map);
+  const std::vector<int> holder = map_pixel_triangles(mesh, map.width, map.height, map.scale);
+  std::vector<double> aniso(mesh.triangles.size(), kNaN), shown;
+  double mass = 0, mass_shown = 0;
+  for (int y = 0; y < map.height; ++y)
+    for (int x = 0; x < map.width; ++x) {
+      const std::size_t i = std::size_t(y) * map.width + x;
+      if (!salient[i]) continue;
+      mass += map.values[i];
+      const int f = holder[i];
+      if (f < 0) continue;
+      const Point p{(x + 0.5) / map.scale, (y + 0.5) / map.scale};
+      const Triangle& t = mesh.triangles[f];
+      const MeshPoint where{f, barycentric(p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]])};
+      if (!on_screen(locate(mesh, view.screen, p, where), sw, sh)) continue;
+      if (std::isnan(aniso[f]))
+        aniso[f] = anisotropy(mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]], view.screen[t[0]],
+                              view.screen[t[1]], view.screen[t[2]]);
+      mass_shown += map.values[i];
+      shown.push_back(aniso[f]);
+    }
+  out.coverage = mass > 0 ? mass_shown / mass : 1.0;
+  if (!shown.empty()) {
+    std::vector<Weighted> weighted;
+    for (double a : shown) weighted.push_back({a, 1});
+    out.anisotropy_p90 = weighted_quantile(weighted, 0.90);
+    out.anisotropy_p99 = weighted_quantile(weighted, 0.99);
+  }
+  return out;
+}
+
+SquashMeasures squash_measures_of_sources(const std::vector<Point>& sources, const SignificanceMap& map) {
+  SquashMeasures out;
+  if (map.values.empty()) return out;
+  const std::vector<char> salient = top_fifth(map);
+  std::vector<char> seen(map.values.size(), 0);
+  for (const Point& p : sources) {
+    if (!(p.x >= 0 && p.y >= 0)) continue;  // NaN: nothing shown there
+    const int x = int(p.x * map.scale), y = int(p.y * map.scale);
+    if (x < map.width && y < map.height) seen[std::size_t(y) * map.width + x] = 1;
+  }
+  double mass = 0, mass_shown = 0;
+  for (std::size_t i = 0; i < map.values.size(); ++i)
+    if (salient[i]) mass += map.values[i], mass_shown += seen[i] ? map.values[i] : 0;
+  out.coverage = mass > 0 ? mass_shown / mass : 1.0;
   return out;
 }
 
@@ -367,6 +424,7 @@ ViewMetrics raster_view_metrics(const tiles::Raster& screen, const std::vector<P
     for (const Point& p : sources) shown += in_salient(p, significance, salient);
     const std::size_t reference = traditional_salient_pixels(traditional, screen.width, screen.height, significance, salient);
     if (reference > 0) out.scale_gain = double(shown) / double(reference);
+    out.squash = squash_measures_of_sources(sources, significance);
   }
   const std::size_t pixels = std::size_t(screen.width) * screen.height;
   if (pixels == 0) return out;

@@ -53,6 +53,20 @@
 
 namespace zoomwarp::warp {
 
+// Issue 41's squash measures of a view against a saliency map — the server's, or one no method
+// optimises (independent_saliency.h) — whose salient part is the top fifth of the map's pixels
+// by value (a flat map: a fifth of them, by position):
+//   anisotropy p90 / p99  σ1/σ2 of the triangle holding each salient pixel centre that lands on
+//                         the screen, each pixel weighing the same (its source area);
+//   coverage              the share of the salient part's map mass whose pixel centres land on
+//                         the screen (1: nothing salient is cropped away).
+// A uniform stretch of the whole image gives anisotropy (W/H)/(w/h) or its inverse everywhere and
+// coverage 1; a crop gives anisotropy 1 and the crop's share.
+struct SquashMeasures {
+  std::optional<double> anisotropy_p90, anisotropy_p99;  // none: nothing salient on screen, or no mesh
+  std::optional<double> coverage;                        // none: an empty map
+};
+
 struct ViewMetrics {
   std::optional<double> scale_gain;
   std::optional<double> anisotropy_salient, anisotropy_weighted;
@@ -61,7 +75,16 @@ struct ViewMetrics {
   std::optional<int> lines_measured;   // lines with a chord ≥ kMinMeasuredLinePx on screen; none: no mesh
   std::optional<int> folds;
   double coverage = 0;
+  SquashMeasures squash;  // against the map the metrics were given (the server's)
 };
+
+// The squash measures of a view with a mesh.
+SquashMeasures squash_measures(const View& view, const SignificanceMap& map, int screen_width, int screen_height);
+
+// The same for a method without a mesh, from what each screen pixel shows (image px, NaN where
+// nothing is; Retargeter::screen_sources): coverage only — a salient map pixel counts as shown
+// when a screen pixel shows a point of it.
+SquashMeasures squash_measures_of_sources(const std::vector<Point>& sources, const SignificanceMap& map);
 
 // A line counts for straightness when its chord on screen is at least this long (screen px).
 inline constexpr double kMinMeasuredLinePx = 8;
