@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <iterator>
 #include <utility>
@@ -28,6 +29,14 @@ constexpr double kLeastShapeStage = 1.0 / 1024;
 constexpr int kRunSteps = 100, kSolveSteps = 1000;
 // Step 6 tries this many lower object scales, the last the fit scale (ours).
 constexpr int kScaleSteps = 3;
+// A result is torn (ours, issue 41) when a triangle keeps less than this share of its area under
+// the uniform stretch: squeezed twenty times beyond the stretch, it shows as a crease through
+// whatever it covers. eq. 10 puts no price on it, the fold barrier (ε = 1) a price of a few px²
+// against λ = 1.4·10⁵ per px² of line bend, so a rigid solve could end with triangles beside held
+// lines at 10⁻⁵ of their area (boats_lake_sunset.jpg at 360×640: salient anisotropy p99 27 639).
+constexpr double kLeastAreaShare = 0.05;
+
+bool torn(const MpSolution& s) { return s.least_area_share < kLeastAreaShare; }
 // The fold barrier's weight in the shape continuation's stages, over ε (ours): at ε the stretch
 // energy squeezes some triangles nearly flat (area ratio ~1e-4 on the samples), and the next
 // stage's change of the objects' map then folds them at any step size; ×30 keeps them open. The
@@ -724,6 +733,12 @@ void finish(const Problem& pb, const Layout& lay, const Eigen::VectorXd& x, MpSo
   plain.barrier = 0;
   sol.energy = evaluate(plain, lay, x, 0, nullptr, nullptr);
   sol.folds = count_folds(model.mesh, sol.positions);
+  sol.least_area_share = 1;
+  for (size_t t = 0; t < model.mesh.triangles.size(); ++t) {
+    const Triangle& tri = model.mesh.triangles[t];
+    const double area = 0.5 * signed_area2(sol.positions[tri[0]], sol.positions[tri[1]], sol.positions[tri[2]]);
+    sol.least_area_share = std::min(sol.least_area_share, area / pb.stretch_area[t]);
+  }
   sol.rigidity_residual = 0;
   for (size_t i = 0; i < sol.positions.size(); ++i) {
     const int o = pb.object_of[i];
@@ -865,33 +880,39 @@ bool rigid_solve(const Problem& pb, const Layout& hard, Progress& run) {
   return final_run(pb, hard, rigid_start(pb, extend, poles), poles, run) || shape_continuation(pb, extend, run);
 }
 
-// Step 6 (ours): eq. 3 was not reached at z — every path from the stretch stalled where the
-// objects at z leave the background too little room to bend into without collapsing, and the
-// penalty result (`failed`) is neither rigid nor open (samples/planks_by_the_water.jpg at 9:16:
-// 19 px from eq. 3, triangles at 1e-11 of their area, lines bent 6 px). z then steps toward the
-// fit scale z_fit = min(W'/W, H'/H), where the objects shrink at least as much as the stretch in
-// both directions, halving the distance each time (kScaleSteps, the last z_fit itself), each
-// step taking steps 2–3 from the stretch with its own step budget. The first that ends rigid
-// stands; if none does (or z ≤ z_fit already), `failed` does.
+// Step 6 (ours): eq. 3 was not reached at z without tearing — every path from the stretch
+// stalled where the objects at z leave the background too little room to bend into without
+// collapsing, and the penalty result (`failed`) is neither rigid nor open
+// (samples/planks_by_the_water.jpg at 9:16: 19 px from eq. 3, triangles at 1e-11 of their area,
+// lines bent 6 px); or (issue 41) it is rigid but torn, a triangle squeezed below kLeastAreaShare
+// of its stretched area. z then steps toward the fit scale z_fit = min(W'/W, H'/H), where the
+// objects shrink at least as much as the stretch in both directions, halving the distance each
+// time (kScaleSteps, the last z_fit itself), each step taking steps 2–3 from the stretch with its
+// own step budget. The first that ends rigid and untorn stands; if none does (or z ≤ z_fit
+// already), the least torn rigid result, else `failed`.
 MpSolution lowered_scale_solve(const MpModel& model, double target_w, double target_h, const MpSolveOptions& options,
                                MpSolution failed) {
   const double z_fit = std::min(target_w / model.width, target_h / model.height);
   const double z = failed.object_scale;
   if (!(z > z_fit)) return failed;
   int iterations = failed.iterations;
+  std::optional<MpSolution> best;  // the least torn rigid result so far
+  if (failed.rigid) best = std::move(failed);
   for (int k = 1; k <= kScaleSteps; ++k) {
     const double zk = k == kScaleSteps ? z_fit : z_fit + std::ldexp(z - z_fit, -k);
     const Problem pb = make_problem(model, target_w, target_h, zk, options);
     Progress run(pb, options.stop);
     const bool rigid = rigid_solve(pb, make_layout(pb, true, pb.object_scale), run);
     iterations += run.sol.iterations;
-    if (rigid) {
+    if (rigid && !torn(run.sol)) {
       run.sol.iterations = iterations;
       return run.sol;
     }
+    if (rigid && (!best || run.sol.least_area_share > best->least_area_share)) best = std::move(run.sol);
   }
-  failed.iterations = iterations;
-  return failed;
+  MpSolution out = best ? std::move(*best) : std::move(failed);
+  out.iterations = iterations;
+  return out;
 }
 
 }  // namespace
@@ -991,7 +1012,7 @@ MpSolution mp_solve(const MpModel& model, double target_w, double target_h, cons
   Progress run(pb, options.stop);
   const Layout hard = make_layout(pb, true, pb.object_scale);
 
-  if (const auto [q, poles] = warm_start(pb, options); !q.empty() && final_run(pb, hard, q, poles, run)) {
+  if (const auto [q, poles] = warm_start(pb, options); !q.empty() && final_run(pb, hard, q, poles, run) && !torn(run.sol)) {
     run.sol.warm_started = true;
     return run.sol;
   }
@@ -1000,9 +1021,12 @@ MpSolution mp_solve(const MpModel& model, double target_w, double target_h, cons
     final_run(pb, hard, q, poles, run);
     return run.sol;
   }
-  if (rigid_solve(pb, hard, run)) return run.sol;             // steps 2 and 3
+  if (rigid_solve(pb, hard, run)) {  // steps 2 and 3
+    if (!torn(run.sol)) return run.sol;
+    return lowered_scale_solve(model, target_w, target_h, options, std::move(run.sol));  // step 6
+  }
   penalty_continuation(pb, hard, options.rigid_enough, run);  // step 4
-  if (run.sol.rigid) return run.sol;
+  if (run.sol.rigid && !torn(run.sol)) return run.sol;
   return lowered_scale_solve(model, target_w, target_h, options, std::move(run.sol));  // step 6
 }
 

@@ -48,10 +48,11 @@
 //      Newton run to |∇E|∞ < 1e-7·(W' + H') or a relative decrease < 1e-12 — if the substitution
 //      folds nothing; otherwise the continuation goes on, and after μ = 1e6 its result stands,
 //      rigid = false and rigidity_residual saying how far from rigid it is.
-//   6. Only if that ends not rigid (ours, issue 30): z lowered toward the fit scale
+//   6. Only if that ends not rigid (ours, issue 30), or rigid but torn (issue 41: a triangle below
+//      5 % of its area under the uniform stretch, least_area_share): z lowered toward the fit scale
 //      z_fit = min(W'/W, H'/H) — z_fit + (z − z_fit)/2, /4, then z_fit — each with steps 2–3 from
 //      the stretch and its own step budget; the first rigid result stands (object_scale says
-//      which z), else step 5's. Where two objects on a border leave the background too little
+//      which z), else the least torn rigid one, else step 5's. Where two objects on a border leave the background too little
 //      room, every path stalled and the penalty result collapsed triangles to 1e-11 of their area
 //      (samples/planks_by_the_water.jpg at 9:16: z = 0.98, rigid at 0.69).
 //   Every run adds the rotation term (ours, rotation_weight below: eq. 8's row and column scales
@@ -124,6 +125,9 @@ struct MpSolution {
   int iterations = 0;            // Newton steps, all runs together
   double energy = 0;             // E_l + λ·E_line + the rotation term at the result (no penalty, no barrier)
   int folds = 0;                 // triangles with signed area ≤ 0 (0 by construction)
+  // The smallest triangle's area over its area under the uniform stretch: under 0.05 the result
+  // is torn (a crease through what the triangle covers) and step 6 lowers z (issue 41).
+  double least_area_share = 1;
   bool warm_started = false;     // the warm start was used (not discarded for folding)
   // The energy minimised by each Newton run (penalty and barrier included), before its first step and after
   // each accepted one: strictly decreasing within a run.
