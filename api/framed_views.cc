@@ -10,14 +10,29 @@ FramedQuery ViewFraming::frame(const tiles::ImageEntry& image, const ViewQuery& 
   const ViewMethod& method = warps ? *q.method : *find_view_method("traditional");
   const bool method_warps = method.registered || method.icaz_zoom != warp::IcazRetargeter::Zoom::kTraditional;
   const warp::Saliency saliency = q.method->reads_saliency ? q.saliency : warp::Saliency::kDefault;
-  const warp::SignificanceProfile& profile = engines_.get(image, saliency, q.lines, stop)->significance_profile();
-  const warp::WindowFrame wf = warp::window_frame(profile, q.fit, q.view.screen_width, q.view.screen_height, method_warps);
+  // The frame first: the method's warp for it starts (in the background) before anything else.
+  warp::WindowFrame wf = warp::window_frame(image.manifest.width, image.manifest.height, q.fit, q.view.screen_width,
+                                            q.view.screen_height, method_warps);
   FramedQuery out;
   out.engine = for_screen ? engines_.view_engine(image, method, saliency, q.lines, stop, q.view.screen_width,
                                                  q.view.screen_height, wf.frame)
                           : engines_.view_engine(image, method, saliency, q.lines, stop);
+  out.view = q.view, out.from = q.from;
+  if (!wf.window.crops) {
+    out.view.frame = wf.frame;
+    if (out.from) out.from->frame = wf.frame;
+    return out;
+  }
+  // The window is placed by the map of the ICAZ engine the view is drawn from (icaz, traditional),
+  // or, for a registered method, of the version's model every method reads (the default kind, the
+  // curator's regions and faces in it): loaded already, whatever saliency= the method warps by.
+  const warp::SignificanceProfile& profile =
+      (method.registered ? engines_.get(image, warp::Saliency::kDefault, warp::LineSet::kCurator, stop)
+                         : engines_.get(image, saliency, q.lines, stop))
+          ->significance_profile();
+  warp::place_window(wf.window, profile);
   double offset = warp::window_offset(wf.window, profile);
-  if (wf.window.crops && method_warps && out.engine->has_mesh()) {
+  if (method_warps && out.engine->has_mesh()) {
     // The offset through the method's warp (see the header), once per key.
     std::string key = image.manifest.id + "@" + image.manifest.version + "|" + std::string(method.name()) + "|" +
                       std::string(warp::saliency_name(saliency)) + "|" + std::string(warp::line_set_name(q.lines)) + "|" +

@@ -1,9 +1,11 @@
 // A view query as it is drawn (issue 41): `fit=` applied once, before any method sees the request,
 // so that no route, tool or method frames views its own way. The engine is the query's method's —
 // or traditional zoom's for a fit that does not warp (crop, pad): a warp to the image's own aspect
-// is no warp — and the request (and a geomorph's from-view) is framed by warp/window/view_window.h
-// from the significance of the version's ICAZ engine of the query's saliency kind and line set
-// (which every method's engine reads anyway).
+// is no warp — and the request (and a geomorph's from-view) is framed by warp/window/view_window.h:
+// the frame from the sizes alone, so the method's warp for it is started first; where it crops,
+// the window from the significance of the ICAZ engine the view is drawn from (icaz, traditional)
+// or of the version's model that every registered method's engine reads (the default kind with
+// the curator's regions and faces): no engine is loaded for framing alone.
 //
 // Where a view crops (fit=auto beyond its budget, fit=crop), the window is centred as the method
 // draws it: the warp enlarges what matters, so the source window's centre is not the middle of

@@ -9,7 +9,7 @@
 //            (warp/analysis/line_set.h); ignored (taken as curator) by a method that takes none
 //   curve    geometric (default) | linear
 //   fit      auto (default) | warp | crop | pad   what zoom 0 does where the image's aspect is not
-//            the screen's (warp/window/fit.h); max_distortion 1…8, default 1.5: auto's budget
+//            the screen's (warp/window/fit.h); max_distortion 1…8, default 1.4: auto's budget
 //   from_zoom, from_cx, from_cy   (mesh only) the previous view, for the geomorph pair
 //   format   jpg (default) | png | webp,  quality 1…100   (viewport only)
 //   expires, sig   a signed URL's (api/url_signing.h): accepted once each, checked by the router,

@@ -22,11 +22,10 @@ TEST(ViewQueryKey, IsWrittenAsEarlierVersionsWroteIt) {
             "icaz|default|auto|geometric|z=0.10000000000000001|c=1000.5,7|s=480x360|jpg|q=0");
   EXPECT_EQ(key("w=360&h=640&zoom=0.123456789&cx=3000&cy=1000&from_zoom=0.3&from_cx=2999.75&lines=none&fit=warp"),
             "icaz|default|none|geometric|z=0.123456789|c=3000,1000|s=360x640|from=0.29999999999999999,2999.75,1000|jpg|q=0");
-  // warp is the default for now (warp/window/fit.h, kDefaultFit).
-  EXPECT_EQ(key("w=480&h=360&zoom=0.1&cx=1000.5&cy=7"), key("w=480&h=360&zoom=0.1&cx=1000.5&cy=7&fit=warp"));
-  // fit=auto and its budget are part of the key; so are crop and pad.
-  EXPECT_EQ(key("w=480&h=360&zoom=0.1&cx=1000.5&cy=7&fit=auto"),
-            "icaz|default|auto|geometric|z=0.10000000000000001|c=1000.5,7|s=480x360|fit=auto,1.5|jpg|q=0");
+  // fit=auto, the default, and its budget are part of the key; so are crop and pad.
+  EXPECT_EQ(key("w=480&h=360&zoom=0.1&cx=1000.5&cy=7"),
+            "icaz|default|auto|geometric|z=0.10000000000000001|c=1000.5,7|s=480x360|fit=auto,1.3999999999999999|jpg|q=0");
+  EXPECT_EQ(key("w=480&h=360&zoom=0.1&cx=1000.5&cy=7"), key("w=480&h=360&zoom=0.1&cx=1000.5&cy=7&fit=auto&max_distortion=1.4"));
   EXPECT_EQ(key("w=480&h=360&fit=auto&max_distortion=2"), key("w=480&h=360&fit=auto&max_distortion=2.0"));
   EXPECT_NE(key("w=480&h=360&fit=auto&max_distortion=2"), key("w=480&h=360&fit=auto"));
   EXPECT_NE(key("w=480&h=360&fit=crop"), key("w=480&h=360&fit=pad"));

@@ -81,8 +81,8 @@ struct Budget {
 
 // a₀ for `fit` (see the header): the image's for crop; for auto the screen's while the aspect
 // change is within the budget, else the image's divided (multiplied, for a tall image) by it.
-Budget budget(const SignificanceProfile& p, const FitOptions& fit, double sw, double sh) {
-  const double image_aspect = p.width / p.height, screen_aspect = sw / sh, change = image_aspect / screen_aspect;
+Budget budget(double W, double H, const FitOptions& fit, double sw, double sh) {
+  const double image_aspect = W / H, screen_aspect = sw / sh, change = image_aspect / screen_aspect;
   if (fit.fit == Fit::kCrop) return {image_aspect != screen_aspect, image_aspect};
   if (fit.fit != Fit::kAuto || std::max(change, 1 / change) <= fit.max_distortion) return {false, 0};
   return {true, change > 1 ? image_aspect / fit.max_distortion : image_aspect * fit.max_distortion};
@@ -90,27 +90,36 @@ Budget budget(const SignificanceProfile& p, const FitOptions& fit, double sw, do
 
 }  // namespace
 
-WindowFrame window_frame(const SignificanceProfile& p, const FitOptions& fit, int sw, int sh, bool warps) {
+WindowFrame window_frame(double W, double H, const FitOptions& fit, int sw, int sh, bool warps) {
   if (!std::isfinite(fit.max_distortion) || fit.max_distortion < kMinMaxDistortion || fit.max_distortion > kMaxMaxDistortion)
     throw std::invalid_argument("max_distortion must be between " + std::to_string(kMinMaxDistortion) + " and " +
                                 std::to_string(kMaxMaxDistortion));
   WindowFrame out;
   if (fit.fit == Fit::kWarp || fit.fit == Fit::kPad || (fit.fit == Fit::kAuto && !warps)) return out;
-  if (!(p.width > 0 && p.height > 0 && sw > 0 && sh > 0)) return out;
-  const Budget b = budget(p, fit, sw, sh);
+  if (!(W > 0 && H > 0 && sw > 0 && sh > 0)) return out;
+  const Budget b = budget(W, H, fit, sw, sh);
   if (!b.crops) return out;
   const double screen_aspect = double(sw) / sh;
   ViewWindow& w = out.window;
   w.along_x = b.aspect0 > screen_aspect;
   // The screen shows the screen-shaped part of the a₀ target: a_S/a₀ of its width (a₀/a_S of its
   // height), taken as that share of the source.
-  const double extent = w.along_x ? p.width : p.height;
-  w.length = std::min(extent, w.along_x ? p.width * screen_aspect / b.aspect0 : p.height * b.aspect0 / screen_aspect);
+  const double extent = w.along_x ? W : H;
+  w.length = std::min(extent, w.along_x ? W * screen_aspect / b.aspect0 : H * b.aspect0 / screen_aspect);
   w.crops = w.length < extent;
-  if (!w.crops) return out;
-  w.start = w.along_x ? best_start(p.column_mass, p.column_important, extent, w.length)
-                      : best_start(p.row_mass, p.row_important, extent, w.length);
-  out.frame = {b.aspect0, true};
+  if (w.crops) out.frame = {b.aspect0, true};
+  return out;
+}
+
+void place_window(ViewWindow& w, const SignificanceProfile& p) {
+  if (!w.crops) return;
+  w.start = w.along_x ? best_start(p.column_mass, p.column_important, p.width, w.length)
+                      : best_start(p.row_mass, p.row_important, p.height, w.length);
+}
+
+WindowFrame window_frame(const SignificanceProfile& p, const FitOptions& fit, int sw, int sh, bool warps) {
+  WindowFrame out = window_frame(p.width, p.height, fit, sw, sh, warps);
+  place_window(out.window, p);
   return out;
 }
 

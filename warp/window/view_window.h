@@ -59,11 +59,21 @@ struct WindowFrame {
   ViewWindow window;
 };
 
-// The frame and best window of `fit` for a screen (both sides > 0) on the profile's image. `warps`
-// is false for a method that does not warp (traditional zoom): auto and warp then show the whole
-// image as before, crop covers the screen. crop and pad set the frame for traditional zoom, which
-// draws them whatever the method (fit_warps). Throws std::invalid_argument for a max_distortion
-// outside [kMinMaxDistortion, kMaxMaxDistortion] or not finite.
+// The frame of `fit` for a screen on a W × H image, and the length and axis of its window (start
+// 0 until place_window): what needs no significance, so that a caller can start the method's warp
+// for the frame before the map is at hand. `warps` is false for a method that does not warp
+// (traditional zoom): auto and warp then show the whole image as before, crop covers the screen.
+// crop and pad set the frame for traditional zoom, which draws them whatever the method
+// (fit_warps). Throws std::invalid_argument for a max_distortion outside
+// [kMinMaxDistortion, kMaxMaxDistortion] or not finite.
+WindowFrame window_frame(double width, double height, const FitOptions& fit, int screen_width, int screen_height,
+                         bool warps = true);
+
+// Places a cropping window on the profile's image: the start of the most important, then most
+// significant, interval of its length (nothing for a window that does not crop).
+void place_window(ViewWindow& window, const SignificanceProfile& profile);
+
+// window_frame then place_window.
 WindowFrame window_frame(const SignificanceProfile& profile, const FitOptions& fit, int screen_width, int screen_height,
                          bool warps = true);
 
