@@ -56,7 +56,10 @@ dev_pkgs=(git ca-certificates libgtest-dev libgmock-dev libbenchmark-dev liblbfg
 test_pkgs=(chromium nodejs npm nginx-light wrk curl jq procps python3-yaml python3-swift memcached
   # the source formats' tests make JPEG 2000, HEIF/AVIF and TIFF variants with Debian's own
   # encoders and decode them with its own decoders (tests/unit/source_formats_test.cc)
-  libopenjp2-tools libheif-examples libtiff-tools)
+  libopenjp2-tools libheif-examples libtiff-tools
+  # issue 41's squash measures (tests/bench/squash.py): an independent saliency model in numpy, and
+  # libvips' attention smart crop, what users pick instead of a warp
+  python3-numpy python3-pil libvips-tools)
 pkgs=("${build_pkgs[@]}")
 if [ "$build_only" -eq 0 ]; then pkgs+=("${dev_pkgs[@]}" "${test_pkgs[@]}"); fi
 

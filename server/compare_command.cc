@@ -248,7 +248,9 @@ std::vector<std::vector<warp::SheetCell>> run(const Settings& s, const tiles::Im
 
   const bool progress = ::isatty(STDERR_FILENO);
   std::vector<std::vector<warp::SheetCell>> sheet;
-  const auto measure = [&](const std::string& row_name, const std::string& fit, auto draw) {
+  // A row of the sheet: `method` drawn with `fit` at every zoom (labelled "method fit" when the
+  // run compares fits), each cell a row of metrics.json.
+  const auto measure = [&](const std::string& method, const std::string& fit, const std::string& label, auto draw) {
     std::vector<warp::SheetCell>& row = sheet.emplace_back();
     for (double z : s.zooms) {
       warp::ViewRequest r;
@@ -270,10 +272,10 @@ std::vector<std::vector<warp::SheetCell>> run(const Settings& s, const tiles::Im
         cell.metrics = warp::raster_view_metrics(shown, sources, reference, map);
         cell.independent = warp::squash_measures_of_sources(sources, independent);
       }
-      json row_json = cell_json(row_name, cell);
+      json row_json = cell_json(method, cell);
       row_json["fit"] = fit;
       report["rows"].push_back(row_json);
-      row.push_back({std::move(shown), cell_label(row_name, cell)});
+      row.push_back({std::move(shown), cell_label(label, cell)});
     }
   };
   for (std::size_t k = 0; k < contenders.size(); ++k) {
@@ -286,7 +288,7 @@ std::vector<std::vector<warp::SheetCell>> run(const Settings& s, const tiles::Im
       q.fit = {fit, s.max_distortion};
       if (!q.method->takes_lines()) q.lines = warp::LineSet::kCurator;
       const std::string fit_name(warp::fit_name(fit));
-      measure(s.fits.size() > 1 ? c.name + " " + fit_name : c.name, fit_name, [&](const warp::ViewRequest& r) {
+      measure(c.name, fit_name, s.fits.size() > 1 ? c.name + " " + fit_name : c.name, [&](const warp::ViewRequest& r) {
         q.view = r;
         api::FramedQuery framed = framing.frame(e, q, nullptr, false);
         return std::pair{framed.engine, framed.view};
@@ -298,7 +300,7 @@ std::vector<std::vector<warp::SheetCell>> run(const Settings& s, const tiles::Im
   }
   const std::shared_ptr<warp::Retargeter> traditional =
       engines.view_engine(e, *api::find_view_method("traditional"), warp::Saliency::kDefault, s.lines);
-  measure("smart crop", "crop", [&](const warp::ViewRequest& r) {
+  measure("smart crop", "crop", "smart crop", [&](const warp::ViewRequest& r) {
     warp::ViewRequest cropped = r;
     cropped.cx = crop_centre.x, cropped.cy = crop_centre.y, cropped.frame.cover = true;
     return std::pair{traditional, cropped};

@@ -81,9 +81,9 @@ std::string report_markdown(const json& report) {
     std::snprintf(buf, sizeof buf, "%.1f", m["precompute_ms"].get<double>());
     md << "| " << m["name"].get<std::string>() << " | " << buf << " |\n";
   }
-  md << "\n| method | zoom | gain | aniso. salient | aniso. weighted | rot. p95 | rot. spread | line px | lines | folds "
+  md << "\n| method | fit | zoom | gain | aniso. salient | aniso. weighted | rot. p95 | rot. spread | line px | lines | folds "
         "| coverage | squash p90 / p99 / cov. | independent p90 / p99 / cov. | viewport ms |\n"
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   auto cell = [](const json& v, const char* format = "%.2f") {
     if (v.is_null()) return std::string("n/a");
     char buf[32];
@@ -92,7 +92,8 @@ std::string report_markdown(const json& report) {
   };
   auto count = [](const json& v) { return v.is_null() ? std::string("n/a") : std::to_string(v.get<int>()); };
   for (const auto& r : report["rows"])
-    md << "| " << r["method"].get<std::string>() << " | " << cell(r["zoom"]) << " | " << cell(r["scale_gain"]) << " | "
+    md << "| " << r["method"].get<std::string>() << " | " << (r.contains("fit") ? r["fit"].get<std::string>() : "") << " | "
+       << cell(r["zoom"]) << " | " << cell(r["scale_gain"]) << " | "
        << cell(r["anisotropy_salient"]) << " | " << cell(r["anisotropy_weighted"]) << " | "
        << cell(r["rotation_p95"], "%.1f") << " | " << cell(r["rotation_spread"], "%.1f") << " | " << cell(r["line_px"])
        << " | " << count(r["lines_measured"]) << " | " << count(r["folds"]) << " | " << cell(r["coverage"], "%.4f")

@@ -62,7 +62,8 @@ overview='
 def fixed(d): if . == null then "n/a" else (. * pow(10; d) | round | tostring) as $s
   | if d == 0 then $s else ("0" * ([0, d + 1 - ($s | length)] | max) + $s) as $p
     | $p[:($p | length) - d] + "." + $p[($p | length) - d:] end end;
-def cell(m; z; f): [.rows[] | select(.method == m and .zoom == z) | f][0];
+def cell(m; z; f): (.fits // ["warp"])[0] as $fit
+  | [.rows[] | select(.method == m and .zoom == z and (.fit // "warp") == $fit) | f][0];
 . as $r | [$r.methods[] | select(.name != "traditional") | .name] as $ms
 | (($r.width / $r.height) / ($r.screen[0] / $r.screen[1])) as $a
 | "| \($r.image) | \($r.width)×\($r.height) | "
@@ -75,6 +76,21 @@ def cell(m; z; f): [.rows[] | select(.method == m and .zoom == z) | f][0];
       ([$r.rows[] | .folds // 0] | add | tostring),
       ([$ms[] as $m | $r.methods[] | select(.name == $m) | .precompute_ms | fixed(0)] | join(" / ")),
       ([$ms[] as $m | $r | cell($m; 0.5; .viewport_ms) | fixed(0)] | join(" / "))] | join(" | ")) + " |"'
+# Issue 41's squash overview, one row per image: the uniform stretch, the smart crop's salient
+# coverage, and per method at z = 0 the salient anisotropy p90 / p99 and coverage under the
+# independent map, for each fit compared.
+squash='
+def fixed(d): if . == null then "n/a" else (. * pow(10; d) | round | tostring) as $s
+  | if d == 0 then $s else ("0" * ([0, d + 1 - ($s | length)] | max) + $s) as $p
+    | $p[:($p | length) - d] + "." + $p[($p | length) - d:] end end;
+. as $r | [$r.methods[] | select(.name != "traditional" and .name != "seam") | .name] as $ms
+| (($r.width / $r.height) / ($r.screen[0] / $r.screen[1])) as $a
+| [$r.rows[] | select(.method == "smart crop" and .zoom == 0) | .independent_coverage][0] as $crop
+| "| \($r.image) | " + ((if $a < 1 then 1 / $a else $a end) | fixed(2)) + " | " + ($crop | fixed(2)) + " | "
+  + ([($r.fits // ["warp"])[] as $f
+      | ([$ms[] as $m | [$r.rows[] | select(.method == $m and .zoom == 0 and .fit == $f)][0]
+          | "\(.independent_p90 | fixed(2))/\(.independent_p99 | fixed(2))/\(.independent_coverage | fixed(2))"] | join(" · "))]
+     | join(" | ")) + " |"'
 metrics=("$out"/*/metrics.json)
 if [ ${#metrics[@]} -gt 0 ]; then
   methods=$(jq -r '[.methods[] | select(.name != "traditional") | .name] | join(" / ")' "${metrics[0]}")
@@ -87,6 +103,17 @@ if [ ${#metrics[@]} -gt 0 ]; then
     echo "| image | size | gain z=0 | gain z=0.5 | aniso. z=0: stretch · methods | rotation p95 z=0 | line px z=0 | folds | precompute ms | viewport ms z=0.5 |"
     echo "|---|---|---|---|---|---|---|---|---|---|"
     for m in "${metrics[@]}"; do jq -r "$overview" "$m"; done
+    if jq -e '.rows | any(.method == "smart crop")' "${metrics[0]}" > /dev/null; then
+      fits=$(jq -r '(.fits // ["warp"]) | join(" | ")' "${metrics[0]}")
+      echo
+      echo "## Squash (issue 41)"
+      echo
+      echo "At zoom 0, under the independent map (spectral residual on a 128-px thumbnail, top fifth): per method ($(jq -r '[.methods[] | select(.name != "traditional" and .name != "seam") | .name] | join(" · ")' "${metrics[0]}")) salient anisotropy p90/p99/coverage, for each fit ($fits); beside the uniform stretch and the attention smart crop's coverage."
+      echo
+      echo "| image | stretch | smart crop coverage | $fits |"
+      echo "|---|---|---|$(jq -r '(.fits // ["warp"]) | map("---") | join("|")' "${metrics[0]}")|"
+      for m in "${metrics[@]}"; do jq -r "$squash" "$m"; done
+    fi
   } >> "$summary"
 fi
 echo "compare_corpus.sh: $summary" >&2

@@ -112,6 +112,61 @@ TEST(Metrics, AnAffineStretchHasItsRatioAsAnisotropyAndItsAreaAsGain) {
   EXPECT_NEAR(warp::anisotropy({0, 0}, {1, 0}, {0, 1}, {0, 0}, {0.6, 0.8}, {-0.8, 0.6}), 1, 1e-12);
 }
 
+// A map of the square [0, size]² at one map pixel per image pixel: 1 on the columns x < size / 5,
+// 0 elsewhere — its top fifth is exactly those columns.
+warp::SignificanceMap left_fifth_map(int size) {
+  warp::SignificanceMap m;
+  m.width = m.height = size, m.scale = 1;
+  m.values.assign(std::size_t(size) * size, 0.0f);
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size / 5; ++x) m.values[std::size_t(y) * size + x] = 1.0f;
+  return m;
+}
+
+// Issue 41's squash measures: a uniform stretch has its ratio at every percentile and shows all;
+// a crop has anisotropy 1 and shows the share of the salient mass it keeps.
+TEST(Metrics, SquashOfAStretchIsItsRatioAndOfACropItsShare) {
+  const warp::View stretched = grid_view(4, 100, [](Point p) { return Point{2 * p.x, 0.5 * p.y}; });
+  auto sq = warp::squash_measures(stretched, left_fifth_map(100), 200, 50);
+  EXPECT_NEAR(*sq.anisotropy_p90, 4, 1e-12);
+  EXPECT_NEAR(*sq.anisotropy_p99, 4, 1e-12);
+  EXPECT_DOUBLE_EQ(*sq.coverage, 1);
+  // The same stretch through mesh_view_metrics, against the map it is given.
+  const auto m = warp::mesh_view_metrics(stretched, stretched, left_fifth_map(100), {}, 200, 50);
+  EXPECT_NEAR(*m.squash.anisotropy_p99, 4, 1e-12);
+  // The right half on a 50 px wide screen: nothing salient shown.
+  const warp::View right = grid_view(4, 100, [](Point p) { return Point{p.x - 50, p.y}; });
+  sq = warp::squash_measures(right, left_fifth_map(100), 50, 100);
+  EXPECT_DOUBLE_EQ(*sq.coverage, 0);
+  EXPECT_FALSE(sq.anisotropy_p90) << "nothing salient on screen";
+  // The left 10 columns: half the salient mass, undistorted.
+  const warp::View left = grid_view(4, 100, [](Point p) { return p; });
+  sq = warp::squash_measures(left, left_fifth_map(100), 10, 100);
+  EXPECT_NEAR(*sq.coverage, 0.5, 1e-12);
+  EXPECT_NEAR(*sq.anisotropy_p90, 1, 1e-12);
+  // One triangle of the salient part squeezed flat (a tear) shows at p99 but not at p90.
+  warp::View torn = torn_grid_view(10, 100, [](Point p, Point centroid) {
+    return centroid.x < 10 && centroid.y < 10 ? Point{p.x, 5 + (p.y - 5) * 0.01} : p;
+  });
+  sq = warp::squash_measures(torn, left_fifth_map(100), 100, 100);
+  EXPECT_NEAR(*sq.anisotropy_p90, 1, 1e-9);
+  EXPECT_GT(*sq.anisotropy_p99, 50);
+  // An empty map measures nothing.
+  EXPECT_FALSE(warp::squash_measures(left, {}, 100, 100).coverage);
+}
+
+TEST(Metrics, SquashOfARasterMethodIsItsCoverage) {
+  // A 20 × 100 screen showing the image's columns 0…19 one to one: all of the salient fifth.
+  std::vector<Point> sources;
+  for (int y = 0; y < 100; ++y)
+    for (int x = 0; x < 20; ++x) sources.push_back({x + 0.5, y + 0.5});
+  EXPECT_NEAR(*warp::squash_measures_of_sources(sources, left_fifth_map(100)).coverage, 1, 1e-12);
+  for (Point& p : sources) p.x += 50;
+  EXPECT_NEAR(*warp::squash_measures_of_sources(sources, left_fifth_map(100)).coverage, 0, 1e-12);
+  for (Point& p : sources) p = {std::nan(""), std::nan("")};
+  EXPECT_NEAR(*warp::squash_measures_of_sources(sources, left_fifth_map(100)).coverage, 0, 1e-12);
+}
+
 TEST(Metrics, ARigidRotationHasItsAngleAsRotationAndNoSpread) {
   // The whole view turned by 10° about its centre (onto the middle of a 200 × 200 screen): every
   // triangle turns by 10°, which bends nothing.

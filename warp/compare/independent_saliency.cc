@@ -15,10 +15,11 @@ SignificanceMap independent_saliency(const tiles::Raster& image, double image_wi
   cv::Mat grey;
   if (image.channels <= 2) cv::extractChannel(src, grey, 0);  // grey, or grey and alpha
   else cv::cvtColor(src, grey, image.channels == 3 ? cv::COLOR_RGB2GRAY : cv::COLOR_RGBA2GRAY);
-  const double f = double(kIndependentSaliencySide) / std::max(image.width, image.height);
+  // Never enlarged: a smaller image is its own thumbnail.
+  const double f = std::min(1.0, double(kIndependentSaliencySide) / std::max(image.width, image.height));
   const int tw = std::max(1, int(std::lround(image.width * f))), th = std::max(1, int(std::lround(image.height * f)));
   cv::Mat small;
-  cv::resize(grey, small, {tw, th}, 0, 0, cv::INTER_LINEAR);
+  cv::resize(grey, small, {tw, th}, 0, 0, cv::INTER_AREA);  // the mean of each cell, as squash.py's Image.BOX
   cv::Mat planes[] = {cv::Mat_<double>(small), cv::Mat::zeros(th, tw, CV_64F)}, spectrum;
   cv::merge(planes, 2, spectrum);
   cv::dft(spectrum, spectrum);

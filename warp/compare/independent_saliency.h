@@ -1,6 +1,6 @@
 // A saliency model no method here optimises, to judge the methods by (issue 41: "a measure the
 // method does not optimise"): spectral residual [Hou07] alone, on a thumbnail whose long side is
-// 128 px — no gradient, no faces, no curator regions, another resolution than the significance
+// 128 px (never enlarged) — no gradient, no faces, no curator regions, another resolution than the significance
 // the methods warp by (warp/saliency/significance.h: gradient × spectral residual on 64×64).
 //
 //   A = log |F(I)|,  R = A − mean₃ₓ₃(A),  S = G_σ=3 ∗ |F⁻¹(exp(R + i·arg F(I)))|²,  normalised to [0, 1].
