@@ -64,7 +64,7 @@ std::vector<OptionSpec> replay_specs() {
       {"endpoint", "both", "mesh, viewport, or both (each action requests its mesh, then its viewport)"},
       {"method", "icaz", "any method GET /v1/methods lists; one without a mesh (seam) needs --endpoint viewport"},
       {"fit", "auto", "what zoom 0 does with another aspect ratio: auto, warp, crop or pad (fit= of a view)"},
-      {"max-distortion", "", "fit=auto's budget, 1…8 (default: the server's, 1.5)"},
+      {"max-distortion", "", "fit=auto's budget, 1…8 (default: the server's, 1.4)"},
       {"format", "jpg", "viewport image format: jpg, png, webp, avif or jxl"},
       {"timeout", "30", "seconds a request may take before it counts as failed"},
       {"json", "0", "print the summary as one JSON object", true},

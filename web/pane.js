@@ -135,10 +135,13 @@ export class Pane {
     return `/v1/images/${encodeURIComponent(this.image.id)}/${route}?${params}`;
   }
 
-  // The mesh of `request`, as a geomorph from the drawn view when there is one of the same size.
+  // The mesh of `request`, as a geomorph from the drawn view when there is one of the same size
+  // and fit (the server frames both ends of a geomorph with the fit asked for, so a view drawn
+  // with another fit is no start for it).
   meshUrl(request) {
     const from = this.shown?.request;
-    if (!from || from.w !== request.w || from.h !== request.h) return this.viewUrl('mesh', request);
+    const sameFit = (this.shown?.mesh.view?.fit ?? this.fit) === this.fit;
+    if (!from || from.w !== request.w || from.h !== request.h || !sameFit) return this.viewUrl('mesh', request);
     const previous = viewParams(from);
     return this.viewUrl('mesh', request, { from_zoom: previous.zoom, from_cx: previous.cx, from_cy: previous.cy });
   }

@@ -8,7 +8,7 @@
 // constraints, shown only while the tab holds a curator key (curator.js).
 //
 // For tests and scripts, window.zoomwarp = {ready, setView, getView, imageId, panes, meshRequests,
-// viewportRequests, frames} (web/README.md).
+// viewportRequests, frames, fit, whenIdle} (web/README.md).
 
 import { TileCache } from './atlas.js';
 import {
@@ -319,7 +319,7 @@ class Viewer {
   }
 
   // What zoom 0 does where the image's aspect is not the screen's (fit=: auto, warp, crop, pad):
-  // every pane fetches its view again.
+  // every pane fetches its view again; resolves when they are drawn.
   setFit(fit) {
     this.fit = fit;
     for (const pane of this.panes) {
@@ -327,6 +327,7 @@ class Viewer {
       pane.invalidate();
     }
     this.say(`fit: ${fit}`);
+    return this.whenIdle();
   }
 
   // A new image version: every pane fetches its view again, and the overlay the lines.
@@ -535,6 +536,8 @@ window.zoomwarp = {
   get meshRequests() { return viewerNow?.counters.meshRequests ?? 0; },
   get viewportRequests() { return viewerNow?.counters.viewportRequests ?? 0; },
   get frames() { return viewerNow?.counters.frames ?? 0; },
+  get fit() { return viewerNow?.fit; },
+  whenIdle: async () => (await booting).whenIdle(),
 };
 booting.then((viewer) => { viewerNow = viewer; },
              (error) => { document.getElementById('status').textContent = error.message; });
