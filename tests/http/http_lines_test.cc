@@ -286,7 +286,7 @@ TEST_F(Lines, LinesNoneServesTheMeshesOfBeforeIssue30) {
     const std::size_t dash = name.rfind('-');
     const std::string method = name.substr(0, dash), size = name.substr(dash + 1);
     const std::string w = size.substr(0, size.find('x')), h = size.substr(size.find('x') + 1);
-    const std::string view = "/v1/images/boats/mesh?zoom=0&w=" + w + "&h=" + h + "&method=" + method + "&lines=none";
+    const std::string view = "/v1/images/boats/mesh?zoom=0&w=" + w + "&h=" + h + "&method=" + method + "&lines=none&fit=warp";
     testing::HttpResponse r;
     for (int attempt = 0; attempt < 60; ++attempt) {  // a first view may answer 503 while its analysis is computed
       r = http().get(view);
