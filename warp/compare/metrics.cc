@@ -37,6 +37,16 @@ std::vector<char> top_share(const SignificanceMap& map, std::size_t parts) {
 std::vector<char> salient_region(const SignificanceMap& map) { return top_share(map, 10); }
 std::vector<char> top_fifth(const SignificanceMap& map) { return top_share(map, 5); }
 
+// Whether map pixel (x, y)'s centre, held by triangle f of the view's source mesh, lands on the
+// screen (its far edges included).
+bool lands_on_screen(const View& view, const SignificanceMap& map, int x, int y, int f, int sw, int sh) {
+  const Mesh& mesh = view.source;
+  const Point p{(x + 0.5) / map.scale, (y + 0.5) / map.scale};
+  const Triangle& t = mesh.triangles[f];
+  const MeshPoint where{f, barycentric(p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]])};
+  return on_screen(locate(mesh, view.screen, p, where), sw, sh);
+}
+
 // The linear part M = [m11 m12; m21 m22] of the affine map taking triangle (a, b, c) to
 // (a', b', c'): M·[b−a, c−a] = [b'−a', c'−a']. None for a degenerate source triangle.
 std::optional<std::array<double, 4>> linear_part(const Point& a, const Point& b, const Point& c, const Point& a2,
@@ -80,11 +90,7 @@ MapMeasure measure_map(const View& view, const SignificanceMap& map, const std::
     for (int x = 0; x < map.width; ++x) {
       const std::size_t i = std::size_t(y) * map.width + x;
       const int f = holder[i];
-      if (f < 0) continue;
-      const Point p{(x + 0.5) / map.scale, (y + 0.5) / map.scale};
-      const Triangle& t = mesh.triangles[f];
-      const MeshPoint where{f, barycentric(p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]])};
-      if (!on_screen(locate(mesh, view.screen, p, where), sw, sh)) continue;
+      if (f < 0 || !lands_on_screen(view, map, x, y, f, sw, sh)) continue;
       triangle(f);
       if (salient[i]) {
         out.salient_area += pixel_area * stretch[f];
@@ -354,11 +360,8 @@ SquashMeasures squash_measures(const View& view, const SignificanceMap& map, int
       if (!salient[i]) continue;
       mass += map.values[i];
       const int f = holder[i];
-      if (f < 0) continue;
-      const Point p{(x + 0.5) / map.scale, (y + 0.5) / map.scale};
+      if (f < 0 || !lands_on_screen(view, map, x, y, f, sw, sh)) continue;
       const Triangle& t = mesh.triangles[f];
-      const MeshPoint where{f, barycentric(p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]])};
-      if (!on_screen(locate(mesh, view.screen, p, where), sw, sh)) continue;
       if (std::isnan(aniso[f]))
         aniso[f] = anisotropy(mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]], view.screen[t[0]],
                               view.screen[t[1]], view.screen[t[2]]);
