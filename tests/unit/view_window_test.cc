@@ -114,13 +114,27 @@ TEST(ViewWindow, CuratorImportantContentIsNeverCroppedWhileLessImportantExists) 
   }
   // Without the curator's region the window goes to the detail on the right.
   const warp::ViewWindow w = warp::window_frame(warp::significance_profile(m, {}, W, H), {Fit::kCrop, 1.5}, 360, 640).window;
-  EXPECT_GE(w.start, 3000 - 1e-6);
+  EXPECT_GE(w.start + w.length / 2, 3000) << "the window's middle on the detail";
   // A region marked less important (weight 0) is never preferred: the window avoids it.
   SignificanceMap dull = flat_map(W, H, 0.5f);
   paint(dull, 0, 0, 2000, 1000, 0.0f);
   const warp::ViewWindow right =
       warp::window_frame(warp::significance_profile(dull, {region(0, 0, 2000, 1000, 0.0f)}, W, H), {Fit::kCrop, 1.5}, 360, 640).window;
   EXPECT_GE(right.start, 2000 - 1e-6);
+}
+
+// What matters is kept whole rather than cut at the screen's edge: a bright object a little
+// narrower than the window, beside a long textured band of more total significance, is shown
+// whole (the plain sum would take the band and cut the object, as it cut the fig on its plate).
+TEST(ViewWindow, AnObjectIsKeptWholeRatherThanCutAtTheEdge) {
+  const double W = 4000, H = 1000;
+  SignificanceMap m = flat_map(W, H, 0.05f);
+  paint(m, 2400, 0, 2800, 1000, 1.0f);  // the object, 400 px
+  paint(m, 1200, 0, 2400, 1000, 0.4f);  // the band on its left, 1200 px
+  const warp::ViewWindow w = warp::window_frame(warp::significance_profile(m, {}, W, H), {Fit::kCrop, 1.5}, 360, 640).window;
+  ASSERT_NEAR(w.length, 562.5, 1e-9);
+  EXPECT_LE(w.start, 2400 - 0.1 * w.length + 1e-6) << "the object's left end clear of the edge zone";
+  EXPECT_GE(w.start + w.length, 2800 + 0.1 * w.length - 1e-6) << "its right end too";
 }
 
 TEST(ViewWindow, AnImportantRegionWiderThanTheWindowFillsIt) {

@@ -51,27 +51,77 @@ struct Cumulative {
   double between(double a, double b) const { return at(b) - at(a); }
 };
 
-// The start (image px) of the `length`-long window along an axis of `extent` px with the most
-// important area, then the most mass; of equal ones, the one nearest the middle.
+// The share of a window, at each side, whose significance counts against it (ours, issue 41):
+// what lies at a window's edge is what the crop cuts through, so there the weight falls linearly
+// from 1 to −1 and a subject whole inside beats one cut at the edge — the fig on its plate at
+// 360×640 was cut through its skin by the window of most significance, which took the plate's
+// textured rim instead (smart croppers weigh their border alike: smartcrop.js's edge penalty).
+constexpr double kEdgeShare = 0.1;
+
+// ∫₀ᵘ of the weight of relative position t ∈ [0, 1] in a window: 1 inside, −1 + 2d/e at distance
+// d < e = kEdgeShare from an edge. Integrated exactly over each bin below, so a window's score is
+// continuous in its start (a flat map then ties everywhere, and the middle wins).
+double edge_weight_integral(double u) {
+  constexpr double e = kEdgeShare;
+  u = std::clamp(u, 0.0, 1.0);
+  const auto rim = [](double v) { return -v + v * v / e; };  // ∫₀^v (−1 + 2t/e) dt, v ≤ e
+  if (u <= e) return rim(u);
+  if (u <= 1 - e) return u - e;
+  return (1 - 2 * e) - rim(1 - u);
+}
+
+// Σ over bins k of mass[k]·(the mean weight over the part of [lo(k), hi(k)) inside the window
+// [a, a + length))·(that part's share of the bin): the bins' mass spread evenly over their extent.
+template <class Lo, class Hi>
+double edge_weighted_mass(const std::vector<double>& mass, Lo lo, Hi hi, double a, double length) {
+  double sum = 0;
+  for (std::size_t k = 0; k < mass.size(); ++k) {
+    const double u0 = (lo(k) - a) / length, u1 = (hi(k) - a) / length;
+    if (u1 <= 0 || u0 >= 1 || mass[k] == 0) continue;
+    if (u1 - u0 <= 0) continue;  // a bin the warp folded to nothing shows nothing
+    sum += mass[k] * (edge_weight_integral(u1) - edge_weight_integral(u0)) / (u1 - u0);
+  }
+  return sum;
+}
+
+// The best of the windows considered: the most important area, then the most edge-weighted
+// significance, then the start nearest `middle` (equal within a billionth of the totals).
+class BestWindow {
+ public:
+  BestWindow(double important_total, double mass_total, double middle)
+      : eps_imp_(1e-9 * std::max(1.0, important_total)), eps_mass_(1e-9 * std::max(1.0, mass_total)), middle_(middle) {}
+
+  void consider(double start, double important, double mass) {
+    const bool better = !any_ || important > imp_ + eps_imp_ ||
+                        (important >= imp_ - eps_imp_ &&
+                         (mass > mass_ + eps_mass_ ||
+                          (mass >= mass_ - eps_mass_ && std::abs(start - middle_) < std::abs(start_ - middle_))));
+    if (better) any_ = true, start_ = start, imp_ = important, mass_ = mass;
+  }
+  double start() const { return start_; }
+
+ private:
+  const double eps_imp_, eps_mass_, middle_;
+  bool any_ = false;
+  double start_ = 0, imp_ = 0, mass_ = 0;
+};
+
+// The start (image px) of the `length`-long window along an axis of `extent` px (BestWindow).
 double best_start(const std::vector<double>& mass, const std::vector<double>& important, double extent, double length) {
   const double n = double(mass.size());
   if (n == 0 || length >= extent) return 0;
   const double bins_per_px = n / extent, span = length * bins_per_px, last = n - span;
   const Cumulative m(mass), imp(important);
-  const double eps_imp = 1e-9 * std::max(1.0, imp.at(n)), eps_mass = 1e-9 * std::max(1.0, m.at(n));
-  double best = last / 2, best_imp = imp.between(best, best + span), best_mass = m.between(best, best + span);
-  // Every start on the bins' grid, and the last: between two grid points both window ends move
-  // over one bin each, so the masses are linear there and the best is at one of them.
+  BestWindow best(imp.at(n), m.at(n), last / 2);
+  const auto consider = [&](double s) {
+    best.consider(s, imp.between(s, s + span),
+                  edge_weighted_mass(mass, [](std::size_t j) { return double(j); }, [](std::size_t j) { return j + 1.0; }, s, span));
+  };
+  // The middle, every start on the bins' grid, and the last.
+  consider(last / 2);
   const int steps = int(std::ceil(last));
-  for (int k = 0; k <= steps; ++k) {
-    const double s = std::min(double(k), last);
-    const double i = imp.between(s, s + span), v = m.between(s, s + span);
-    const bool better = i > best_imp + eps_imp ||
-                        (i >= best_imp - eps_imp &&
-                         (v > best_mass + eps_mass || (v >= best_mass - eps_mass && std::abs(s - last / 2) < std::abs(best - last / 2))));
-    if (better) best = s, best_imp = i, best_mass = v;
-  }
-  return best / bins_per_px;
+  for (int k = 0; k <= steps; ++k) consider(std::min(double(k), last));
+  return best.start() / bins_per_px;
 }
 
 struct Budget {
@@ -157,26 +207,21 @@ double warped_window_offset(const View& v, const ViewWindow& w, const Significan
     return double(k - 1) + (span > 0 ? (x - u[k - 1]) / span : 0.0);
   };
   // The screen-wide warped window with the most important area (counted a small margin inside
-  // its edges, so that a region is not kept only to the pixel) and then the most significance;
-  // candidates: every warped bin edge as the window's start or end, and both ends of the target.
-  const Cumulative m(mass), imp(important);
+  // its edges, so that a region is not kept only to the pixel), then the most edge-weighted
+  // significance (each bin spread over its warped extent); candidates: the middle, every warped
+  // bin edge as the window's start or end, and both ends of the target.
+  const Cumulative imp(important);
   const double margin = 0.02 * view, last = target - view;
-  const double eps_imp = 1e-9 * std::max(1.0, imp.at(n)), eps_mass = 1e-9 * std::max(1.0, m.at(n));
-  double best = -1, best_imp = 0, best_mass = 0;
+  BestWindow best(imp.at(n), Cumulative(mass).at(n), last / 2);
   const auto consider = [&](double s) {
     s = std::clamp(s, 0.0, last);
-    const double i = imp.between(bin_at(s + margin), bin_at(s + view - margin));
-    const double v_mass = m.between(bin_at(s), bin_at(s + view));
-    const bool better = best < 0 || i > best_imp + eps_imp ||
-                        (i >= best_imp - eps_imp &&
-                         (v_mass > best_mass + eps_mass ||
-                          (v_mass >= best_mass - eps_mass && std::abs(s - last / 2) < std::abs(best - last / 2))));
-    if (better) best = s, best_imp = i, best_mass = v_mass;
+    best.consider(s, imp.between(bin_at(s + margin), bin_at(s + view - margin)),
+                  edge_weighted_mass(mass, [&](std::size_t k) { return u[k]; }, [&](std::size_t k) { return u[k + 1]; }, s, view));
   };
-  consider(0), consider(last);
+  consider(last / 2), consider(0), consider(last);
   for (double x : u) consider(x), consider(x - view);
   // The source point that lands at the chosen window's middle: the request centre that places it.
-  return bin_at(best + view / 2) * extent / n - extent / 2;
+  return bin_at(best.start() + view / 2) * extent / n - extent / 2;
 }
 
 ViewRequest panned_view(const ViewRequest& r, const WindowFrame& f, double offset, const SignificanceProfile& p) {

@@ -9,9 +9,11 @@
 //   shows a source window about L = W·a_S/a₀ wide (taller images alike, along y);
 //
 //   the window is the L-long interval along that axis with the most curator-important area (the
-//   curator's regions of weight ≥ kImportantWeight), and among those the most significance — so a
-//   region the curator marked important is never cropped while less important content could be
-//   instead, and faces (painted fully significant) weigh as much as anything;
+//   curator's regions of weight ≥ kImportantWeight), and among those the most significance,
+//   weighed down towards its edges (from 1 to −1 over the outer tenth of each side, so that what
+//   matters is kept whole rather than cut at the screen's edge) — so a region the curator marked
+//   important is never cropped while less important content could be instead, and faces (painted
+//   fully significant) weigh as much as anything;
 //
 //   the request's centre c pans it: the view centres on c + d·(1 − z), d the best window's offset
 //   from the image centre, so a request centred on the image (every client's default) shows the
