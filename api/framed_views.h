@@ -10,8 +10,9 @@
 // Where a view crops (fit=auto beyond its budget, fit=crop), the window is centred as the method
 // draws it: the warp enlarges what matters, so the source window's centre is not the middle of
 // the warped window (warped_window_offset). That needs the method's view at zoom 0 once per
-// version, method, saliency, lines, screen and fit; the offsets are kept here (a few thousand,
-// the least recently used dropped), so a view costs what it cost before after the first.
+// version, method, saliency, lines, screen and fit; the offsets (and, for crop, the placed
+// window's) are kept here (a few thousand, the least recently used dropped), so after the first
+// a view costs what it cost before: no placement, no profile read on the request path.
 //
 // Thread safety: every member may be called from several threads at once.
 #pragma once

@@ -208,9 +208,9 @@ TEST(ViewWindow, IcazViewsShowTheImportantRegionAndEndInTheExactCrop) {
   EXPECT_LE(wf.window.start, 150);
   EXPECT_GE(wf.window.start + wf.window.length, 450);
   const double offset = warp::warped_window_offset(
-      icaz.view(warp::panned_view(request(W, H, 360, 640), wf, warp::window_offset(wf.window, profile), profile)), wf.window,
+      icaz.view(warp::panned_view(request(W, H, 360, 640), wf, warp::window_offset(wf.window, profile), profile.width, profile.height)), wf.window,
       profile);
-  const warp::View v = icaz.view(warp::panned_view(request(W, H, 360, 640), wf, offset, profile));
+  const warp::View v = icaz.view(warp::panned_view(request(W, H, 360, 640), wf, offset, profile.width, profile.height));
   for (const Point& corner : important.polygon) {
     const Point s = warp::locate(v.source, v.screen, corner);
     EXPECT_TRUE(s.x >= 0 && s.x <= 360 && s.y >= 0 && s.y <= 640) << corner.x << "," << corner.y << " -> " << s.x << "," << s.y;
@@ -222,7 +222,7 @@ TEST(ViewWindow, IcazViewsShowTheImportantRegionAndEndInTheExactCrop) {
   // Zoom 1: source pixel (x, y) is screen pixel (x − cx + 180, y − cy + 320), to the 0.05 px.
   ViewRequest one = request(W, H, 360, 640, 1);
   one.cx = 1000, one.cy = 700;
-  const warp::View z1 = icaz.view(warp::panned_view(one, wf, offset, profile));
+  const warp::View z1 = icaz.view(warp::panned_view(one, wf, offset, profile.width, profile.height));
   for (int f : z1.visible)
     for (int k : z1.source.triangles[f]) {
       EXPECT_NEAR(z1.screen[k].x, z1.source.vertices[k].x - 1000 + 180, 0.05);

@@ -224,19 +224,19 @@ double warped_window_offset(const View& v, const ViewWindow& w, const Significan
   return bin_at(best.start() + view / 2) * extent / n - extent / 2;
 }
 
-ViewRequest panned_view(const ViewRequest& r, const WindowFrame& f, double offset, const SignificanceProfile& p) {
+ViewRequest panned_view(const ViewRequest& r, const WindowFrame& f, double offset, double width, double height) {
   ViewRequest out = r;
   out.frame = f.frame;
   if (!f.window.crops || !std::isfinite(offset)) return out;
   const double z = std::clamp(std::isfinite(r.zoom) ? r.zoom : 0.0, 0.0, 1.0);
-  if (f.window.along_x) out.cx = std::clamp(r.cx + offset * (1 - z), 0.0, p.width);
-  else out.cy = std::clamp(r.cy + offset * (1 - z), 0.0, p.height);
+  if (f.window.along_x) out.cx = std::clamp(r.cx + offset * (1 - z), 0.0, width);
+  else out.cy = std::clamp(r.cy + offset * (1 - z), 0.0, height);
   return out;
 }
 
 ViewRequest framed_view(const ViewRequest& r, const FitOptions& fit, const SignificanceProfile& p, bool warps) {
   const WindowFrame f = window_frame(p, fit, r.screen_width, r.screen_height, warps);
-  return panned_view(r, f, window_offset(f.window, p), p);
+  return panned_view(r, f, window_offset(f.window, p), p.width, p.height);
 }
 
 }  // namespace zoomwarp::warp

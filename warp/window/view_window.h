@@ -92,8 +92,8 @@ double window_offset(const ViewWindow& window, const SignificanceProfile& profil
 double warped_window_offset(const View& zoom0, const ViewWindow& window, const SignificanceProfile& profile);
 
 // The request a method draws: `f`'s frame, and the centre moved by `offset` along the window's
-// axis, fading out with the zoom (c + offset·(1 − z), clamped to the image).
-ViewRequest panned_view(const ViewRequest& request, const WindowFrame& f, double offset, const SignificanceProfile& profile);
+// axis, fading out with the zoom (c + offset·(1 − z), clamped to the width × height image).
+ViewRequest panned_view(const ViewRequest& request, const WindowFrame& f, double offset, double width, double height);
 
 // window_frame, then panned_view by window_offset: the request framed without a method's warp
 // (the api refines the offset through the method's warp, api/framed_views.h).
