@@ -29,16 +29,19 @@ constexpr double kLeastShapeStage = 1.0 / 1024;
 constexpr int kRunSteps = 100, kSolveSteps = 1000;
 // Step 6 tries this many lower object scales, the last the fit scale (ours).
 constexpr int kScaleSteps = 3;
+// Step 7 lets the objects' shape go toward the stretch in this many steps, the last all the way (ours).
+constexpr int kGiveWaySteps = 3;
 // A result is torn (ours, issue 41) when a triangle keeps less than this share of its area under
 // the uniform stretch: squeezed twenty times beyond the stretch, it shows as a crease through
-// whatever it covers. eq. 10 puts no price on it, the fold barrier (ε = 1) a price of a few px²
-// against λ = 1.4·10⁵ per px² of line bend, so a rigid solve could end with triangles beside held
-// lines at 10⁻⁵ of their area (boats_lake_sunset.jpg at 360×640: salient anisotropy p99 27 639).
+// whatever it covers. eq. 10 prices it at l² per edge; with the fold barrier at ε = 1 a rigid
+// solve ended with triangles beside held lines at 10⁻⁵ of their area (boats_lake_sunset.jpg at
+// 360×640: salient anisotropy p99 27 639). ε (mp_solve.h) is now chosen so that the samples
+// keep every triangle above this share; steps 6–7 handle the cases it cannot.
 constexpr double kLeastAreaShare = 0.05;
 
 bool torn(const MpSolution& s) { return s.least_area_share < kLeastAreaShare; }
-// The fold barrier's weight in the shape continuation's stages, over ε (ours): at ε the stretch
-// energy squeezes some triangles nearly flat (area ratio ~1e-4 on the samples), and the next
+// The fold barrier's weight in the shape continuation's stages, over ε (ours): at ε = 1 the stretch
+// energy squeezed some triangles nearly flat (area ratio ~1e-4 on the samples), and the next
 // stage's change of the objects' map then folds them at any step size; ×30 keeps them open. The
 // last run (eq. 3) has ε, so the result minimises the same energy as every other run.
 constexpr double kStageBarrier = 30;
@@ -888,31 +891,45 @@ bool rigid_solve(const Problem& pb, const Layout& hard, Progress& run) {
 // of its stretched area. z then steps toward the fit scale z_fit = min(W'/W, H'/H), where the
 // objects shrink at least as much as the stretch in both directions, halving the distance each
 // time (kScaleSteps, the last z_fit itself), each step taking steps 2–3 from the stretch with its
-// own step budget. The first that ends rigid and untorn stands; if none does (or z ≤ z_fit
-// already), the least torn rigid result, else `failed`.
+// own step budget. The first that ends rigid and untorn stands.
+//
+// Step 7 (ours, issue 41): torn even at z_fit, the objects give way. A held line that crosses an
+// object cannot keep its slope in the object (a similarity) and in a background stretched by
+// another ratio unless the triangles where they meet collapse (interior_wine_djembe_tall.jpg with
+// GBVS at 16:9 and 3:1: a triangle at 4·10⁻⁸ of its area under z_fit). Each object's map then
+// goes from eq. 3's toward the stretch, s = s_stretch + k·(s_fit − s_stretch), k = 1/2, 1/4, 0 —
+// at k = 0 the objects follow the stretch as every line does, so nothing is left to collapse. The
+// first untorn result stands, object_shape_kept = k saying how much of eq. 3's shape is kept; if
+// none is untorn, the least torn rigid result of steps 6–7, else `failed`.
 MpSolution lowered_scale_solve(const MpModel& model, double target_w, double target_h, const MpSolveOptions& options,
                                MpSolution failed) {
-  const double z_fit = std::min(target_w / model.width, target_h / model.height);
+  const Point stretch{target_w / model.width, target_h / model.height};
+  const double z_fit = std::min(stretch.x, stretch.y);
   const double z = failed.object_scale;
-  if (!(z > z_fit)) return failed;
   int iterations = failed.iterations;
   std::optional<MpSolution> best;  // the least torn rigid result so far
   if (failed.rigid) best = std::move(failed);
-  for (int k = 1; k <= kScaleSteps; ++k) {
-    const double zk = k == kScaleSteps ? z_fit : z_fit + std::ldexp(z - z_fit, -k);
-    const Problem pb = make_problem(model, target_w, target_h, zk, options);
+  // One solve at object scale zk with the objects' maps kept to a share `kept` of eq. 3's shape.
+  auto attempt = [&](double zk, double kept) {
+    Problem pb = make_problem(model, target_w, target_h, zk, options);
+    for (Point& s : pb.object_scale) s = {stretch.x + kept * (s.x - stretch.x), stretch.y + kept * (s.y - stretch.y)};
     Progress run(pb, options.stop);
     const bool rigid = rigid_solve(pb, make_layout(pb, true, pb.object_scale), run);
     iterations += run.sol.iterations;
-    if (rigid && !torn(run.sol)) {
-      run.sol.iterations = iterations;
-      return run.sol;
-    }
+    run.sol.object_shape_kept = kept;
+    run.sol.rigid = rigid && kept == 1;  // eq. 3 holds only with the whole shape kept
+    if (rigid && !torn(run.sol)) return std::optional<MpSolution>(std::move(run.sol));
     if (rigid && (!best || run.sol.least_area_share > best->least_area_share)) best = std::move(run.sol);
-  }
-  MpSolution out = best ? std::move(*best) : std::move(failed);
-  out.iterations = iterations;
-  return out;
+    return std::optional<MpSolution>();
+  };
+  std::optional<MpSolution> out;
+  for (int k = 1; !out && z > z_fit && k <= kScaleSteps; ++k)  // step 6
+    out = attempt(k == kScaleSteps ? z_fit : z_fit + std::ldexp(z - z_fit, -k), 1);
+  for (int k = 1; !out && !model.objects.empty() && k <= kGiveWaySteps; ++k)  // step 7
+    out = attempt(std::min(z, z_fit), k == kGiveWaySteps ? 0 : std::ldexp(1, -k));
+  MpSolution result = out ? std::move(*out) : best ? std::move(*best) : std::move(failed);
+  result.iterations = iterations;
+  return result;
 }
 
 }  // namespace

@@ -51,15 +51,22 @@
 //   6. Only if that ends not rigid (ours, issue 30), or rigid but torn (issue 41: a triangle below
 //      5 % of its area under the uniform stretch, least_area_share): z lowered toward the fit scale
 //      z_fit = min(W'/W, H'/H) — z_fit + (z − z_fit)/2, /4, then z_fit — each with steps 2–3 from
-//      the stretch and its own step budget; the first rigid result stands (object_scale says
-//      which z), else the least torn rigid one, else step 5's. Where two objects on a border leave the background too little
+//      the stretch and its own step budget; the first rigid, untorn result stands (object_scale
+//      says which z). Where two objects on a border leave the background too little
 //      room, every path stalled and the penalty result collapsed triangles to 1e-11 of their area
 //      (samples/planks_by_the_water.jpg at 9:16: z = 0.98, rigid at 0.69).
+//   7. Still torn at z_fit (ours, issue 41): the objects give way. A held line crossing an object
+//      cannot keep one slope in the object (a similarity) and in a background stretched by another
+//      ratio unless the triangles where they meet collapse; each object's map goes from eq. 3's
+//      toward the stretch's, s_stretch + k·(s − s_stretch) for k = 1/2, 1/4, 0 (object_shape_kept
+//      = k), until the result is untorn; at k = 0 the objects follow the stretch as every line
+//      does. If none is untorn: the least torn rigid result of steps 6–7, else step 5's.
 //   Every run adds the rotation term (ours, rotation_weight below: eq. 8's row and column scales
 //   shear the background around the objects, and the salient region beside them leaned 15–38°)
-//   and a fold barrier to E (ours, fold_barrier below): eq. 10 puts no price on a collapsing
-//   triangle, and where its descent points across a fold the fold-free line search
-//   alone stalls against it (α_max shrinking tenfold per step). The barrier is 0 with zero
+//   and a fold barrier to E (ours, fold_barrier below): eq. 10 prices an edge shrinking to nothing
+//   at only l² while it prices stretching as |d|⁴, so without a barrier the cheapest way to make
+//   room is to collapse a column of triangles (a tear through what it covers), and where the
+//   descent points across a fold the fold-free line search alone stalls against it. The barrier is 0 with zero
 //   gradient at the uniform stretch, so the identity and the pure stretch stay exact.
 //   A Newton run takes at most 100 steps, a solve 1000 in all at each z (then the runs left end
 //   at once).
@@ -92,8 +99,15 @@ struct MpSolveOptions {
   double line_weight = 1.4e5;
   double beta = 0.25;        // the least background scale, as a share of W'/W and H'/H
   // ε of the fold barrier ε·Σ_t A⁰_t(r_t − 1 − log r_t), r_t = area / area under the uniform
-  // stretch (ours: without it the fold-free line search stalls against a collapsing triangle).
-  double fold_barrier = 1;
+  // stretch (ours). At ε = 1 it kept the mesh unfolded but not open: on the samples and a
+  // citrus-like picture (mp_property_test.cc), 9:16 to 3:1, triangles fell to 3·10⁻⁹ of their area
+  // and the default map's salient anisotropy p99 reached 91× the stretch's (the citrus at 9:16).
+  // ε = 10 / 100 / 300 / 1000: least area share 0.003 → 0.047 / 0.073 / 0.073 / 0.074, salient
+  // p99 at most 7.9 / 5.3 / 3.1 / 4.3× the stretch's; 300 turned boats_lake_sunset.jpg's
+  // salient rotation at 360×640 to 11.7° and 1000 bent interior_wine_djembe_tall.jpg's lines
+  // 2.5 px (straight_lines_property_test.cc, 10°, 1 px). Every Newton run took fewer steps (2040
+  // → 910 over those 36 solves at 100).
+  double fold_barrier = 100;
   // ρ of the rotation term ρ·Σ_t A⁰_t(A10 − A01)² (ours, issue 30): the background may stretch
   // as eq. 8 asks but not turn. Without it the salient rotation p95 at 360×640 was 15–38° on the
   // corpus photographs; ρ = 10 / 30 / 100 left at most 18.8 / 15.4 / 12.2° (the 4:1 panorama on
@@ -119,8 +133,8 @@ struct MpSolution {
   std::vector<Point> positions;  // per mesh vertex, analysis px of the target rectangle
   std::vector<Point> poles;      // Q_O per object
   double object_scale = 1;       // z, as step 6 left it
-  std::vector<Point> object_scales;  // per object, the diagonal of its map under eq. 3 (above)
-  bool rigid = true;             // eq. 3 holds exactly (step 5 ran); false: the penalty result
+  std::vector<Point> object_scales;  // per object, the diagonal of its map (eq. 3 above; step 7's)
+  bool rigid = true;             // eq. 3 holds exactly (step 5 ran); false: the penalty result, or step 7
   double rigidity_residual = 0;  // max over object vertices of |Q_i − Q_O − diag(s)(P_i − P_O)|, px
   int iterations = 0;            // Newton steps, all runs together
   double energy = 0;             // E_l + λ·E_line + the rotation term at the result (no penalty, no barrier)
@@ -128,6 +142,9 @@ struct MpSolution {
   // The smallest triangle's area over its area under the uniform stretch: under 0.05 the result
   // is torn (a crease through what the triangle covers) and step 6 lowers z (issue 41).
   double least_area_share = 1;
+  // k of step 7: the share of eq. 3's shape the objects keep (1: rigid; 0: the uniform stretch's
+  // map). object_scales holds the diagonals actually used.
+  double object_shape_kept = 1;
   bool warm_started = false;     // the warm start was used (not discarded for folding)
   // The energy minimised by each Newton run (penalty and barrier included), before its first step and after
   // each accepted one: strictly decreasing within a run.
