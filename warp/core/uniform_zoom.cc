@@ -86,7 +86,7 @@ ZoomPlacement zoom_placement(double tw, double th, const ViewRequest& r, const P
   // z = 0 shows the whole image or covers the screen with it (ZoomFrame); for a target
   // of the screen's aspect the two are the same.
   const double fit = r.frame.cover ? std::max(sw / tw, sh / th) : std::min(sw / tw, sh / th);
-  const double scale = r.curve == ZoomCurve::kLinear ? (1 - z) * fit + z : fit * std::pow(1 / fit, z);
+  const double scale = along_curve(fit, 1, z, r.curve);
   auto axis = [&](double c, double size, double screen, bool* clamped) {
     const double extent = size * scale;
     if (extent <= screen) return (screen - extent) / 2;  // letterbox

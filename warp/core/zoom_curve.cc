@@ -21,8 +21,7 @@ ZoomGeometry zoom_geometry(double W, double H, double sw, double sh, double z, Z
   const double full_view_w = aspect0 == screen_aspect
                                  ? std::sqrt(W * H * screen_aspect)
                                  : std::min(std::sqrt(W * H * aspect0), std::sqrt(W * H / aspect0) * screen_aspect);
-  double view_w = curve == ZoomCurve::kLinear ? (1 - z) * full_view_w + z * sw
-                                              : full_view_w * std::pow(sw / full_view_w, z);
+  double view_w = along_curve(full_view_w, sw, z, curve);
   // Fit the viewing area inside the warped image, but never shrink it below the screen (a
   // magnification above 1): an image smaller than the screen is letterboxed instead, so z = 1 is
   // 1:1 on every image. Both bounds are continuous in z, and so is the curve.
@@ -31,6 +30,12 @@ ZoomGeometry zoom_geometry(double W, double H, double sw, double sh, double z, Z
   g.view_height = view_w / screen_aspect;
   g.screen_scale = sw / view_w;
   return g;
+}
+
+double along_curve(double at0, double at1, double z, ZoomCurve curve) {
+  if (z <= 0) return at0;
+  if (z >= 1) return at1;
+  return curve == ZoomCurve::kLinear ? (1 - z) * at0 + z * at1 : at0 * std::pow(at1 / at0, z);
 }
 
 }  // namespace zoomwarp::warp

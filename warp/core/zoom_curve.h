@@ -54,4 +54,10 @@ ZoomGeometry zoom_geometry(double image_w, double image_h, double screen_w, doub
 // positive finite number.
 double frame_aspect(const ZoomFrame& frame, double screen_w, double screen_h);
 
+// A quantity going from `at0` (z = 0) to `at1` (z = 1) along the curve: (1 − z)·at0 + z·at1, or
+// at0·(at1/at0)^z — exactly at0 and at1 at the ends (at0·(at1/at0) need not be at1 in floating
+// point, and z = 1 must be 1:1 to the bit: a 1024×512 image at 360×640 was drawn at scale
+// 1 + 2⁻⁵², its letterbox one pixel off). z in [0, 1]; at0, at1 > 0 for the geometric curve.
+double along_curve(double at0, double at1, double z, ZoomCurve curve);
+
 }  // namespace zoomwarp::warp
