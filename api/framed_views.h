@@ -7,12 +7,14 @@
 // or of the version's model that every registered method's engine reads (the default kind with
 // the curator's regions and faces): no engine is loaded for framing alone.
 //
-// Where a view crops (fit=auto beyond its budget, fit=crop), the window is centred as the method
-// draws it: the warp enlarges what matters, so the source window's centre is not the middle of
-// the warped window (warped_window_offset). That needs the method's view at zoom 0 once per
-// version, method, saliency, lines, screen and fit; the offsets (and, for crop, the placed
-// window's) are kept here (a few thousand, the least recently used dropped), so after the first
-// a view costs what it cost before: no placement, no profile read on the request path.
+// Where a view crops (fit=auto beyond its budget, fit=crop), its frame and window are placed once
+// per version, method, saliency, lines, screen and fit: for fit=auto the frame is fitted to the
+// method's own warp (view_window.h budgeted_frame: up to four views at zoom 0, measured against
+// the map the window is placed by), and for a warp the window is centred as the method draws it
+// — the warp enlarges what matters, so the source window's centre is not the middle of the
+// warped window (warped_window_offset). What is placed is kept here (a few thousand, the least
+// recently used dropped), so after the first a view costs what it cost before: no placement, no
+// profile read and no measuring on the request path.
 //
 // Thread safety: every member may be called from several threads at once.
 #pragma once
@@ -25,6 +27,7 @@
 #include "api/view_query.h"
 #include "api/warp_engines.h"
 #include "warp/methods/recent_cache.h"
+#include "warp/window/view_window.h"
 
 namespace zoomwarp::api {
 
@@ -44,11 +47,19 @@ class ViewFraming {
                     bool for_screen = true);
 
  private:
-  static constexpr std::size_t kKeptOffsets = 4096;
+  static constexpr std::size_t kKeptPlacements = 4096;
+
+  // A cropping view's frame and its window's offset from the image centre (view_window.h).
+  struct Placed {
+    warp::WindowFrame frame;
+    double offset = 0;
+  };
+  Placed place(const tiles::ImageEntry& image, const ViewQuery& query, const ViewMethod& method, bool method_warps,
+               warp::Retargeter& engine, warp::Saliency saliency, const warp::StopToken* stop);
 
   WarpEngines& engines_;
   std::mutex mu_;
-  warp::RecentCache<std::string, double> offsets_{kKeptOffsets};  // guarded by mu_
+  warp::RecentCache<std::string, Placed> placed_{kKeptPlacements};  // guarded by mu_
 };
 
 }  // namespace zoomwarp::api

@@ -172,6 +172,74 @@ TEST(ViewWindow, FollowsTheRequestCentreAndIsContinuousInZoom) {
   EXPECT_EQ(last, W / 2);
 }
 
+// fit=auto fitted to a method's warp (budgeted_frame): the widest frame whose measured salient
+// squeeze keeps the budget. A 3:1 image on a 9:16 phone (a change of 5.33), budget 1.4; the
+// "method" squeezes what matters by a share k of the frame's allowance (the uniform stretch its
+// target keeps): k < 1 a content-aware warp with room to spare, k > 1 one that squeezes what
+// matters more than the stretch (mp before issue 41), k tiny a warp that never squeezes it.
+TEST(ViewWindow, TheBudgetIsHeldOnWhatTheMethodsWarpDoes) {
+  const double W = 3000, H = 1000, budget = 1.4;
+  const FitOptions fit{Fit::kAuto, budget};
+  const auto allowance = [&](const warp::WindowFrame& f) {
+    return f.window.crops ? (W / H) / f.frame.aspect : (W / H) / (360.0 / 640);
+  };
+  for (double k : {0.5, 0.8, 1.0, 1.3, 1.0 / 64}) {
+    int views = 0;
+    const warp::WindowFrame f = warp::budgeted_frame(W, H, fit, 360, 640, [&](const warp::WindowFrame& c) {
+      ++views;
+      const double a = allowance(c) * (1 - 1e-12);  // the allowance back from a₀, rounding aside
+      return warp::SalientSqueezeMeasure{std::max(1.0, k * a), std::max(1.0, 1.1 * k * a)};
+    });
+    SCOPED_TRACE(k);
+    EXPECT_LE(views, warp::kBudgetBisections + 2);
+    const double a = allowance(f);
+    // Held: the squeeze within the budget at p90 and at p99 (4/3 of it).
+    EXPECT_LE(k * a, budget + 1e-9);
+    EXPECT_LE(1.1 * k * a, warp::kSqueezeP99OverBudget * budget + 1e-9);
+    if (k * (W / H) / (360.0 / 640) <= budget) {  // the whole change holds: nothing cropped, as fit=warp
+      EXPECT_FALSE(f.window.crops);
+      continue;
+    }
+    ASSERT_TRUE(f.window.crops);
+    EXPECT_TRUE(f.frame.cover);
+    EXPECT_NEAR(f.window.length, W * (360.0 / 640) / f.frame.aspect, 1e-9);
+    // The widest that holds (budget / k), to the bisection's resolution: two halvings in log of
+    // [budget, change] when the budget's frame holds, of [1, budget] when it does not.
+    const double change = (W / H) / (360.0 / 640), bound = std::min(budget / k, change);
+    EXPECT_GE(a, bound / std::pow(k <= 1 ? change / budget : budget, 0.25) - 1e-9);
+    if (k <= 1) EXPECT_GE(a, budget - 1e-9) << "never narrower than the budget's own frame when that holds";
+    else EXPECT_LT(a, budget) << "narrower than the budget's own frame: the method squeezes more than the stretch";
+  }
+  // Other fits are window_frame's, measured never.
+  for (Fit other : {Fit::kWarp, Fit::kCrop, Fit::kPad}) {
+    const warp::WindowFrame f = warp::budgeted_frame(W, H, {other, budget}, 360, 640, [](const warp::WindowFrame&) {
+      ADD_FAILURE() << "measured";
+      return warp::SalientSqueezeMeasure{};
+    });
+    EXPECT_EQ(f.frame.aspect, warp::window_frame(W, H, {other, budget}, 360, 640).frame.aspect);
+  }
+  // A change within the budget (3:1 on 8:3, 1.125): warped whole when the warp holds it, after
+  // one view; cropped a little when the method squeezes what matters past the budget even so.
+  int views = 0;
+  EXPECT_FALSE(warp::budgeted_frame(W, H, fit, 640, 240, [&](const warp::WindowFrame& c) {
+                 ++views;
+                 EXPECT_FALSE(c.window.crops);
+                 return warp::SalientSqueezeMeasure{1.2, 1.3};
+               }).window.crops);
+  EXPECT_EQ(views, 1);
+  const warp::WindowFrame tight = warp::budgeted_frame(W, H, fit, 640, 240, [&](const warp::WindowFrame& c) {
+    const double a = c.window.crops ? (W / H) / c.frame.aspect : 1.125;
+    return warp::SalientSqueezeMeasure{1.35 * a, 1.35 * a};
+  });
+  ASSERT_TRUE(tight.window.crops);
+  EXPECT_LT((W / H) / tight.frame.aspect, 1.4 / 1.35);
+  // The same aspect: nothing to fit, nothing measured.
+  EXPECT_FALSE(warp::budgeted_frame(W, H, fit, 600, 200, [](const warp::WindowFrame&) {
+                 ADD_FAILURE() << "measured";
+                 return warp::SalientSqueezeMeasure{};
+               }).window.crops);
+}
+
 TEST(ViewWindow, DegenerateImagesAndBudgetsAreAnsweredOrRefused) {
   // 1×1, a 1×10 000 sliver both ways, an empty map: no crash, a window inside the image.
   for (const auto& [W, H] : {std::pair{1.0, 1.0}, std::pair{1.0, 10000.0}, std::pair{10000.0, 1.0}}) {

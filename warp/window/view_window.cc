@@ -124,18 +124,25 @@ double best_start(const std::vector<double>& mass, const std::vector<double>& im
   return best.start() / bins_per_px;
 }
 
-struct Budget {
-  bool crops = false;
-  double aspect0 = 0;  // the target's aspect at z = 0
-};
-
-// a₀ for `fit` (see the header): the image's for crop; for auto the screen's while the aspect
-// change is within the budget, else the image's divided (multiplied, for a tall image) by it.
-Budget budget(double W, double H, const FitOptions& fit, double sw, double sh) {
-  const double image_aspect = W / H, screen_aspect = sw / sh, change = image_aspect / screen_aspect;
-  if (fit.fit == Fit::kCrop) return {image_aspect != screen_aspect, image_aspect};
-  if (fit.fit != Fit::kAuto || std::max(change, 1 / change) <= fit.max_distortion) return {false, 0};
-  return {true, change > 1 ? image_aspect / fit.max_distortion : image_aspect * fit.max_distortion};
+// The frame whose target keeps `allowance` of the aspect change (its uniform stretch): a₀ the
+// image's aspect divided (multiplied, for a tall image) by it; none (the whole image, the
+// screen's aspect) once the allowance holds the whole change. `crop_all` (fit=crop): a₀ the
+// image's own.
+WindowFrame frame_at(double W, double H, int sw, int sh, double allowance, bool crop_all) {
+  WindowFrame out;
+  const double image_aspect = W / H, screen_aspect = double(sw) / sh, change = image_aspect / screen_aspect;
+  if (crop_all) allowance = 1;
+  else if (std::max(change, 1 / change) <= allowance) return out;
+  const double aspect0 = change > 1 ? image_aspect / allowance : image_aspect * allowance;
+  ViewWindow& w = out.window;
+  w.along_x = change > 1;
+  // The screen shows the screen-shaped part of the a₀ target: a_S/a₀ of its width (a₀/a_S of its
+  // height), taken as that share of the source.
+  const double extent = w.along_x ? W : H;
+  w.length = std::min(extent, w.along_x ? W * screen_aspect / aspect0 : H * aspect0 / screen_aspect);
+  w.crops = w.length < extent;
+  if (w.crops) out.frame = {aspect0, true};
+  return out;
 }
 
 }  // namespace
@@ -144,21 +151,36 @@ WindowFrame window_frame(double W, double H, const FitOptions& fit, int sw, int 
   if (!std::isfinite(fit.max_distortion) || fit.max_distortion < kMinMaxDistortion || fit.max_distortion > kMaxMaxDistortion)
     throw std::invalid_argument("max_distortion must be between " + std::to_string(kMinMaxDistortion) + " and " +
                                 std::to_string(kMaxMaxDistortion));
-  WindowFrame out;
-  if (fit.fit == Fit::kWarp || fit.fit == Fit::kPad || (fit.fit == Fit::kAuto && !warps)) return out;
-  if (!(W > 0 && H > 0 && sw > 0 && sh > 0)) return out;
-  const Budget b = budget(W, H, fit, sw, sh);
-  if (!b.crops) return out;
-  const double screen_aspect = double(sw) / sh;
-  ViewWindow& w = out.window;
-  w.along_x = b.aspect0 > screen_aspect;
-  // The screen shows the screen-shaped part of the a₀ target: a_S/a₀ of its width (a₀/a_S of its
-  // height), taken as that share of the source.
-  const double extent = w.along_x ? W : H;
-  w.length = std::min(extent, w.along_x ? W * screen_aspect / b.aspect0 : H * b.aspect0 / screen_aspect);
-  w.crops = w.length < extent;
-  if (w.crops) out.frame = {b.aspect0, true};
-  return out;
+  if (fit.fit == Fit::kWarp || fit.fit == Fit::kPad || (fit.fit == Fit::kAuto && !warps)) return {};
+  if (!(W > 0 && H > 0 && sw > 0 && sh > 0)) return {};
+  return frame_at(W, H, sw, sh, fit.max_distortion, fit.fit == Fit::kCrop);
+}
+
+WindowFrame budgeted_frame(double W, double H, const FitOptions& fit, int sw, int sh, const SalientSqueeze& squeeze) {
+  const WindowFrame first = window_frame(W, H, fit, sw, sh);
+  const double budget = fit.max_distortion, ratio = (W / H) / (double(sw) / sh);
+  const double change = std::max(ratio, 1 / ratio);
+  if (fit.fit != Fit::kAuto || !(change > 1)) return first;
+  const auto within = [&](double allowance) {
+    const SalientSqueezeMeasure m = squeeze(frame_at(W, H, sw, sh, allowance, false));
+    return m.p90 <= budget && m.p99 <= kSqueezeP99OverBudget * budget;
+  };
+  // Bisection on log(allowance) between one that holds (lo) and one that does not (hi): 1, a
+  // plain crop, always holds. A change within the budget is warped whole if the warp holds it
+  // (a method that squeezes what matters more than the stretch may not); beyond the budget, the
+  // budget's own frame first, then the whole change.
+  double lo = 1, hi = std::min(budget, change);
+  if (!first.window.crops) {
+    if (within(change)) return first;
+  } else if (within(budget)) {
+    if (within(change)) return frame_at(W, H, sw, sh, change, false);
+    lo = budget, hi = change;
+  }
+  for (int k = 0; k < kBudgetBisections; ++k) {
+    const double mid = std::sqrt(lo * hi);
+    (within(mid) ? lo : hi) = mid;
+  }
+  return frame_at(W, H, sw, sh, lo, false);
 }
 
 void place_window(ViewWindow& w, const SignificanceProfile& p) {

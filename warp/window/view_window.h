@@ -23,6 +23,7 @@
 // Plain functions on plain data; thread-safe.
 #pragma once
 
+#include <functional>
 #include <vector>
 
 #include "warp/core/view.h"
@@ -70,6 +71,27 @@ struct WindowFrame {
 // [kMinMaxDistortion, kMaxMaxDistortion] or not finite.
 WindowFrame window_frame(double width, double height, const FitOptions& fit, int screen_width, int screen_height,
                          bool warps = true);
+
+// fit=auto fitted to a method's warp (issue 41): the window_frame above assumes the warp squeezes
+// everything as a uniform stretch of `max_distortion` would; a content-aware warp squeezes what
+// matters less than that where the image has room elsewhere, and mp can squeeze it more. So
+// the budget is held on what the method does: the frame is the widest (the largest allowance,
+// the uniform stretch its target keeps, from 1 — a plain crop — up to the whole aspect change)
+// whose zoom-0 view keeps the salient anisotropy (the view's own significance, top fifth) at
+// p90 ≤ max_distortion and p99 ≤ kSqueezeP99OverBudget × it, as `squeeze` measures it for a
+// frame (its window still to be placed). A change within the budget: the whole image if its warp
+// holds (as window_frame), else cropped; beyond it, the budget's own frame first and, if it
+// holds, the whole change; then kBudgetBisections halvings of the interval (in log) between what
+// holds and what does not — at most kBudgetBisections + 2 views per call. Monotone enough in
+// practice: a wider frame squeezes more. Frames of other fits are window_frame's.
+struct SalientSqueezeMeasure {
+  double p90 = 1, p99 = 1;
+};
+using SalientSqueeze = std::function<SalientSqueezeMeasure(const WindowFrame&)>;
+inline constexpr double kSqueezeP99OverBudget = 4.0 / 3;  // issue 41: p99 2.0 beside p90 1.5
+inline constexpr int kBudgetBisections = 2;
+WindowFrame budgeted_frame(double width, double height, const FitOptions& fit, int screen_width, int screen_height,
+                           const SalientSqueeze& squeeze);
 
 // Places a cropping window on the profile's image: the start of the most important, then most
 // significant, interval of its length (nothing for a window that does not crop).
