@@ -10,10 +10,12 @@ part. Per view (GET /mesh at zoom 0, centred, for each method x fit x screen):
 
 Beside them, per image and screen: a uniform stretch of the whole image (its anisotropy), and
 libvips' attention smart crop (`vips smartcrop --interesting attention` after scaling to cover the
-screen; anisotropy 1) with its coverage. Needs python3-numpy, python3-pil and libvips-tools.
+screen; anisotropy 1) with its coverage, and the coverage of the best undistorted window as wide
+as fit=auto's budget allows, placed by this map itself (an oracle: no placement of a window that
+wide beats it). Needs python3-numpy, python3-pil and libvips-tools.
 
   tests/bench/squash.py --url http://127.0.0.1:8080 ID=FILE ... [--sizes 360x640,640x360]
-      [--methods icaz,retarget-zoom,patch,mp,polyfem] [--fits auto,warp] [--json out.json]
+      [--methods icaz,retarget-zoom,patch,mp,polyfem] [--fits auto,warp] [--budget 1.4] [--json out.json]
 """
 import argparse
 import json
@@ -117,6 +119,24 @@ def smart_crop_coverage(path, W, H, sw, sh, pts, mass):
     return float(mass[inside].sum() / mass.sum())
 
 
+def best_window_coverage(W, H, sw, sh, pts, mass, budget):
+    """The most salient mass any undistorted window that fit=auto's budget allows could show: a
+    window (along the long axis) budget times the screen-shaped crop's length, placed by this map
+    itself — an oracle, not a method: what no placement of a window that wide can beat."""
+    wide = (W / H) > (sw / sh)
+    change = max((W / H) / (sw / sh), (sw / sh) / (W / H))
+    extent = W if wide else H
+    length = extent * min(1.0, budget / change)
+    along = pts[:, 0] if wide else pts[:, 1]
+    order = np.argsort(along)
+    x, m = along[order], np.concatenate([[0.0], np.cumsum(mass[order])])
+    best = 0.0
+    for start in np.linspace(0, extent - length, 257):
+        lo, hi = np.searchsorted(x, start, "left"), np.searchsorted(x, start + length, "right")
+        best = max(best, m[hi] - m[lo])
+    return float(best / m[-1])
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("images", nargs="+", help="ID=FILE: an image the server has, and its source file")
@@ -125,10 +145,11 @@ def main():
     ap.add_argument("--methods", default="icaz,retarget-zoom,patch,mp,polyfem")
     ap.add_argument("--fits", default="auto,warp", help="fit= values; auto@B also sets max_distortion=B")
     ap.add_argument("--json", help="also write every row to this file")
+    ap.add_argument("--budget", type=float, default=1.4, help="fit=auto's budget for the best-window ceiling")
     a = ap.parse_args()
     rows = []
-    print("| image | screen | stretch | smart crop cov | method | fit | p90 | p99 | coverage | cov / crop |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("| image | screen | stretch | smart crop cov | best window cov | method | fit | p90 | p99 | coverage | cov / crop |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for item in a.images:
         ident, path = item.split("=", 1)
         info = get_json(f"{a.url}/v1/images/{ident}")
@@ -139,17 +160,18 @@ def main():
             sw, sh = map(int, size.split("x"))
             stretch = max((W / H) / (sw / sh), (sw / sh) / (W / H))
             crop = smart_crop_coverage(path, W, H, sw, sh, pts, mass)
+            best = best_window_coverage(W, H, sw, sh, pts, mass, a.budget)
             for method in a.methods.split(","):
                 for fit in a.fits.split(","):
                     name, _, budget = fit.partition("@")  # "auto@2" asks for max_distortion=2
                     query = f"zoom=0&w={sw}&h={sh}&method={method}&fit={name}" + (f"&max_distortion={budget}" if budget else "")
                     mesh = get_json(f"{a.url}/v1/images/{ident}/mesh?{query}")
                     p90, p99, cov = mesh_measures(mesh, pts, mass, sw, sh)
-                    row = dict(image=ident, screen=size, stretch=stretch, smart_crop_coverage=crop, method=method,
-                               fit=fit, p90=p90, p99=p99, coverage=cov)
+                    row = dict(image=ident, screen=size, stretch=stretch, smart_crop_coverage=crop,
+                               best_window_coverage=best, method=method, fit=fit, p90=p90, p99=p99, coverage=cov)
                     rows.append(row)
                     fmt = lambda v: "—" if v is None else f"{v:.2f}"
-                    print(f"| {ident} | {size} | {stretch:.2f} | {crop:.2f} | {method} | {fit} | {fmt(p90)} | {fmt(p99)} "
+                    print(f"| {ident} | {size} | {stretch:.2f} | {crop:.2f} | {best:.2f} | {method} | {fit} | {fmt(p90)} | {fmt(p99)} "
                           f"| {cov:.2f} | {cov / crop:.2f} |", flush=True)
     if a.json:
         with open(a.json, "w") as f:
