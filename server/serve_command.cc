@@ -68,7 +68,7 @@ std::vector<OptionSpec> serve_specs() {
        "threads computing image analyses on first use and methods' warps for a new screen size, in the background below "
        "request priority; a view waits for them until --request-timeout, then 503 analysis_pending + Retry-After"},
       {"failure-cache-ms", "5000", "milliseconds a view that ran out of time or failed with a 500 is answered with that failure again (+ Retry-After) instead of being computed; 0: never"},
-      {"gc-grace", "600", "seconds a superseded or deleted image version stays on disk"},
+      {"gc-grace", "600", "seconds a superseded or deleted image version stays readable after it stopped being published; at least --store-recheck-ms, which replicas trust a version for"},
       {"store-recheck-ms", "1000", "milliseconds an image's published version, once read from the store, is trusted: another process's re-ingest or delete is seen within this (this server's own at once); 0: read on every request"},
       {"log-requests", "1", "one JSON log line per request (1/0)"},
       {"keys", "", "API key file, one 'KEY_ID ROLE KEY' per line (README \"Access\"); re-read when it changes and on SIGHUP. Without it writes are refused"},
@@ -138,6 +138,14 @@ HttpServerOptions http_server_options(const Options& o) {
   http.drain_timeout = std::chrono::seconds(o.integer("drain-timeout", 0, 3600));
   http.request_timeout = std::chrono::seconds(o.integer("request-timeout", 1, 3600));
   http.gc_grace = std::chrono::seconds(o.integer("gc-grace", 0, 30 * 86400));
+  // A replica trusts the version it read for --store-recheck-ms (tiles/superseded_versions.h): a
+  // shorter grace lets another replica's collection remove what it still serves.
+  if (const std::int64_t recheck_ms = o.integer("store-recheck-ms", 0, 3'600'000);
+      std::chrono::milliseconds(recheck_ms) > http.gc_grace)
+    throw std::invalid_argument("--gc-grace (" + std::to_string(http.gc_grace.count()) +
+                                " s) must be at least --store-recheck-ms (" + std::to_string(recheck_ms) +
+                                " ms): replicas trust a version that long, so it must stay readable that long after "
+                                "it is replaced");
   http.log_requests = o.flag("log-requests");
   http.cors = CorsPolicy::parse(o.str("cors-write-origins"));
   http.trust_forwarded_for = o.flag("trust-forwarded-for");

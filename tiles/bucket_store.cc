@@ -13,6 +13,7 @@
 
 #include "tiles/store_deadline.h"
 #include "tiles/store_errors.h"
+#include "tiles/superseded_versions.h"
 #include "tiles/unique_names.h"
 
 namespace zoomwarp::tiles {
@@ -361,6 +362,7 @@ class BucketStore final : public StoreBackend {
           return client_->put_file(where_.bucket, prefix + f.filename().string(), f.string(), "application/octet-stream",
                                    deadline());
         });
+      mark_unpublished(id, version_dir);
       guarded(*bucket_, [&] { return client_->put(where_.bucket, pointer_key(id), version_dir + "\n", "text/plain", deadline()); });
     } catch (...) {
       discard_staging(staging_dir);
@@ -371,6 +373,7 @@ class BucketStore final : public StoreBackend {
 
   bool remove_pointer(const std::string& id) override {
     if (!has_pointer(id)) return false;
+    mark_unpublished(id, "");
     guarded(*bucket_, [&] { client_->remove(where_.bucket, pointer_key(id), deadline()); });
     return true;
   }
@@ -379,18 +382,33 @@ class BucketStore final : public StoreBackend {
     std::set<std::string> live;
     for (const std::string& id : pointer_ids())
       if (auto v = read_pointer(id)) live.insert(*v);
-    const std::int64_t now_ms =
-        std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+    const std::int64_t now_ms = unix_ms_now();
     int removed = 0;
-    for (const std::string& version_dir : list_children(*bucket_, where_.prefix + "versions/")) {
-      if (live.count(version_dir)) continue;
-      const std::optional<std::int64_t> created = created_ms(version_dir);
-      if (created && now_ms - *created < std::chrono::duration_cast<std::chrono::milliseconds>(grace).count()) continue;
-      for (const S3ListEntry& e : list_all(*bucket_, version_prefix(version_dir)))
-        guarded(*bucket_, [&] { client_->remove(where_.bucket, e.key, deadline()); });
-      removed_version(version_dir);
-      ++removed;
+    // By supersede time (superseded_versions.h): a version unnamed for the grace goes.
+    std::set<std::string> versions;
+    for (std::string& version_dir : list_children(*bucket_, where_.prefix + "versions/")) {
+      versions.insert(version_dir);
+      const bool named = live.count(version_dir) > 0;
+      const std::optional<std::int64_t> mark = named ? std::nullopt : read_mark(version_dir);
+      switch (collect_verdict(named, mark, created_ms(version_dir), now_ms, grace)) {
+        case Collect::kKeep:
+          break;
+        case Collect::kMark:
+          write_mark(version_dir, now_ms);
+          break;
+        case Collect::kRemove:
+          for (const S3ListEntry& e : list_all(*bucket_, version_prefix(version_dir)))
+            guarded(*bucket_, [&] { client_->remove(where_.bucket, e.key, deadline()); });
+          guarded(*bucket_, [&] { client_->remove(where_.bucket, mark_key(version_dir), deadline()); });
+          removed_version(version_dir);
+          ++removed;
+          break;
+      }
     }
+    // Marks of versions named again (a mark written before a pointer move that then failed) or gone.
+    for (const std::string& marked : list_children(*bucket_, where_.prefix + kSupersededFolder + "/"))
+      if (live.count(marked) || !versions.count(marked))
+        guarded(*bucket_, [&] { client_->remove(where_.bucket, mark_key(marked), deadline()); });
     // Staging folders of this host's processes that are gone.
     const std::string me = host_name() + ".";
     std::error_code ec;
@@ -432,6 +450,23 @@ class BucketStore final : public StoreBackend {
   }
 
   std::string pointer_key(const std::string& id) const { return where_.prefix + "images/" + id; }
+  std::string mark_key(const std::string& version_dir) const {
+    return where_.prefix + kSupersededFolder + "/" + version_dir;
+  }
+  std::optional<std::int64_t> read_mark(const std::string& version_dir) const {
+    const std::optional<std::string> body =
+        guarded(*bucket_, [&] { return client_->get(where_.bucket, mark_key(version_dir), deadline()); });
+    return body ? parse_superseded_mark(*body) : std::nullopt;
+  }
+  void write_mark(const std::string& version_dir, std::int64_t unix_ms) const {
+    guarded(*bucket_, [&] {
+      return client_->put(where_.bucket, mark_key(version_dir), superseded_mark(unix_ms), "text/plain", deadline());
+    });
+  }
+  // Before images/ID moves to `next` (or away, for ""): the version it names now is superseded now.
+  void mark_unpublished(const std::string& id, const std::string& next) const {
+    if (const std::optional<std::string> now = read_pointer(id); now && *now != next) write_mark(*now, unix_ms_now());
+  }
   std::string version_prefix(const std::string& version_dir) const {
     return where_.prefix + "versions/" + version_dir + "/";
   }

@@ -6,9 +6,12 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <stdexcept>
 
 #include "tiles/image_id.h"
+#include "tiles/superseded_versions.h"
 #include "tiles/unique_names.h"
 
 namespace zoomwarp::tiles {
@@ -45,7 +48,8 @@ class FolderStore final : public StoreBackend {
  public:
   explicit FolderStore(const std::string& root) {
     std::error_code ec;
-    for (const char* sub : {"images", "versions", "staging", "locks"}) fs::create_directories(fs::path(root) / sub, ec);
+    for (const char* sub : {"images", "versions", "staging", "locks", kSupersededFolder})
+      fs::create_directories(fs::path(root) / sub, ec);
     if (ec || !fs::is_directory(fs::path(root) / "images"))
       throw std::runtime_error("cannot create the store at " + root + ": " + ec.message());
     root_ = fs::canonical(root).string();
@@ -116,13 +120,17 @@ class FolderStore final : public StoreBackend {
       discard_staging(staging_dir);
       throw;
     }
+    mark_unpublished(id, version_dir);
     // Replace the link atomically: make it under a temporary name, then rename it over the old one.
     const fs::path tmp_link = fs::path(root_) / "staging" / (owned_unique_name() + ".link");
     fs::create_symlink("../versions/" + version_dir, tmp_link);
     fs::rename(tmp_link, fs::path(root_) / "images" / id);
   }
 
-  bool remove_pointer(const std::string& id) override { return ::unlink((root_ + "/images/" + id).c_str()) == 0; }
+  bool remove_pointer(const std::string& id) override {
+    mark_unpublished(id, "");
+    return ::unlink((root_ + "/images/" + id).c_str()) == 0;
+  }
 
   int collect_garbage(std::chrono::seconds grace, const std::function<void(const std::string&)>& removed_version) override {
     std::vector<std::string> live;
@@ -130,15 +138,35 @@ class FolderStore final : public StoreBackend {
       if (auto v = read_pointer(id)) live.push_back(*v);
     int removed = 0;
     std::error_code ec;
+    // By supersede time (superseded_versions.h): a version unnamed for the grace goes.
+    const std::int64_t now_ms = unix_ms_now();
     for (const auto& e : fs::directory_iterator(root_ + "/versions", ec)) {
       const std::string name = e.path().filename().string();
-      if (std::find(live.begin(), live.end(), name) != live.end()) continue;
-      if (!old_enough(e.path(), grace)) continue;
-      std::error_code rec;
-      fs::remove_all(e.path(), rec);
-      if (!rec) {
-        ++removed;
-        removed_version(name);
+      const bool named = std::find(live.begin(), live.end(), name) != live.end();
+      switch (collect_verdict(named, named ? std::nullopt : read_mark(name), modified_ms(e.path()), now_ms, grace)) {
+        case Collect::kKeep:
+          break;
+        case Collect::kMark:
+          write_mark(name, now_ms);
+          break;
+        case Collect::kRemove: {
+          std::error_code rec;
+          fs::remove_all(e.path(), rec);
+          if (!rec) {
+            fs::remove(mark_path(name), rec);
+            ++removed;
+            removed_version(name);
+          }
+          break;
+        }
+      }
+    }
+    // Marks of versions named again (a mark written before a pointer move that then failed) or gone.
+    for (const auto& e : fs::directory_iterator(root_ + "/" + kSupersededFolder, ec)) {
+      const std::string name = e.path().filename().string();
+      if (std::find(live.begin(), live.end(), name) != live.end() || !fs::exists(root_ + "/versions/" + name)) {
+        std::error_code rec;
+        fs::remove(e.path(), rec);
       }
     }
     const std::string me = host_name() + ".";
@@ -165,6 +193,36 @@ class FolderStore final : public StoreBackend {
   }
 
  private:
+  std::string mark_path(const std::string& version_dir) const { return root_ + "/" + kSupersededFolder + "/" + version_dir; }
+  std::optional<std::int64_t> read_mark(const std::string& version_dir) const {
+    std::error_code ec;
+    if (!fs::exists(mark_path(version_dir), ec)) return std::nullopt;
+    std::ifstream in(mark_path(version_dir));
+    const std::string body((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    return parse_superseded_mark(body);
+  }
+  // Written whole under a temporary name, then renamed: a reader never sees half a mark.
+  void write_mark(const std::string& version_dir, std::int64_t unix_ms) const {
+    const fs::path tmp = fs::path(root_) / "staging" / (owned_unique_name() + ".superseded");
+    {
+      std::ofstream out(tmp);
+      out << superseded_mark(unix_ms);
+      if (!out.flush()) throw std::runtime_error("cannot write " + tmp.string());
+    }
+    fs::rename(tmp, mark_path(version_dir));
+  }
+  // Before images/ID moves to `next` (or away, for ""): the version it names now is superseded now.
+  void mark_unpublished(const std::string& id, const std::string& next) const {
+    if (const std::optional<std::string> now = read_pointer(id); now && *now != next) write_mark(*now, unix_ms_now());
+  }
+  static std::optional<std::int64_t> modified_ms(const fs::path& p) {
+    std::error_code ec;
+    const auto t = fs::last_write_time(p, ec);
+    if (ec) return std::nullopt;
+    const auto since = t - fs::file_time_type::clock::now();
+    return unix_ms_now() + std::chrono::duration_cast<std::chrono::milliseconds>(since).count();
+  }
+
   std::string root_;
 };
 

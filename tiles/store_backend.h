@@ -6,6 +6,7 @@
 // Layout, in both (a key prefix in a bucket, a folder on disk):
 //   images/ID                  the pointer: which version of ID is published (ID@VERSION)
 //   versions/ID@VERSION/…      one immutable version: manifest.json, level_K.tif, analyses
+//   superseded/ID@VERSION      when VERSION stopped being published (superseded_versions.h)
 // Staging folders, where a version is built before it is committed, are always local.
 //
 // Thread safety: every member may be called from any thread; across processes, commit_version()
@@ -63,13 +64,15 @@ class StoreBackend {
 
   // Makes the finished `staging_dir` (manifest.json included) versions/VERSION_DIR, then points
   // images/ID at it: a reader sees the old version or the new one, never a part of it. The
-  // staging folder is gone afterwards, whether it succeeded or threw.
+  // version it replaces is marked superseded first. The staging folder is gone afterwards,
+  // whether it succeeded or threw.
   virtual void commit_version(const std::string& staging_dir, const std::string& id, const std::string& version_dir) = 0;
-  // Removes images/ID; false if there was none.
+  // Marks the version images/ID names superseded and removes images/ID; false if there was none.
   virtual bool remove_pointer(const std::string& id) = 0;
 
-  // Removes versions no pointer names that are older than `grace` (calling `removed` with each
-  // one's directory), and staging folders of processes that are gone. Returns how many it removed.
+  // Removes versions no pointer has named for `grace` (superseded_versions.h: by their marks,
+  // marking the unnamed ones that have none; calling `removed` with each one's directory), and
+  // staging folders of processes that are gone. Returns how many it removed.
   virtual int collect_garbage(std::chrono::seconds grace, const std::function<void(const std::string&)>& removed) = 0;
 
   // Why the store cannot be read now, or "" when it can (readiness): one small request, answered

@@ -9,6 +9,7 @@
 #include "tests/support/server_process.h"
 #include "tiles/image_id.h"
 #include "tiles/store.h"
+#include "tiles/superseded_versions.h"
 
 namespace zoomwarp {
 namespace {
@@ -102,6 +103,52 @@ TEST(Store, AnotherProcessesChangesAreSeenWithinTheRecheckInterval) {
   EXPECT_FALSE(every_time.find("a"));
   std::this_thread::sleep_for(kRecheck);
   EXPECT_FALSE(reader.find("a"));
+}
+
+// Issue 42: a version stays for the grace after it stopped being published, whatever its age — a
+// version published an hour ago and replaced now is kept for the grace from now.
+TEST(Store, GarbageCollectionCountsTheGraceFromTheSupersedeNotTheCreation) {
+  using tiles::Collect;
+  const std::int64_t now = 10'000'000;
+  const std::chrono::seconds grace(30), hour = std::chrono::hours(1);
+  const std::int64_t hour_ago = now - 3'600'000;
+  EXPECT_EQ(tiles::collect_verdict(true, hour_ago, hour_ago, now, grace), Collect::kKeep) << "named";
+  EXPECT_EQ(tiles::collect_verdict(false, now - 1000, hour_ago, now, grace), Collect::kKeep) << "replaced 1 s ago";
+  EXPECT_EQ(tiles::collect_verdict(false, now - 30'000, hour_ago, now, grace), Collect::kRemove) << "replaced 30 s ago";
+  EXPECT_EQ(tiles::collect_verdict(false, std::nullopt, hour_ago, now, grace), Collect::kMark)
+      << "unnamed, never marked (a replica died between the pointer and the mark): marked, not removed";
+  EXPECT_EQ(tiles::collect_verdict(false, hour_ago, now - 1000, now, grace), Collect::kKeep)
+      << "younger than the grace: a commit in flight, its pointer not written yet";
+  EXPECT_EQ(tiles::collect_verdict(false, std::nullopt, std::nullopt, now, std::chrono::seconds(0)), Collect::kRemove)
+      << "a grace of 0 keeps nothing unnamed";
+  EXPECT_EQ(tiles::collect_verdict(false, hour_ago, std::nullopt, now, hour), Collect::kRemove);
+  EXPECT_EQ(tiles::parse_superseded_mark(tiles::superseded_mark(now)), now);
+  for (const char* bad : {"", "\n", "12a\n", "-5\n", "99999999999999999999\n"})
+    EXPECT_FALSE(tiles::parse_superseded_mark(bad)) << bad;
+}
+
+TEST(Store, AReplacedVersionIsKeptForTheGraceFromItsReplacement) {
+  TempDir dir;
+  tiles::Store store(dir.path());
+  auto first = store.publish(store.make_staging_dir(), manifest("a"));
+  // Made an hour ago, as far as its age goes.
+  const auto hour_ago = fs::file_time_type::clock::now() - std::chrono::hours(1);
+  fs::last_write_time(first->files->location(), hour_ago);
+  auto second = store.publish(store.make_staging_dir(), manifest("a"));
+  EXPECT_EQ(store.collect_garbage(std::chrono::minutes(10)), 0) << "replaced now: kept for the grace";
+  EXPECT_TRUE(fs::exists(first->files->location()));
+  EXPECT_TRUE(fs::exists(dir.path() + "/superseded/a@" + first->manifest.version));
+  EXPECT_EQ(store.collect_garbage(std::chrono::seconds(-1)), 1);
+  EXPECT_FALSE(fs::exists(first->files->location()));
+  EXPECT_FALSE(fs::exists(dir.path() + "/superseded/a@" + first->manifest.version)) << "its mark goes with it";
+  EXPECT_TRUE(fs::exists(second->files->location()));
+  // A version unnamed without a mark (a process that died between moving the pointer and marking
+  // it) is marked by the first pass and kept for the grace from then.
+  fs::create_directories(dir.path() + "/versions/b@0000000000a");
+  fs::last_write_time(dir.path() + "/versions/b@0000000000a", hour_ago);
+  EXPECT_EQ(store.collect_garbage(std::chrono::minutes(10)), 0);
+  EXPECT_TRUE(fs::exists(dir.path() + "/superseded/b@0000000000a"));
+  EXPECT_TRUE(fs::exists(dir.path() + "/versions/b@0000000000a"));
 }
 
 TEST(Store, GarbageCollectionKeepsLiveVersionsAndRemovesDeadStaging) {
