@@ -98,8 +98,12 @@ TEST_F(AnalysisOnDemand, ConcurrentFirstViewsComputeOnce) {
 // Retry-After (not the failure cache's deadline answer), the analysis goes on to the end in the
 // background, and the retry is answered from it without computing it again.
 TEST_F(AnalysisOnDemand, AFirstViewOutOfTimeLeavesTheWorkToFinishForItsRetry) {
-  testing::ServerProcess server(store(),
-                               {"--request-timeout", "1", "--failure-cache-ms", "60000", "--analysis-threads", "1"});
+  // Three workers: each of the three first views holds one while it waits for its analysis; with
+  // two, this view waited for a worker while the others waited out their second, and on a loaded
+  // machine its own second ran out in the queue — answered deadline_exceeded, its analysis never
+  // asked for.
+  testing::ServerProcess server(store(), {"--request-timeout", "1", "--failure-cache-ms", "60000", "--analysis-threads",
+                                          "1", "--workers", "3"});
   HttpClient http(server.port());
   upload(http, "boats");
   // The one analysis thread busy with two other first views (about two seconds of work), so that
@@ -114,10 +118,7 @@ TEST_F(AnalysisOnDemand, AFirstViewOutOfTimeLeavesTheWorkToFinishForItsRetry) {
     for (int i = 0; i < 400 && testing::metric(server.port(), "zoomwarp_analyses_pending") < int(busy.size()); ++i)
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
-  // fit=warp: the view's own work is one warp, so what runs out of time is the analysis (fit=auto's
-  // first view also fits its frame, up to four warps: on a loaded machine that, not the analysis,
-  // could take the second).
-  const std::string view = "/v1/images/boats/viewport?method=polyfem&saliency=gbvs&zoom=0&w=360&h=640&fit=warp";
+  const std::string view = "/v1/images/boats/viewport?method=polyfem&saliency=gbvs&zoom=0&w=360&h=640";
   const auto first = http.get(view);
   ASSERT_EQ(first.status, 503) << first.body;
   EXPECT_EQ(json::parse(first.body)["error"]["code"], "analysis_pending") << first.body;
