@@ -300,6 +300,9 @@ struct Response {
   std::string body;
   std::string etag, content_type, content_range, request_id;
   std::optional<std::uint64_t> content_length;
+  // Retry-After of a retryable answer, delta-seconds (RFC 9110 §10.2.3; the HTTP-date form is
+  // not sent by S3 stores and is taken as absent).
+  std::optional<std::uint64_t> retry_after_s;
   bool range_ignored = false;  // a ranged GET answered 200: cut at once
   bool body_too_long = false;  // more bytes than asked for
   int attempts = 0;            // requests made to get it
@@ -559,6 +562,7 @@ struct S3Client::Impl {
       resp.content_range = header_value(h, "Content-Range");
       resp.request_id = header_value(h, "x-amz-request-id");
       resp.content_length = parse_u64(header_value(h, "Content-Length"));
+      resp.retry_after_s = parse_u64(header_value(h, "Retry-After"));
     }
     // The handle goes back with its connection (libcurl closed it if it is not reusable).
     return code;
@@ -623,8 +627,13 @@ struct S3Client::Impl {
           options.max_backoff.count(),
           options.base_backoff.count() << std::min(attempt - 1, 20));
       thread_local std::minstd_rand rng{std::random_device{}()};
-      const auto sleep = std::chrono::milliseconds(
+      auto sleep = std::chrono::milliseconds(
           std::uniform_int_distribution<std::chrono::milliseconds::rep>(0, std::max<long long>(0, bound))(rng));
+      // The store's own Retry-After (SlowDown, 503) is honoured: never sooner than it asks; if
+      // that is past the deadline, the failure is answered now rather than after waiting.
+      if (code == CURLE_OK && resp.retry_after_s)
+        sleep = std::max<std::chrono::milliseconds>(
+            sleep, std::chrono::seconds(std::min<std::uint64_t>(*resp.retry_after_s, 3600)));
       if (Clock::now() + sleep >= deadline) fail(std::move(last));
       std::this_thread::sleep_for(sleep);
     }

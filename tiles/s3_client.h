@@ -34,7 +34,8 @@
 // mid-answer, and the answers 500, 502, 503 (SlowDown), 504, 408 and 429 are retried, up to
 // `max_attempts` attempts in all, after a sleep drawn uniformly from [0, min(max_backoff,
 // base_backoff · 2^(attempt-1))] ("full jitter": clients throttled together do not return
-// together). Other answers (4xx, 501) are final at once: they would only be answered the same
+// together) — or, when the answer carries Retry-After (delta-seconds), at least that long, and
+// none at all (the failure thrown at once) when that is past the deadline. Other answers (4xx, 501) are final at once: they would only be answered the same
 // again. Every operation is idempotent (a put replaces, a remove of a missing key succeeds,
 // creating a bucket that exists and is ours is not an error), so a retry after a lost answer is
 // harmless. A body

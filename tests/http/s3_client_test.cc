@@ -577,6 +577,26 @@ TEST(S3ClientFaults, ThrottlingUntilTheAttemptsRunOutIsUnavailable) {
   EXPECT_EQ(failures(client.stats(), S3Operation::kGet), 1u);
 }
 
+// The store's Retry-After is honoured (issue 42): the retry waits at least as long as it asks, even
+// with a backoff of 100 ms at most; one that asks past the deadline fails at once, unavailable.
+TEST(S3ClientFaults, RetryAfterIsHonouredAndOnePastTheDeadlineFailsAtOnce) {
+  StubS3 stub({{503, StubS3::error_xml("SlowDown"), "Retry-After: 1\r\n"}, {200, "after a second"}});
+  S3Client client(stub_config(stub), quick_retries(5));
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_EQ(client.get("bucket", "key", in(10s)), "after a second");
+  EXPECT_GE(std::chrono::steady_clock::now() - t0, 1s);
+  EXPECT_EQ(stub.received().size(), 2u);
+
+  StubS3 later({{503, StubS3::error_xml("SlowDown"), "Retry-After: 30\r\n"}, {200, "too late"}});
+  S3Client impatient(stub_config(later), quick_retries(5));
+  const auto t1 = std::chrono::steady_clock::now();
+  const S3Error e = s3_error_of([&] { impatient.get("bucket", "key", in(3s)); });
+  EXPECT_LT(std::chrono::steady_clock::now() - t1, 2s) << "not waited out";
+  EXPECT_EQ(e.code(), "SlowDown");
+  EXPECT_TRUE(e.unavailable());
+  EXPECT_EQ(later.received().size(), 1u);
+}
+
 TEST(S3ClientFaults, ClientErrorsAreFinalAtOnce) {
   for (const auto& [status, code] : std::vector<std::pair<int, std::string>>{
            {400, "InvalidArgument"}, {403, "AccessDenied"}, {409, "Conflict"}, {501, "NotImplemented"}}) {
