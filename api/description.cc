@@ -156,6 +156,19 @@ Description description_with_upload_fields(Description d, const std::map<std::st
   return d;
 }
 
+std::function<void(const tiles::ImageEntry*, const tiles::VersionFiles&)> carry_description(
+    std::map<std::string, std::string> fields) {
+  return [fields = std::move(fields)](const tiles::ImageEntry* published, const tiles::VersionFiles& staged) {
+    if (fields.empty()) {
+      if (!published) return;
+      if (const auto bytes = published->files->read(kDescriptionFile)) staged.write(kDescriptionFile, *bytes);
+      return;
+    }
+    const Description d = description_with_upload_fields(published ? read_description(*published) : Description{}, fields);
+    staged.write(kDescriptionFile, description_json(d));
+  };
+}
+
 Description read_description(const tiles::ImageEntry& image) {
   const auto bytes = image.files->read(kDescriptionFile);
   if (!bytes) return {};

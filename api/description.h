@@ -3,13 +3,14 @@
 // metadata pairs, rights and requiredStatement. It is the user's data, as lines and significance
 // edits are: kept in the image version (description.json), set with the upload or by
 // `PUT /v1/images/{id}/metadata`, carried into every later version — edits, and re-ingests that do
-// not give a new one (tiles::IngestOptions::carried_files) — and served in the image's manifest
+// not give a new one (tiles::IngestOptions::carry) — and served in the image's manifest
 // (api/presentation.h).
 //
 // Text is held as IIIF language maps ({"en": ["Boats"], "none": ["…"]}); a body may give a plain
 // string instead, which is the map {"none": [string]}. Plain data; no thread concerns.
 #pragma once
 
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -67,6 +68,13 @@ std::string description_json(const Description& d);
 // the rest). Throws ApiError 400 for a rights URI from neither vocabulary, an empty value or one
 // that is not UTF-8, 413 description_too_large when the result would be over kMaxDescriptionBytes.
 Description description_with_upload_fields(Description base, const std::map<std::string, std::string>& fields);
+
+// IngestOptions::carry (tiles/ingest.h) for an upload: the published version's description,
+// with `fields` laid over it as description_with_upload_fields does (its errors are thrown when
+// the ingest publishes: check the fields on an empty description before). No fields: the
+// description's bytes as they are.
+std::function<void(const tiles::ImageEntry* published, const tiles::VersionFiles& staged)> carry_description(
+    std::map<std::string, std::string> fields = {});
 
 // The description the version holds, or an empty one when it holds none. Throws
 // std::runtime_error when description.json cannot be read or is damaged.

@@ -123,15 +123,12 @@ std::optional<Response> Router::upload_image(const Request& req, const PathParam
     throw ApiError(400, "invalid_id",
                    "image ids are 1-128 characters from A-Z a-z 0-9 . _ - and start with a letter or digit");
   if (!description_fields.empty()) {
-    // Laid over the description the image has (a re-upload giving a label keeps the rest), and
-    // published with the pixels in one version.
+    // Laid over the description the image has when its version is published (a re-upload giving
+    // a label keeps the rest, and an edit made during the ingest), in one version with the
+    // pixels. Bad fields are refused before the ingest, on the description known now.
     const auto published = store_.find(id);
-    const Description d =
-        description_with_upload_fields(published ? read_description(*published) : Description{}, description_fields);
-    options.analyse = [d, analyse = options.analyse](const tiles::ImageEntry& staged) {
-      if (analyse) analyse(staged);
-      staged.files->write(kDescriptionFile, description_json(d));
-    };
+    description_with_upload_fields(published ? read_description(*published) : Description{}, description_fields);
+    options.carry = carry_description(description_fields);
   }
   try {
     tiles::Manifest m = tiles::ingest_image(store_, req.body_file, id, options);
@@ -148,6 +145,9 @@ std::optional<Response> Router::upload_image(const Request& req, const PathParam
       case Kind::kIo: throw ApiError(500, "store_error", "the image could not be stored", e.what());
     }
     throw;
+  } catch (const tiles::VersionConflict& err) {
+    throw ApiError(409, "conflict",
+                   std::string(err.what()) + ": the image kept changing while this upload was published; send it again");
   }
 }
 

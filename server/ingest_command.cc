@@ -67,7 +67,7 @@ int ingest_command(const std::vector<std::string>& args) {
       {"quiet", "0", "print only the ids published and the refusals, no progress", true},
   };
   for (auto& s : store_option_specs()) specs.push_back(s);
-  for (auto& s : store_cache_option_specs()) specs.push_back(s);
+  for (auto& s : bucket_store_option_specs()) specs.push_back(s);
   return run_command("ingest", [&]() -> int {
     Options o(specs, args);
     if (o.help_requested()) {
@@ -103,7 +103,7 @@ int ingest_command(const std::vector<std::string>& args) {
     // store is made.
     if (single && inputs[0].refused) throw std::invalid_argument(inputs[0].path + ": " + inputs[0].refused->reason);
 
-    tiles::Store store(o.str("store"), tiles::Store::kDefaultRecheck, store_cache_options(o));
+    tiles::Store store(o.str("store"), tiles::Store::kDefaultRecheck, bucket_store_options(o));
     IngestDisplay display(inputs.size(), jobs, quiet, store.root());
     ingest_batch(store, inputs, batch, display);
     const auto& refusals = display.refusals();

@@ -80,7 +80,7 @@ std::vector<OptionSpec> serve_specs() {
       {"upload-bytes-per-day", "0", "upload bytes per day per key (or client address without one), K/M/G; 0: no limit"},
   };
   for (auto& s : store_option_specs()) specs.push_back(s);
-  for (auto& s : store_cache_option_specs()) specs.push_back(s);
+  for (auto& s : bucket_store_option_specs()) specs.push_back(s);
   return specs;
 }
 
@@ -268,7 +268,7 @@ int serve(const Options& o) {
   http.upload_slots = std::size_t(pools.ingest_workers) + pools.ingest_queue;
 
   tiles::Store store(o.str("store"), std::chrono::milliseconds(o.integer("store-recheck-ms", 0, 3'600'000)),
-                     store_cache_options(o));
+                     bucket_store_options(o));
   const int removed = store.collect_garbage(http.gc_grace);
   tiles::PyramidReader reader(tile_cache);
   api::Router router(store, reader, rc);

@@ -32,21 +32,31 @@ std::vector<OptionSpec> store_option_specs() {
   };
 }
 
-std::vector<OptionSpec> store_cache_option_specs() {
+std::vector<OptionSpec> bucket_store_option_specs() {
   return {
       {"store-cache", "",
        "with an s3:// store: a local folder for uploads being staged and a disk cache of the bucket's bytes (tile "
        "indexes, tiles, analyses), kept across restarts; empty: staging in $TMPDIR, memory cache only"},
       {"store-cache-bytes", "10G", "with --store-cache: the disk cache's bound, oldest evicted first"},
       {"store-memory-bytes", "256M", "with an s3:// store: the bucket's bytes kept in memory"},
+      {"store-lease-ms", "10000",
+       "with an s3:// store: how long the lease a replica holds while it moves an image's pointer lasts if the replica "
+       "dies (docs/s3-operations.md)"},
+      {"store-lease-settle-ms", "300",
+       "with an s3:// store: how long a replica waits before trusting a lease it wrote; longer than the store's "
+       "slowest GET-then-PUT"},
   };
 }
 
-tiles::StoreCacheOptions store_cache_options(const Options& o) {
-  tiles::StoreCacheOptions c;
+tiles::BucketStoreOptions bucket_store_options(const Options& o) {
+  tiles::BucketStoreOptions c;
   c.dir = o.str("store-cache");
   c.disk_bytes = o.bytes("store-cache-bytes", 1ULL << 20, 1ULL << 50);
   c.memory_bytes = std::size_t(o.bytes("store-memory-bytes", 1ULL << 20, 1ULL << 40));
+  c.lease.settle = std::chrono::milliseconds(o.integer("store-lease-settle-ms", 1, 60'000));
+  c.lease.ttl = std::chrono::milliseconds(o.integer("store-lease-ms", 1'000, 3'600'000));
+  if (c.lease.ttl <= c.lease.skew + c.lease.settle)
+    throw std::invalid_argument("--store-lease-ms must be longer than --store-lease-settle-ms plus the 2 s allowed for clock skew");
   return c;
 }
 
@@ -79,7 +89,7 @@ tiles::IngestOptions ingest_options(const Options& o, const warp::SignificanceOp
   const auto set = warp::parse_analysis_set(o.str("analyses"));
   if (!set) throw std::invalid_argument("--analyses must be none, icaz or all, not '" + o.str("analyses") + "'");
   // A re-ingest keeps the curator's description unless it gives one (api/description.h).
-  opt.carried_files = {api::kDescriptionFile};
+  opt.carry = api::carry_description();
   // The warp engine's files published with the image: those asked for; the others on first use.
   opt.analyse = [significance, method_timings, threads = opt.pyramid.threads, set = *set](const tiles::ImageEntry& staged) {
     auto timings = warp::write_image_analysis(staged, significance, threads, set);

@@ -16,8 +16,8 @@ namespace zoomwarp::server {
 std::vector<OptionSpec> store_option_specs();
 
 // --store-cache, --store-cache-bytes, --store-memory-bytes: what a bucket store keeps locally.
-std::vector<OptionSpec> store_cache_option_specs();
-tiles::StoreCacheOptions store_cache_options(const Options& o);
+std::vector<OptionSpec> bucket_store_option_specs();
+tiles::BucketStoreOptions bucket_store_options(const Options& o);
 
 // The warp engine's analysis settings: --face-cascade found (warp::find_face_cascade), and face
 // detection's state for /readyz: "on", or "off: " and why. Logs a warning when it is off.

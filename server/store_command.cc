@@ -106,7 +106,7 @@ int copy_command(const std::vector<std::string>& args) {
   const bool quiet = o.flag("quiet");
   tiles::Store from(p[0], std::chrono::milliseconds(0)), to(p[1], std::chrono::milliseconds(0));
   const ScratchDir scratch;
-  tiles::Store check(p[1], std::chrono::milliseconds(0), tiles::StoreCacheOptions{.dir = scratch.path(), .disk_bytes = 0, .memory_bytes = 1u << 20});
+  tiles::Store check(p[1], std::chrono::milliseconds(0), tiles::BucketStoreOptions{.dir = scratch.path(), .disk_bytes = 0, .memory_bytes = 1u << 20, .lease = {}});
 
   int failed = 0;
   std::vector<std::shared_ptr<const tiles::ImageEntry>> images;

@@ -278,12 +278,13 @@ class BucketFiles final : public VersionFiles {
 class BucketStore final : public StoreBackend {
  public:
   BucketStore(const S3Location& where, std::shared_ptr<S3Client> client, const std::string& local_dir,
-              const RangeCacheOptions& cache)
+              const RangeCacheOptions& cache, const LeaseTiming& lease)
       : bucket_(make_bucket(client, cache, where.bucket)),
         client_(std::move(client)),
         where_(where),
         location_(where.url()),
-        staging_(fs::path(local_dir) / "staging") {
+        staging_(fs::path(local_dir) / "staging"),
+        lease_(lease) {
     std::error_code ec;
     fs::create_directories(staging_, ec);
     if (ec) throw std::runtime_error("cannot create the store's local folder " + staging_.string() + ": " + ec.message());
@@ -343,11 +344,30 @@ class BucketStore final : public StoreBackend {
       if (!slot) slot = std::make_shared<std::mutex>();
       mu = slot;
     }
-    mu->lock();
-    return std::shared_ptr<void>(mu.get(), [mu](void*) { mu->unlock(); });
+    std::unique_lock own(*mu);
+    const LeaseObject lease = lease_object(id);
+    HeldLease held;
+    try {
+      held = guarded(*bucket_, [&] { return acquire_lease(lease, lease_, deadline()); });
+    } catch (const LeaseBusy& e) {
+      throw StoreUnavailable("image " + id + " is being changed by another replica (" + e.what() + ")", true);
+    }
+    {
+      std::lock_guard lock(locks_mu_);
+      held_[id] = held;
+    }
+    own.release();
+    return std::shared_ptr<void>(mu.get(), [this, mu, id, lease, held](void*) {
+      {
+        std::lock_guard lock(locks_mu_);
+        held_.erase(id);
+      }
+      release_lease(lease, held, lease_);
+      mu->unlock();
+    });
   }
 
-  void commit_version(const std::string& staging_dir, const std::string& id, const std::string& version_dir) override {
+  void store_version(const std::string& staging_dir, const std::string& version_dir) override {
     const std::string prefix = version_prefix(version_dir);
     try {
       // Every file the staging folder holds is the version's, in name order (the same order on
@@ -362,8 +382,6 @@ class BucketStore final : public StoreBackend {
           return client_->put_file(where_.bucket, prefix + f.filename().string(), f.string(), "application/octet-stream",
                                    deadline());
         });
-      mark_unpublished(id, version_dir);
-      guarded(*bucket_, [&] { return client_->put(where_.bucket, pointer_key(id), version_dir + "\n", "text/plain", deadline()); });
     } catch (...) {
       discard_staging(staging_dir);
       throw;
@@ -371,9 +389,19 @@ class BucketStore final : public StoreBackend {
     discard_staging(staging_dir);
   }
 
+  void point(const std::string& id, const std::string& version_dir) override {
+    mark_unpublished(id, version_dir);
+    // The pointer is written only while the lease surely is ours (bucket_lease.h).
+    if (lease_left(id) <= std::chrono::milliseconds(0))
+      throw StoreUnavailable("the lease on image " + id + " ran out before its pointer was written; nothing changed", true);
+    guarded(*bucket_, [&] { return client_->put(where_.bucket, pointer_key(id), version_dir + "\n", "text/plain", deadline()); });
+  }
+
   bool remove_pointer(const std::string& id) override {
     if (!has_pointer(id)) return false;
     mark_unpublished(id, "");
+    if (lease_left(id) <= std::chrono::milliseconds(0))
+      throw StoreUnavailable("the lease on image " + id + " ran out before its pointer was removed; nothing changed", true);
     guarded(*bucket_, [&] { client_->remove(where_.bucket, pointer_key(id), deadline()); });
     return true;
   }
@@ -450,6 +478,18 @@ class BucketStore final : public StoreBackend {
   }
 
   std::string pointer_key(const std::string& id) const { return where_.prefix + "images/" + id; }
+  LeaseObject lease_object(const std::string& id) const {
+    const std::string key = where_.prefix + "locks/" + id;
+    return LeaseObject{[this, key] { return client_->get(where_.bucket, key, deadline()); },
+                       [this, key](const std::string& text) { client_->put(where_.bucket, key, text, "text/plain", deadline()); },
+                       [this, key] { client_->remove(where_.bucket, key, deadline()); }};
+  }
+  // How long this process may still move images/ID under its lease (none held: zero).
+  std::chrono::milliseconds lease_left(const std::string& id) const {
+    std::lock_guard lock(locks_mu_);
+    const auto it = held_.find(id);
+    return it == held_.end() ? std::chrono::milliseconds(0) : lease_time_left(it->second, lease_);
+  }
   std::string mark_key(const std::string& version_dir) const {
     return where_.prefix + kSupersededFolder + "/" + version_dir;
   }
@@ -491,15 +531,18 @@ class BucketStore final : public StoreBackend {
   const S3Location where_;
   const std::string location_;
   const fs::path staging_;
-  std::mutex locks_mu_;
+  const LeaseTiming lease_;
+  mutable std::mutex locks_mu_;
   std::map<std::string, std::shared_ptr<std::mutex>> locks_;
+  std::map<std::string, HeldLease> held_;  // the leases this process holds, by id
 };
 
 }  // namespace
 
 std::unique_ptr<StoreBackend> bucket_store(const S3Location& where, std::shared_ptr<S3Client> client,
-                                           const std::string& local_dir, const RangeCacheOptions& cache) {
-  return std::make_unique<BucketStore>(where, std::move(client), local_dir, cache);
+                                           const std::string& local_dir, const RangeCacheOptions& cache,
+                                           const LeaseTiming& lease) {
+  return std::make_unique<BucketStore>(where, std::move(client), local_dir, cache, lease);
 }
 
 }  // namespace zoomwarp::tiles

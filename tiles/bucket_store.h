@@ -2,6 +2,8 @@
 //
 //   PREFIX/images/ID                      the pointer: an object holding "ID@VERSION"
 //   PREFIX/versions/ID@VERSION/…          one immutable version: level_K.tif, analyses, manifest.json
+//   PREFIX/superseded/ID@VERSION          when VERSION stopped being published
+//   PREFIX/locks/ID                       the lease of the replica moving images/ID now
 //
 // What it relies on: S3's strong read-after-write consistency (AWS since December 2020; Swift,
 // MinIO and Ceph RGW for a single object): a pointer PUT is seen by every reader's next GET, and
@@ -19,14 +21,18 @@
 // Local state: staging folders in `local_dir`/staging (a version is built on local disk, as for a
 // folder store, then uploaded).
 //
-// Not the same as a folder store: lock_id() serialises the commits of one id within this process
-// only (S3 has no lock to take), so two replicas editing one image at the same instant may both
-// succeed, the last pointer written winning; a folder store's flock refuses the second.
+// Locking (issue 42): lock_id() is a lease, PREFIX/locks/ID (bucket_lease.h), taken after this
+// process's own mutex for the id, so that an edit's check of the published version and its move
+// of the pointer are one step for every replica sharing the bucket: of two edits made against one
+// version, one wins and the other is a VersionConflict, on every S3-compatible store (plain GET,
+// PUT and DELETE of one key; no conditional writes, which Swift's s3api lacks). Only the pointer
+// move is under the lease: a version's files are uploaded before it is taken.
 #pragma once
 
 #include <memory>
 #include <string>
 
+#include "tiles/bucket_lease.h"
 #include "tiles/range_cache.h"
 #include "tiles/s3_client.h"
 #include "tiles/store_backend.h"
@@ -35,6 +41,7 @@ namespace zoomwarp::tiles {
 
 // `client` is shared: its connections, counters and retries serve every version's files.
 std::unique_ptr<StoreBackend> bucket_store(const S3Location& where, std::shared_ptr<S3Client> client,
-                                           const std::string& local_dir, const RangeCacheOptions& cache);
+                                           const std::string& local_dir, const RangeCacheOptions& cache,
+                                           const LeaseTiming& lease);
 
 }  // namespace zoomwarp::tiles

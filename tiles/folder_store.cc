@@ -113,13 +113,16 @@ class FolderStore final : public StoreBackend {
 
   std::shared_ptr<void> lock_id(const std::string& id) override { return std::make_shared<IdLock>(root_, id); }
 
-  void commit_version(const std::string& staging_dir, const std::string& id, const std::string& version_dir) override {
+  void store_version(const std::string& staging_dir, const std::string& version_dir) override {
     try {
       fs::rename(staging_dir, fs::path(root_) / "versions" / version_dir);
     } catch (...) {
       discard_staging(staging_dir);
       throw;
     }
+  }
+
+  void point(const std::string& id, const std::string& version_dir) override {
     mark_unpublished(id, version_dir);
     // Replace the link atomically: make it under a temporary name, then rename it over the old one.
     const fs::path tmp_link = fs::path(root_) / "staging" / (owned_unique_name() + ".link");

@@ -9,16 +9,25 @@
 namespace zoomwarp::tiles {
 
 namespace {
-// IngestOptions::carried_files: from the version `id` names now into `staging`.
-void carry_files(const Store& store, const std::string& id, const std::vector<std::string>& names,
-                 const std::string& staging) {
-  if (names.empty()) return;
-  const auto staged = folder_files(staging);
-  std::shared_ptr<const ImageEntry> published;
-  for (const std::string& name : names) {
-    if (staged->exists(name)) continue;
-    if (!published && !(published = store.find(id))) return;
-    if (auto bytes = published->files->read(name)) staged->write(name, *bytes);
+// Carries from the version published now into `staging` and publishes on that version
+// (IngestOptions::carry); an edit published meanwhile is a conflict, and the next try builds on
+// the version that lost (its pyramid and analyses) with the newer one's files carried.
+Manifest publish_carrying(Store& store, std::string staging, const Manifest& m, const IngestOptions& options) {
+  for (int attempt = 1;; ++attempt) {
+    const std::shared_ptr<const ImageEntry> published = store.find_now(m.id);
+    const std::string expected = published ? published->manifest.version : "";
+    try {
+      if (options.carry) options.carry(published.get(), *folder_files(staging));
+    } catch (...) {
+      store.discard(staging);
+      throw;
+    }
+    try {
+      return store.publish(staging, m, &expected)->manifest;
+    } catch (const VersionConflict& conflict) {
+      if (attempt == kCarryAttempts || !conflict.stored) throw;
+      staging = store.make_staging_copy(*conflict.stored);
+    }
   }
 }
 }  // namespace
@@ -54,14 +63,16 @@ Manifest ingest_image(Store& store, const std::string& source_path, const std::s
       options.analyse(ImageEntry{m, folder_files(staging)});
       if (progress) progress(0.99);
     }
-    carry_files(store, id, options.carried_files, staging);
-    Manifest published = store.publish(staging, std::move(m))->manifest;
+    Manifest published = publish_carrying(store, staging, m, options);
     if (progress) progress(1.0);
     return published;
   } catch (const IngestError&) {
     store.discard(staging);
     throw;
   } catch (const StoreUnavailable&) {  // the store's failure, not the image's: 503/504, not 500
+    store.discard(staging);
+    throw;
+  } catch (const VersionConflict&) {
     store.discard(staging);
     throw;
   } catch (const std::exception& e) {

@@ -13,6 +13,10 @@
 
 namespace zoomwarp::tiles {
 
+// How often an ingest carries the curator's files over and tries to publish before it gives up
+// (VersionConflict): each try loses only to an edit published during the previous one.
+inline constexpr int kCarryAttempts = 4;
+
 struct IngestOptions {
   PyramidOptions pyramid;
   SourceLimits limits;
@@ -21,16 +25,21 @@ struct IngestOptions {
   // The entry's manifest has no version yet.
   std::function<void(const ImageEntry& staged)> analyse;
   bool is_private = false;  // Manifest::is_private of the published version
-  // Files of the id's published version, if there is one, copied into the new version unless it
-  // has them already (an upload that gives its own): the curator's data that does not depend on
-  // the pixels (api/description.h), which a re-ingest must not drop. Copied after `analyse`.
-  std::vector<std::string> carried_files;
+  // What the new version takes from the id's published version (null when there is none),
+  // written into the staged version: the curator's data that does not depend on the pixels
+  // (api/description.h), which a re-ingest must not drop. Run last, on the version published at
+  // that moment (read from the store, not remembered), and the publish is conditional on it: when
+  // an edit or another ingest is published in between, by this process or another replica, it
+  // runs again on the newer version (up to kCarryAttempts in all), so an edit made during an
+  // ingest is kept. Whatever it writes must depend on `published` only (it may run again).
+  std::function<void(const ImageEntry* published, const VersionFiles& staged)> carry;
   // Manifest::source_sha256 of the published version: the source file's digest when the caller
   // has it (file_sha256_hex, `zoomwarp ingest`), empty when not.
   std::string source_sha256;
 };
 
-// Throws IngestError (bad input or write failure) or std::invalid_argument (invalid id).
+// Throws IngestError (bad input or write failure), std::invalid_argument (invalid id),
+// StoreUnavailable, or VersionConflict (edited kCarryAttempts times while it published).
 Manifest ingest_image(Store& store, const std::string& source_path, const std::string& id,
                       const IngestOptions& options, const ProgressFn& progress = {});
 

@@ -46,7 +46,7 @@ namespace {
 // s3://BUCKET/PREFIX: credentials and endpoint from the AWS environment (s3_config.h). Refused
 // credentials stop the start with S3's own message; a store that is down does not (readiness says
 // so, and service begins when it answers).
-std::unique_ptr<StoreBackend> open_backend(const std::string& location, const StoreCacheOptions& cache) {
+std::unique_ptr<StoreBackend> open_backend(const std::string& location, const BucketStoreOptions& cache) {
   if (!location.starts_with("s3://")) return folder_store(location);
   const S3Location where = parse_s3_location(location);
   auto client = std::make_shared<S3Client>(S3Config::from_environment());
@@ -65,12 +65,12 @@ std::unique_ptr<StoreBackend> open_backend(const std::string& location, const St
     ranges.disk_dir = cache.dir;
     ranges.disk_bytes = cache.disk_bytes;
   }
-  return bucket_store(where, std::move(client), local, ranges);
+  return bucket_store(where, std::move(client), local, ranges, cache.lease);
 }
 
 }  // namespace
 
-Store::Store(const std::string& location, std::chrono::milliseconds recheck, const StoreCacheOptions& cache)
+Store::Store(const std::string& location, std::chrono::milliseconds recheck, const BucketStoreOptions& cache)
     : backend_(open_backend(location, cache)), recheck_(recheck) {}
 
 Store::~Store() = default;
@@ -165,29 +165,53 @@ std::string Store::make_staging_copy(const ImageEntry& from) const {
   return staging;
 }
 
+std::shared_ptr<const ImageEntry> Store::find_now(const std::string& id) const {
+  if (!is_valid_image_id(id)) return nullptr;
+  return read_link(id);
+}
+
+namespace {
+bool is_expected(const std::shared_ptr<const ImageEntry>& current, const std::string& expected) {
+  return current ? current->manifest.version == expected : expected.empty();
+}
+std::string conflict_message(const std::string& id, const std::string& expected) {
+  return expected.empty() ? "image " + id + " was published meanwhile"
+                          : "image " + id + " changed since version " + expected;
+}
+}  // namespace
+
 std::shared_ptr<const ImageEntry> Store::publish(const std::string& staging_dir, Manifest m,
                                                  const std::string* expected_version) {
-  if (!is_valid_image_id(m.id)) throw std::runtime_error("invalid image id");
-  // Every publish and remove of an id holds its lock, so a conditional publish's check and swap
-  // are one step for all of them.
-  const auto lock = backend_->lock_id(m.id);
-  if (expected_version) {
-    const auto current = read_link(m.id);  // not a remembered reading: another process may have published
-    if (!current || current->manifest.version != *expected_version) {
-      discard(staging_dir);
-      throw VersionConflict("image " + m.id + " changed since version " + *expected_version);
-    }
+  if (!is_valid_image_id(m.id)) {
+    discard(staging_dir);
+    throw std::runtime_error("invalid image id");
+  }
+  // Not a remembered reading: another process may have published. Checked before the upload, so
+  // that a stale edit costs no version.
+  if (expected_version && !is_expected(read_link(m.id), *expected_version)) {
+    discard(staging_dir);
+    throw VersionConflict(conflict_message(m.id, *expected_version));
   }
   m.created_ms = now_ms();
   // The version orders publishes in time and is unique across processes and hosts.
   m.version = hex(std::uint64_t(m.created_ms), 11) + hex(random_u64(), 5);
+  const std::string version_dir = m.id + "@" + m.version;
   try {
     write_file_synced(staging_dir + "/manifest.json", manifest_to_json(m));
   } catch (...) {
     discard(staging_dir);
     throw;
   }
-  backend_->commit_version(staging_dir, m.id, m.id + "@" + m.version);
+  backend_->store_version(staging_dir, version_dir);
+  {
+    // Every publish and remove of an id holds its lock, so a conditional publish's check and
+    // move are one step for all of them, in every process.
+    const auto lock = backend_->lock_id(m.id);
+    if (expected_version && !is_expected(read_link(m.id), *expected_version))
+      throw VersionConflict(conflict_message(m.id, *expected_version),
+                            load_version(m.id, version_dir));
+    backend_->point(m.id, version_dir);
+  }
   forget_link(m.id);
   auto entry = find(m.id);
   if (!entry) throw std::runtime_error("published image " + m.id + " cannot be read back");
@@ -196,7 +220,6 @@ std::shared_ptr<const ImageEntry> Store::publish(const std::string& staging_dir,
 
 std::shared_ptr<const ImageEntry> Store::import(const std::string& staging_dir, const Manifest& m) {
   if (!is_valid_image_id(m.id) || m.version.empty()) throw std::runtime_error("invalid image id or version");
-  const auto lock = backend_->lock_id(m.id);
   const std::string version_dir = m.id + "@" + m.version;
   if (backend_->version_files(version_dir)->exists("manifest.json")) {
     discard(staging_dir);
@@ -208,7 +231,11 @@ std::shared_ptr<const ImageEntry> Store::import(const std::string& staging_dir, 
     discard(staging_dir);
     throw;
   }
-  backend_->commit_version(staging_dir, m.id, version_dir);
+  backend_->store_version(staging_dir, version_dir);
+  {
+    const auto lock = backend_->lock_id(m.id);
+    backend_->point(m.id, version_dir);
+  }
   forget_link(m.id);
   auto entry = find(m.id);
   if (!entry || entry->manifest.version != m.version)

@@ -16,8 +16,9 @@
 // never remembered: a new image is visible at once.
 //
 // Threads: every member may be called from any thread (the caches of pointers and of loaded
-// versions are under mutexes); across processes, conditional publishes of one id are serialised
-// by the backend's lock on the id.
+// versions are under mutexes). Across processes — replicas sharing a bucket included — every
+// pointer move of one id is serialised by the backend's lock on the id (store_backend.h), so a
+// conditional publish's check and move are one step: no edit made against a version is lost.
 #pragma once
 
 #include <chrono>
@@ -29,6 +30,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "tiles/bucket_lease.h"
 #include "tiles/manifest.h"
 #include "tiles/store_backend.h"
 #include "tiles/version_files.h"
@@ -42,8 +44,9 @@ struct ImageEntry {
   std::string level_path(int k) const;
 };
 
-// What a bucket store keeps on this host (ignored for a folder store).
-struct StoreCacheOptions {
+// What a bucket store keeps on this host, and how it locks an image across replicas (ignored for
+// a folder store).
+struct BucketStoreOptions {
   // Staging folders and the disk cache of the bucket's bytes (bounded by disk_bytes; 0: none).
   // Empty: staging under $TMPDIR/zoomwarp-store-cache/BUCKET/PREFIX, and no disk cache.
   std::string dir;
@@ -51,10 +54,16 @@ struct StoreCacheOptions {
   // The bucket's bytes kept in memory: level files' blocks (headers, tile indexes, stored tiles)
   // and small files (manifests, analyses).
   std::size_t memory_bytes = 256u << 20;
+  // The lease an edit's pointer move holds (bucket_lease.h).
+  LeaseTiming lease;
 };
 
 struct VersionConflict : std::runtime_error {
-  using std::runtime_error::runtime_error;
+  VersionConflict(const std::string& what, std::shared_ptr<const ImageEntry> stored = nullptr)
+      : std::runtime_error(what), stored(std::move(stored)) {}
+  // The version that was stored and then lost the check at the pointer move (null when the
+  // first check failed): a caller may build on it again rather than start over.
+  std::shared_ptr<const ImageEntry> stored;
 };
 
 class Store {
@@ -67,7 +76,7 @@ class Store {
   // the bucket refuses, a bucket that does not exist. `recheck`: how long a pointer once read is
   // trusted (see above); 0 reads it on every find(). `cache`: what a bucket store keeps locally.
   explicit Store(const std::string& location, std::chrono::milliseconds recheck = kDefaultRecheck,
-                 const StoreCacheOptions& cache = {});
+                 const BucketStoreOptions& cache = {});
   ~Store();
 
   // The folder, or s3://BUCKET/PREFIX: for messages and logs.
@@ -100,14 +109,21 @@ class Store {
   std::string make_staging_copy(const ImageEntry& from) const;
 
   // Commits `staging_dir` (holding the pyramid; manifest.json is written here) as a new version
-  // of m.id and points the id at it. Fills m.version and m.created_ms.
+  // of m.id and points the id at it. Fills m.version and m.created_ms. The staging folder is
+  // gone afterwards, whatever happened.
   //
   // With `expected_version`, publishing is conditional (optimistic concurrency for edits): if
-  // the published version of m.id is no longer that one — another edit, a re-ingest or a delete
-  // came first, in this process or another — the staging folder is discarded and VersionConflict
-  // thrown.
+  // the published version of m.id is no longer that one ("" for none) — another edit, a re-ingest
+  // or a delete came first, in this process or another replica — VersionConflict is thrown. The
+  // check is made before the version is stored, and again with the move of the pointer under
+  // the id's lock across processes; a version that lost the second check stays unnamed (in
+  // VersionConflict::stored) until the garbage collector's grace has passed.
   std::shared_ptr<const ImageEntry> publish(const std::string& staging_dir, Manifest m,
                                             const std::string* expected_version = nullptr);
+
+  // The published version of `id` read from the store now, not remembered: what a conditional
+  // publish will be compared with. Null when none.
+  std::shared_ptr<const ImageEntry> find_now(const std::string& id) const;
 
   // Publishes `staging_dir` as the version `m` names, keeping m.version and m.created_ms: a
   // version copied from another store (`zoomwarp store copy`). Throws when the store holds that

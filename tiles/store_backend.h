@@ -7,10 +7,11 @@
 //   images/ID                  the pointer: which version of ID is published (ID@VERSION)
 //   versions/ID@VERSION/…      one immutable version: manifest.json, level_K.tif, analyses
 //   superseded/ID@VERSION      when VERSION stopped being published (superseded_versions.h)
+//   locks/ID                   who may move images/ID now (a flock()ed file; a bucket's lease)
 // Staging folders, where a version is built before it is committed, are always local.
 //
-// Thread safety: every member may be called from any thread; across processes, commit_version()
-// and remove_pointer() of one id are serialised by the lock lock_id() takes.
+// Thread safety: every member may be called from any thread; across processes, point() and
+// remove_pointer() of one id are serialised by the lock lock_id() takes.
 #pragma once
 
 #include <chrono>
@@ -59,14 +60,19 @@ class StoreBackend {
   // was given). Throws on failure; the caller discards the folder.
   virtual void copy_into_staging(const std::string& version_dir, const std::string& staging) const = 0;
 
-  // An exclusive lock on `id` across processes, held while the returned object lives.
+  // An exclusive lock on `id` across every process sharing the store, held while the returned
+  // object lives: a flock() on a folder, a lease in a bucket (bucket_lease.h). Throws
+  // StoreUnavailable (timed out) when another process holds it past the thread's deadline.
   virtual std::shared_ptr<void> lock_id(const std::string& id) = 0;
 
-  // Makes the finished `staging_dir` (manifest.json included) versions/VERSION_DIR, then points
-  // images/ID at it: a reader sees the old version or the new one, never a part of it. The
-  // version it replaces is marked superseded first. The staging folder is gone afterwards,
-  // whether it succeeded or threw.
-  virtual void commit_version(const std::string& staging_dir, const std::string& id, const std::string& version_dir) = 0;
+  // Makes the finished `staging_dir` (manifest.json included) versions/VERSION_DIR, named by no
+  // pointer yet (the collector leaves it for its grace). The staging folder is gone afterwards,
+  // whether it succeeded or threw. Needs no lock: the version is new and its own.
+  virtual void store_version(const std::string& staging_dir, const std::string& version_dir) = 0;
+  // Points images/ID at the stored versions/VERSION_DIR: a reader sees the old version or the new
+  // one. The version it replaces is marked superseded first. The caller holds lock_id(id); throws
+  // StoreUnavailable, having changed nothing, when that lock may have lapsed.
+  virtual void point(const std::string& id, const std::string& version_dir) = 0;
   // Marks the version images/ID names superseded and removes images/ID; false if there was none.
   virtual bool remove_pointer(const std::string& id) = 0;
 

@@ -40,7 +40,7 @@ class S3Store : public ::testing::Test {
   // `disk_bytes`), pointers read on every find().
   std::unique_ptr<tiles::Store> replica(const std::string& dir, std::uint64_t disk_bytes = 64ULL << 20) {
     return std::make_unique<tiles::Store>(location_, std::chrono::milliseconds(0),
-                                          tiles::StoreCacheOptions{.dir = dir, .disk_bytes = disk_bytes, .memory_bytes = 32u << 20});
+                                          tiles::BucketStoreOptions{.dir = dir, .disk_bytes = disk_bytes, .memory_bytes = 32u << 20, .lease = {}});
   }
 
   // The whole of a version's file, read by range.
