@@ -34,6 +34,8 @@ build_pkgs=(
   libtiff-dev libdeflate-dev libisal-dev
   # sources' ICC profiles converted to sRGB at ingest (tiles/icc_to_srgb.h)
   liblcms2-dev
+  # JPEG 2000 sources decoded tile by tile, in bounded memory (tiles/jpeg2000_rows.h)
+  libopenjp2-7-dev
   # the S3 store's client (tiles/s3_client.cc): libcurl (OpenSSL flavour) signs and sends requests,
   # expat parses S3's XML answers
   libcurl4-openssl-dev libexpat1-dev
@@ -57,6 +59,8 @@ test_pkgs=(chromium nodejs npm nginx-light wrk curl jq procps python3-yaml pytho
   # the source formats' tests make JPEG 2000, HEIF/AVIF and TIFF variants with Debian's own
   # encoders and decode them with its own decoders (tests/unit/source_formats_test.cc)
   libopenjp2-tools libheif-examples libtiff-tools
+  # High-Throughput JPEG 2000 codestreams (OpenJPH's ojph_compress), which OpenJPEG 2.5 decodes
+  openjph-tools
   # issue 41's squash measures (tests/bench/squash.py): an independent saliency model in numpy, and
   # libvips' attention smart crop, what users pick instead of a warp
   python3-numpy python3-pil libvips-tools)

@@ -15,6 +15,10 @@ std::vector<OptionSpec> store_option_specs() {
   return {
       {"store", "./store", "the image store: a folder, or s3://BUCKET/PREFIX (credentials and endpoint from AWS_* variables; docs/s3.md), shared by all replicas"},
       {"max-pixels", "1000000000", "largest image accepted, in pixels (width x height), checked before decoding"},
+      {"max-decode-memory", "4G",
+       "most memory an ingest's decoder may hold: sources read by strips or tiles stay far below it; one that must be "
+       "decoded whole (a JPEG 2000 with subsampled or palette colour, an image turned by its EXIF orientation) and "
+       "needs more is refused before decoding"},
       {"tile-compression", "auto",
        "compression of stored pyramid tiles: auto (JPEG for lossy sources - JPEG, lossy WebP - and zip:1 for the others), "
        "jpeg (every source without alpha), or lossless for every source: zip:1 … zip:9, zip (= zip:6), lzw, none"},
@@ -79,6 +83,7 @@ tiles::IngestOptions ingest_options(const Options& o, const warp::SignificanceOp
                                     std::vector<warp::MethodFileTiming>* method_timings) {
   tiles::IngestOptions opt;
   opt.limits.max_pixels = std::uint64_t(o.integer("max-pixels", 1, 1LL << 40));
+  opt.limits.max_decode_bytes = o.bytes("max-decode-memory", 1ULL << 20, 1ULL << 50);
   opt.pyramid.compression = o.str("tile-compression");
   opt.pyramid.jpeg_quality = int(o.integer("tile-quality", 1, 100));
   opt.pyramid.threads = int(o.integer("ingest-threads", 1, 256));

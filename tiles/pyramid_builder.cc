@@ -16,6 +16,7 @@
 
 #include "tiles/header_sniff.h"
 #include "tiles/icc_to_srgb.h"
+#include "tiles/jpeg2000_rows.h"
 #include "tiles/level_file.h"
 #include "tiles/manifest.h"
 #include "tiles/source_compression.h"
@@ -204,14 +205,59 @@ std::string oiio_format_name(const std::string& sniffed) {
 }
 
 struct OpenSource {
+  // A JPEG 2000 codestream OpenJPEG reads tile by tile (jpeg2000_rows.h); else OpenImageIO's reader.
+  std::unique_ptr<Jpeg2000Rows> jpeg2000;
   std::unique_ptr<OIIO::ImageInput> input;
+  int source_width = 0, source_height = 0;  // before orientation
   PyramidInfo info;
   int read_channels = 3;  // source channels we read (≤ 4)
   int subimage = 0;       // the page read: the largest (a pyramidal TIFF's full resolution)
   std::unique_ptr<IccToSrgb> icc;  // the embedded profile's conversion to sRGB, if it needs one
 };
 
-OpenSource open_source(const std::string& path, const SourceLimits& limits) {
+// Bytes a decode of the whole image at once holds: OpenImageIO's JPEG 2000 reader (OpenJPEG's
+// 32-bit samples, then its own copy), a reorientation (the decoded image and the turned one).
+std::uint64_t whole_decode_bytes(std::uint64_t width, std::uint64_t height, int components, int sample_bytes) {
+  return width * height * std::uint64_t(components) * std::uint64_t(sample_bytes);
+}
+
+void check_decode_memory(std::uint64_t bytes, const SourceLimits& limits, const std::string& why) {
+  if (bytes > limits.max_decode_bytes)
+    throw IngestError(Kind::kTooLarge, why + ", which needs " + std::to_string(bytes >> 20) + " MiB, over the limit of " +
+                                           std::to_string(limits.max_decode_bytes >> 20) + " MiB (--max-decode-memory)");
+}
+
+// A JPEG 2000 source OpenJPEG can read by tiles or bands, with its channels and ICC profile; null
+// for one it cannot (decoded whole by OpenImageIO, within the memory limit).
+bool open_jpeg2000(const std::string& path, const SourceLimits& limits, int threads, OpenSource& s) {
+  auto j2k = std::make_unique<Jpeg2000Rows>(path, s.info.source_format, threads);
+  const std::uint64_t w = std::uint64_t(j2k->width()), h = std::uint64_t(j2k->height());
+  if (over_limits(w, h, limits)) throw IngestError(Kind::kTooLarge, too_large_message(w, h, limits));
+  if (!j2k->supported()) {
+    check_decode_memory(whole_decode_bytes(w, h, j2k->components(), 4 + 1), limits,
+                        "this JPEG 2000 image must be decoded whole (" + j2k->why_not() + ")");
+    return false;
+  }
+  check_decode_memory(j2k->peak_bytes(), limits, "this JPEG 2000 image's tiles or bands are too large to decode");
+  s.source_width = j2k->width(), s.source_height = j2k->height();
+  s.read_channels = std::min(j2k->components(), 4);
+  if (!j2k->icc_profile().empty()) {
+    try {
+      s.icc = IccToSrgb::for_profile(j2k->icc_profile().data(), j2k->icc_profile().size(), s.read_channels);
+    } catch (const std::runtime_error& e) {
+      throw IngestError(Kind::kCorrupt, std::string("the image cannot be shown in sRGB: ") + e.what());
+    }
+  }
+  s.info.channels = j2k->components() == 2 || j2k->components() >= 4 ? 4 : 3;
+  s.info.source_channels = j2k->components();
+  s.info.source_bits = j2k->bits() <= 8 ? 8 : 16;
+  s.info.width = j2k->width(), s.info.height = j2k->height();
+  s.info.levels = pyramid_levels(s.info.width, s.info.height);
+  s.jpeg2000 = std::move(j2k);
+  return true;
+}
+
+OpenSource open_source(const std::string& path, const SourceLimits& limits, int threads) {
   OpenSource s;
   s.info.source_format = sniff_image_file(path);
   if (s.info.source_format.empty())
@@ -222,6 +268,7 @@ OpenSource open_source(const std::string& path, const SourceLimits& limits) {
   // be decoded before the limits below could refuse it.
   if (const auto declared = declared_size(path); declared && over_limits(declared->first, declared->second, limits))
     throw IngestError(Kind::kTooLarge, too_large_message(declared->first, declared->second, limits));
+  if ((s.info.source_format == "jp2" || s.info.source_format == "j2k") && open_jpeg2000(path, limits, threads, s)) return s;
   OIIO::ImageSpec config;
   config.attribute("oiio:UnassociatedAlpha", 1);  // keep alpha straight, as the file has it
   // The sniffed format's reader, opened once. Given a file name, ImageInput::open() opens the
@@ -265,6 +312,11 @@ OpenSource open_source(const std::string& path, const SourceLimits& limits) {
   s.info.source_orientation = spec.get_int_attribute("Orientation", 1);
   if (s.info.source_orientation < 1 || s.info.source_orientation > 8) s.info.source_orientation = 1;
   const bool swaps = s.info.source_orientation >= 5;
+  if (s.info.source_orientation != 1)
+    check_decode_memory(2 * whole_decode_bytes(std::uint64_t(spec.width), std::uint64_t(spec.height), s.read_channels, 1),
+                        limits, "this image must be decoded whole to be turned upright (EXIF orientation " +
+                                    std::to_string(s.info.source_orientation) + ")");
+  s.source_width = spec.width, s.source_height = spec.height;
   s.info.width = swaps ? spec.height : spec.width;
   s.info.height = swaps ? spec.width : spec.height;
   s.info.levels = pyramid_levels(s.info.width, s.info.height);
@@ -335,12 +387,11 @@ std::string level_filename(int k) { return "level_" + std::to_string(k) + ".tif"
 PyramidInfo build_pyramid(const std::string& path, const std::string& out_dir,
                           const PyramidOptions& options, const SourceLimits& limits,
                           const ProgressFn& progress) {
-  OpenSource src = open_source(path, limits);
-  OIIO::ImageInput& in = *src.input;
+  OpenSource src = open_source(path, limits, options.threads);
   src.info.compression = choose_compression(options, path, src.info);
   const PyramidInfo& info = src.info;
   const int rc = src.read_channels, ch = info.channels;
-  const int sw = in.spec().width, sh = in.spec().height;
+  const int sw = src.source_width, sh = src.source_height;
 
   // Strips given to the pipeline and not yet encoded hold at most one level-0 strip's pixels (or
   // four tiles per thread, for narrow images; 64 MB at most, for very wide ones): the other
@@ -362,11 +413,13 @@ PyramidInfo build_pyramid(const std::string& path, const std::string& out_dir,
     const int chunk = 16;
     const bool direct = rc == ch;
     std::vector<std::uint8_t> buf(direct ? 0 : std::size_t(chunk) * sw * rc);
-    RowReader reader(in, src.subimage, rc);
+    std::optional<RowReader> reader;
+    if (src.input) reader.emplace(*src.input, src.subimage, rc);
     for (int y = 0; y < sh;) {
       const int n = std::min({chunk, sh - y, level0.rows_free()});
       std::uint8_t* rows = level0.free_rows();
-      check_read(in, reader.read(y, y + n, direct ? rows : buf.data()));
+      if (src.jpeg2000) src.jpeg2000->read(y, y + n, rc, direct ? rows : buf.data());
+      else check_read(*src.input, reader->read(y, y + n, direct ? rows : buf.data()));
       if (src.icc) src.icc->convert(direct ? rows : buf.data(), std::size_t(n) * sw);
       if (!direct)
         for (int r = 0; r < n; ++r)
@@ -376,7 +429,9 @@ PyramidInfo build_pyramid(const std::string& path, const std::string& out_dir,
       if (progress) progress(0.95 * y / sh);
     }
   } else {
-    // A rotation needs whole columns, so the image is decoded whole (8-bit) and reoriented.
+    // A rotation needs whole columns, so the image is decoded whole (8-bit) and reoriented
+    // (within the memory limit: open_source). Only OpenImageIO's readers report an orientation.
+    OIIO::ImageInput& in = *src.input;
     OIIO::ImageSpec spec8(sw, sh, rc, OIIO::TypeDesc::UINT8);
     OIIO::ImageBuf whole(spec8);
     check_read(in, in.read_image(src.subimage, 0, 0, rc, OIIO::TypeDesc::UINT8, whole.localpixels()));

@@ -37,6 +37,10 @@ struct PyramidOptions {
 struct SourceLimits {
   std::uint64_t max_pixels = 1'000'000'000;  // width × height, checked from the header
   int max_dimension = 1 << 20;
+  // What decoding may hold at once: most sources are read in strips or tiles, well under this;
+  // one that must be decoded whole (a JPEG 2000 OpenJPEG cannot read by tiles, an image turned
+  // upright by its EXIF orientation) and would need more is refused before anything is decoded.
+  std::uint64_t max_decode_bytes = 4ull << 30;
 };
 
 struct PyramidInfo {

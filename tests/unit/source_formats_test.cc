@@ -25,6 +25,7 @@
 #include "tests/support/server_process.h"
 #include "tiles/header_sniff.h"
 #include "tiles/ingest.h"
+#include "tiles/jpeg2000_rows.h"
 #include "tiles/pyramid_reader.h"
 #include "tiles/source_format.h"
 
@@ -100,6 +101,48 @@ TEST_F(SourceFormats, LosslessJpeg2000IsStoredExactly) {
   EXPECT_EQ(testing::psnr(ingest(path("codestream.j2k"), "j2k", "zip:1"), reference_), kLossless);
 }
 
+// Issue 42: a tiled JPEG 2000 is read tile by tile (tiles/jpeg2000_rows.h), an untiled one by
+// bands of rows; both exactly. Tiles that do not divide the image, an image area and a tile grid
+// that start off the reference grid's origin, tile-parts split by resolution (a tile complete
+// only at the end of the codestream), 16 bits, and bands of one row to the whole image.
+TEST_F(SourceFormats, TiledJpeg2000IsReadTileByTileAndUntiledByBands) {
+  run("opj_compress -i source.tif -o tiled.jp2 -t 96,80");
+  EXPECT_EQ(testing::psnr(ingest(path("tiled.jp2"), "jp2", "zip:1"), reference_), kLossless);
+  run("opj_compress -i source.tif -o offset.j2k -t 96,80 -d 37,21 -T 10,5");
+  EXPECT_EQ(testing::psnr(ingest(path("offset.j2k"), "j2k", "zip:1"), reference_), kLossless);
+  run("opj_compress -i source.tif -o parts.jp2 -t 128,128 -TP R -p RPCL");
+  EXPECT_EQ(testing::psnr(ingest(path("parts.jp2"), "jp2", "zip:1"), reference_), kLossless);
+  testing::write_image(path("deep.tif"), reference_, 16);
+  run("opj_compress -i deep.tif -o deep-tiled.jp2 -t 256,256");
+  EXPECT_EQ(testing::psnr(ingest(path("deep-tiled.jp2"), "jp2", "zip:1"), reference_), kLossless);
+
+  run("opj_compress -i source.tif -o untiled.jp2");
+  for (const std::uint64_t band_bytes : {std::uint64_t(1), std::uint64_t(kWidth) * 3 * 4 * 37, std::uint64_t(1) << 30}) {
+    tiles::Jpeg2000Rows rows(path("untiled.jp2"), "jp2", 2, band_bytes);
+    ASSERT_TRUE(rows.supported()) << rows.why_not();
+    EXPECT_FALSE(rows.tiled());
+    Raster read(kWidth, kHeight, 3);
+    // In uneven steps, as the pyramid builder asks (16 rows, or what its strip has room for).
+    for (int y = 0; y < kHeight;) {
+      const int n = std::min(kHeight - y, 13);
+      rows.read(y, y + n, 3, read.pixels.data() + std::size_t(y) * kWidth * 3);
+      y += n;
+    }
+    EXPECT_EQ(testing::psnr(read, reference_), kLossless) << rows.band_rows() << " rows a band";
+  }
+}
+
+// High-Throughput JPEG 2000 (ISO 15444-15): Debian's OpenJPEG 2.5.0 decodes its block coder;
+// OpenJPH's ojph_compress (openjph-tools) makes bare HTJ2K codestreams, lossless here, tiled and
+// not.
+TEST_F(SourceFormats, HighThroughputJpeg2000IsStoredExactly) {
+  testing::write_image(path("source.ppm"), reference_);
+  run("ojph_compress -i source.ppm -o ht.j2c -reversible true");
+  EXPECT_EQ(testing::psnr(ingest(path("ht.j2c"), "j2k", "zip:1"), reference_), kLossless);
+  run("ojph_compress -i source.ppm -o ht-tiled.j2c -reversible true -tile_size \\{128,96\\}");
+  EXPECT_EQ(testing::psnr(ingest(path("ht-tiled.j2c"), "j2k", "zip:1"), reference_), kLossless);
+}
+
 TEST_F(SourceFormats, SixteenBitJpeg2000IsStoredAsItsEightBits) {
   testing::write_image(path("deep.tif"), reference_, 16);
   run("opj_compress -i deep.tif -o deep.jp2");
@@ -173,6 +216,29 @@ TEST_F(SourceFormats, AJpeg2000DeclaringAHugeImageIsRefusedBeforeDecoding) {
     EXPECT_NE(std::string(e.what()).find("60000x60000"), std::string::npos) << e.what();
   }
   EXPECT_FALSE(store.find("huge"));
+}
+
+// What must be decoded whole — a JPEG 2000 OpenJPEG cannot hand over tile by tile (subsampled
+// components, read by OpenImageIO), an image turned upright by its EXIF orientation — is
+// decoded whole within --max-decode-memory and refused, before decoding, past it.
+TEST_F(SourceFormats, WholeImageDecodesAreBoundedByTheDecodeMemoryLimit) {
+  run("opj_compress -i source.tif -o subsampled.jp2 -s 2,2");
+  testing::write_image(path("turned.jpg"), reference_, 8, 6, 95);
+  for (const char* file : {"subsampled.jp2", "turned.jpg"}) {
+    tiles::Store store(path("store"));
+    tiles::IngestOptions small;
+    small.limits.max_decode_bytes = 512 << 10;
+    try {
+      tiles::ingest_image(store, path(file), "refused", small);
+      ADD_FAILURE() << file << " ingested";
+    } catch (const tiles::IngestError& e) {
+      EXPECT_EQ(e.kind(), tiles::IngestError::Kind::kTooLarge) << e.what();
+      EXPECT_NE(std::string(e.what()).find("--max-decode-memory"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("decoded whole"), std::string::npos) << e.what();
+    }
+    EXPECT_FALSE(store.find("refused"));
+    EXPECT_NO_THROW(tiles::ingest_image(store, path(file), "fits", {})) << file << " within the default limit";
+  }
 }
 
 // --- ICC profiles -----------------------------------------------------------------------------
