@@ -454,10 +454,11 @@ struct S3Client::Impl {
   }
 
   // One attempt on a borrowed handle. Returns libcurl's code; fills `resp` and `errbuf`.
-  CURLcode attempt_once(const Request& r, Response& resp, char* errbuf, Clock::duration left) {
+  CURLcode attempt_once(const Request& r, const S3Credentials& creds, Response& resp, char* errbuf,
+                        Clock::duration left) {
     HeaderList headers;  // destroyed after the lease has reset the handle that points to it
     headers.add("x-amz-content-sha256: " + r.payload_sha256);
-    if (!config.session_token().empty()) headers.add("x-amz-security-token: " + config.session_token());
+    if (!creds.session_token.empty()) headers.add("x-amz-security-token: " + creds.session_token);
     for (const auto& line : r.headers) headers.add(line);
 
     const long left_ms = std::max<long>(1, long(std::chrono::duration_cast<std::chrono::milliseconds>(left).count()));
@@ -474,8 +475,8 @@ struct S3Client::Impl {
     curl_easy_setopt(h, CURLOPT_HTTP_VERSION, long(CURL_HTTP_VERSION_1_1));
     curl_easy_setopt(h, CURLOPT_USERAGENT, "zoomwarp-s3");
     curl_easy_setopt(h, CURLOPT_AWS_SIGV4, sigv4.c_str());
-    curl_easy_setopt(h, CURLOPT_USERNAME, config.access_key_id().c_str());
-    curl_easy_setopt(h, CURLOPT_PASSWORD, config.secret_access_key().c_str());
+    curl_easy_setopt(h, CURLOPT_USERNAME, creds.access_key_id.c_str());
+    curl_easy_setopt(h, CURLOPT_PASSWORD, creds.secret_access_key.c_str());
     curl_easy_setopt(h, CURLOPT_HTTPHEADER, headers.list);
     curl_easy_setopt(h, CURLOPT_TIMEOUT_MS, left_ms);
     curl_easy_setopt(h, CURLOPT_CONNECTTIMEOUT_MS,
@@ -527,6 +528,7 @@ struct S3Client::Impl {
   // mends; std::system_error when the body's file cannot be read.
   Response perform(const Request& r, S3Deadline deadline) {
     S3Error::Details last = details(r);
+    bool refused_once = false;
     for (int attempt = 1;; ++attempt) {
       const auto now = Clock::now();
       // A retry with next to no time left would only time out (libcurl's timeout is whole
@@ -541,14 +543,36 @@ struct S3Client::Impl {
         fail(std::move(last));
       }
       if (attempt > 1) retries.fetch_add(1, std::memory_order_relaxed);
+      // Asked before every attempt: credentials that expire are renewed (s3_credentials.h).
+      S3Credentials creds;
+      try {
+        creds = config.credentials();
+      } catch (const S3CredentialsError& e) {
+        last.attempts = attempt - 1;
+        last.code = "CredentialsUnavailable";
+        last.message = e.what();
+        last.unavailable = true;
+        fail(std::move(last));
+      }
       Response resp;
       char errbuf[CURL_ERROR_SIZE];
-      const CURLcode code = attempt_once(r, resp, errbuf, deadline - now);
+      const CURLcode code = attempt_once(r, creds, resp, errbuf, deadline - now);
       resp.attempts = attempt;
       if (r.body != nullptr && r.body->read_errno != 0) {
         failures[std::size_t(r.op)].fetch_add(1, std::memory_order_relaxed);
         throw std::system_error(r.body->read_errno, std::generic_category(),
                                 "S3 put_file s3://" + std::string(r.bucket) + "/" + std::string(r.key) + ": reading the file");
+      }
+      // Credentials the store calls expired (a renewal came too late, or a rotated file): renewed
+      // and tried again at once, once.
+      if (code == CURLE_OK && (resp.status == 400 || resp.status == 403) && attempt < options.max_attempts &&
+          !refused_once) {
+        const std::string error_code = parse_error_document(resp.body).code;
+        if (error_code == "ExpiredToken" || error_code == "TokenRefreshRequired" || error_code == "InvalidToken") {
+          config.credential_source().refused(creds);
+          refused_once = true;
+          continue;
+        }
       }
       if (code == CURLE_OK && !retryable_status(resp.status)) return resp;
       if (resp.range_ignored || resp.body_too_long) return resp;  // the operation says what is wrong

@@ -86,16 +86,20 @@ bool valid_bucket_name(std::string_view b) {
 }
 
 S3Config::S3Config(std::string access_key_id, std::string secret_access_key, std::string region,
-                   std::string endpoint, std::string session_token)
-    : access_key_id_(std::move(access_key_id)),
-      secret_access_key_(std::move(secret_access_key)),
-      session_token_(std::move(session_token)),
-      region_(std::move(region)) {
-  if (access_key_id_.empty()) throw S3ConfigError("S3: the access key id is empty");
-  if (secret_access_key_.empty()) throw S3ConfigError("S3: the secret access key is empty");
+                   std::string endpoint, std::string session_token) {
+  if (access_key_id.empty()) throw S3ConfigError("S3: the access key id is empty");
+  if (secret_access_key.empty()) throw S3ConfigError("S3: the secret access key is empty");
   // The token travels in a header; the key and secret are handed to libcurl, which signs with them.
-  if (has_line_break(access_key_id_) || has_line_break(secret_access_key_) || has_line_break(session_token_))
+  if (has_line_break(access_key_id) || has_line_break(secret_access_key) || has_line_break(session_token))
     throw S3ConfigError("S3: a credential holds a line break");
+  *this = S3Config(fixed_credentials({std::move(access_key_id), std::move(secret_access_key), std::move(session_token),
+                                      std::nullopt}),
+                   std::move(region), std::move(endpoint));
+}
+
+S3Config::S3Config(std::shared_ptr<S3CredentialSource> credentials, std::string region, std::string endpoint)
+    : credentials_(std::move(credentials)), region_(std::move(region)) {
+  if (!credentials_) throw S3ConfigError("S3: no credential source");
   if (!valid_region(region_))
     throw S3ConfigError("S3: region '" + region_ + "' is not a region name (lower-case letters, digits, '-')");
   if (!endpoint.empty()) {
@@ -119,18 +123,6 @@ S3Config S3Config::from_environment(
     auto v = lookup(name);
     return v ? *v : std::string();
   };
-  const std::string key = get("AWS_ACCESS_KEY_ID");
-  const std::string secret = get("AWS_SECRET_ACCESS_KEY");
-  std::vector<std::string> missing;
-  if (key.empty()) missing.push_back("AWS_ACCESS_KEY_ID");
-  if (secret.empty()) missing.push_back("AWS_SECRET_ACCESS_KEY");
-  if (!missing.empty()) {
-    std::string names = missing[0];
-    if (missing.size() > 1) names += " and " + missing[1];
-    throw S3ConfigError("an s3:// store needs credentials from the environment: " + names +
-                        (missing.size() > 1 ? " are" : " is") +
-                        " not set (AWS_ACCESS_KEY_ID, AWS_SECRET_ACCESS_KEY, optionally AWS_SESSION_TOKEN)");
-  }
   std::string region_var = "AWS_REGION";
   std::string region = get("AWS_REGION");
   if (region.empty()) {
@@ -144,15 +136,15 @@ S3Config S3Config::from_environment(
     endpoint_var = "AWS_ENDPOINT_URL";
     endpoint = get("AWS_ENDPOINT_URL");
   }
-  const std::string token = get("AWS_SESSION_TOKEN");
   // Errors name the variable at fault rather than the constructor's generic wording.
-  if (has_line_break(key) || has_line_break(secret) || has_line_break(token))
+  if (has_line_break(get("AWS_ACCESS_KEY_ID")) || has_line_break(get("AWS_SECRET_ACCESS_KEY")) ||
+      has_line_break(get("AWS_SESSION_TOKEN")))
     throw S3ConfigError("AWS_ACCESS_KEY_ID, AWS_SECRET_ACCESS_KEY or AWS_SESSION_TOKEN holds a line break");
   if (!valid_region(region))
     throw S3ConfigError(region_var + "='" + region + "' is not a region name (lower-case letters, digits, '-')");
   if (!endpoint.empty() && !normalised_endpoint(endpoint))
     throw S3ConfigError(endpoint_var + "='" + endpoint + "' is not http(s)://host[:port]");
-  return S3Config(key, secret, region, endpoint, token);
+  return S3Config(credentials_from_environment(lookup, region), region, endpoint);
 }
 
 std::string S3Config::url(std::string_view bucket, std::string_view key, std::string_view query) const {

@@ -2,9 +2,10 @@
 // region and endpoint, read from the standard AWS environment as the AWS CLI and SDKs read them,
 // and `s3://BUCKET/PREFIX` store locations. No I/O here: tiles/s3_client.h makes the requests.
 //
-//   AWS_ACCESS_KEY_ID, AWS_SECRET_ACCESS_KEY   required
-//   AWS_SESSION_TOKEN                          optional (temporary credentials), sent as
-//                                              x-amz-security-token
+//   AWS_ACCESS_KEY_ID, AWS_SECRET_ACCESS_KEY   the keys; or a shared credentials file, a web
+//   AWS_SESSION_TOKEN                          identity or a container endpoint, renewed before
+//                                              they expire (s3_credentials.h); a session token
+//                                              is sent as x-amz-security-token
 //   AWS_REGION (else AWS_DEFAULT_REGION)       default us-east-1; what requests are signed for
 //   AWS_ENDPOINT_URL_S3 (else AWS_ENDPOINT_URL) optional: an S3-compatible store (MinIO, Ceph
 //                                              RGW, Swift's s3api, R2) at scheme://host[:port]
@@ -20,14 +21,18 @@
 // characters and '/' kept, every other byte %XX in upper case): libcurl signs the path and query
 // exactly as written, so the written form must already be the canonical one.
 //
-// Threads: S3Config and S3Location are immutable values; any thread may use them.
+// Threads: S3Config and S3Location are immutable values (the credential source they share is
+// thread-safe); any thread may use them.
 #pragma once
 
 #include <functional>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
+
+#include "tiles/s3_credentials.h"
 
 namespace zoomwarp::tiles {
 
@@ -48,16 +53,21 @@ class S3Config {
            std::string region = kDefaultRegion, std::string endpoint = {},
            std::string session_token = {});
 
-  // From the process environment (table above). Throws S3ConfigError naming every missing
-  // credential variable, or the variable whose value is malformed.
+  // Any credential source (s3_credentials.h), with the region and endpoint as above.
+  S3Config(std::shared_ptr<S3CredentialSource> credentials, std::string region = kDefaultRegion,
+           std::string endpoint = {});
+
+  // From the process environment (table above). Throws S3ConfigError when no credentials are
+  // configured, or naming the variable whose value is malformed.
   static S3Config from_environment();
   // The same from any lookup (tests): `lookup(NAME)` is the variable's value, or nullopt.
   static S3Config from_environment(
       const std::function<std::optional<std::string>(const char* name)>& lookup);
 
-  const std::string& access_key_id() const { return access_key_id_; }
-  const std::string& secret_access_key() const { return secret_access_key_; }
-  const std::string& session_token() const { return session_token_; }
+  // The credentials to sign the next request with (S3CredentialSource::current: may renew them;
+  // throws S3CredentialsError), and where they come from.
+  S3Credentials credentials() const { return credentials_->current(); }
+  S3CredentialSource& credential_source() const { return *credentials_; }
   const std::string& region() const { return region_; }
   // "scheme://host[:port]" without a trailing slash, or empty for AWS.
   const std::string& endpoint() const { return endpoint_; }
@@ -73,9 +83,7 @@ class S3Config {
   std::string describe() const;
 
  private:
-  std::string access_key_id_;
-  std::string secret_access_key_;
-  std::string session_token_;
+  std::shared_ptr<S3CredentialSource> credentials_;
   std::string region_;
   std::string endpoint_;
 };

@@ -33,9 +33,9 @@ std::string error_of(const Env& env) {
 
 TEST(S3Config, FromTheEnvironmentWithDefaults) {
   const S3Config c = from({{"AWS_ACCESS_KEY_ID", "test:tester"}, {"AWS_SECRET_ACCESS_KEY", "testing"}});
-  EXPECT_EQ(c.access_key_id(), "test:tester");
-  EXPECT_EQ(c.secret_access_key(), "testing");
-  EXPECT_EQ(c.session_token(), "");
+  EXPECT_EQ(c.credentials().access_key_id, "test:tester");
+  EXPECT_EQ(c.credentials().secret_access_key, "testing");
+  EXPECT_EQ(c.credentials().session_token, "");
   EXPECT_EQ(c.region(), "us-east-1");
   EXPECT_EQ(c.endpoint(), "");
   EXPECT_FALSE(c.path_style());
@@ -50,7 +50,7 @@ TEST(S3Config, EndpointRegionAndTokenFromTheEnvironment) {
                            {"AWS_DEFAULT_REGION", "ap-south-1"},
                            {"AWS_ENDPOINT_URL", "http://other:1"},
                            {"AWS_ENDPOINT_URL_S3", "http://127.0.0.1:9000/"}});
-  EXPECT_EQ(c.session_token(), "tok");
+  EXPECT_EQ(c.credentials().session_token, "tok");
   EXPECT_EQ(c.region(), "eu-west-3");                 // AWS_REGION before AWS_DEFAULT_REGION
   EXPECT_EQ(c.endpoint(), "http://127.0.0.1:9000");  // the S3-specific variable first, '/' dropped
   EXPECT_TRUE(c.path_style());
@@ -67,9 +67,10 @@ TEST(S3Config, EndpointRegionAndTokenFromTheEnvironment) {
 }
 
 TEST(S3Config, MissingCredentialsAreNamed) {
-  EXPECT_EQ(error_of({}),
-            "an s3:// store needs credentials from the environment: AWS_ACCESS_KEY_ID and AWS_SECRET_ACCESS_KEY are "
-            "not set (AWS_ACCESS_KEY_ID, AWS_SECRET_ACCESS_KEY, optionally AWS_SESSION_TOKEN)");
+  const std::string none = error_of({{"HOME", "/nonexistent"}});
+  for (const char* named : {"AWS_ACCESS_KEY_ID and AWS_SECRET_ACCESS_KEY", "AWS_SHARED_CREDENTIALS_FILE",
+                            "AWS_WEB_IDENTITY_TOKEN_FILE with AWS_ROLE_ARN", "AWS_CONTAINER_CREDENTIALS_FULL_URI"})
+    EXPECT_NE(none.find(named), std::string::npos) << named << " in: " << none;
   const std::string secret = error_of({{"AWS_ACCESS_KEY_ID", "k"}, {"AWS_SECRET_ACCESS_KEY", ""}});
   EXPECT_NE(secret.find("AWS_SECRET_ACCESS_KEY is not set"), std::string::npos) << secret;
   const std::string key = error_of({{"AWS_SECRET_ACCESS_KEY", "s"}});
