@@ -25,6 +25,7 @@
 
 #include "api/authorize.h"
 #include "api/cached_responses.h"
+#include "api/collection_index.h"
 #include "api/framed_views.h"
 #include "api/deepzoom.h"
 #include "api/http_types.h"
@@ -163,6 +164,7 @@ class Router {
   CachedResponses responses_;
   WarpEngines engines_;
   ViewFraming framing_{engines_};  // fit= of /viewport and /mesh (api/framed_views.h)
+  CollectionIndex collection_{store_, config_.log};  // the IIIF collection's public images
   tiles::StoredTiles stored_tiles_;
   std::atomic<std::uint64_t> passed_through_{0};
 };

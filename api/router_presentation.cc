@@ -104,9 +104,7 @@ std::optional<Response> Router::iiif_manifest(const Request& req, const PathPara
 
 std::optional<Response> Router::iiif_collection(const Request& req, const PathParams&, bool may_compute) {
   if (!may_compute) return std::nullopt;  // lists the store
-  std::size_t count = 0;
-  for (const auto& entry : store_.list()) count += !entry->manifest.is_private;
-  Response r = body_response(presentation_type(req), collection_json(base_url(req), count));
+  Response r = body_response(presentation_type(req), collection_json(base_url(req), collection_.current()->size()));
   r.route = "iiif_collection";
   r.set_header("Cache-Control", "no-cache");
   return r;
@@ -116,17 +114,15 @@ std::optional<Response> Router::iiif_collection_page(const Request& req, const P
   const auto page = parse_small_uint(param(p, "page"));
   if (!page || *page < 1) throw ApiError(404, "not_found", "collection pages are numbered from 1");
   if (!may_compute) return std::nullopt;
-  std::vector<std::shared_ptr<const tiles::ImageEntry>> images;
-  for (auto& entry : store_.list())
-    if (!entry->manifest.is_private) images.push_back(std::move(entry));
-  const int pages = int((images.size() + kCollectionPageSize - 1) / kCollectionPageSize);
+  const auto images = collection_.current();
+  const int pages = int((images->size() + kCollectionPageSize - 1) / kCollectionPageSize);
   if (*page > pages)
     throw ApiError(404, "not_found",
                    "the collection has " + std::to_string(pages) + " page" + (pages == 1 ? "" : "s"));
   std::vector<CollectionEntry> listed;
   const std::size_t first = std::size_t(*page - 1) * kCollectionPageSize;
-  for (std::size_t i = first; i < std::min(images.size(), first + kCollectionPageSize); ++i)
-    listed.push_back({&images[i]->manifest, read_description(*images[i])});
+  for (std::size_t i = first; i < std::min(images->size(), first + kCollectionPageSize); ++i)
+    listed.push_back({&(*images)[i].image->manifest, (*images)[i].description});
   Response r = body_response(presentation_type(req), collection_page_json(base_url(req), *page, pages, listed));
   r.route = "iiif_collection";
   r.set_header("Cache-Control", "no-cache");

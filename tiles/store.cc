@@ -258,6 +258,11 @@ int Store::collect_garbage(std::chrono::seconds grace) {
   });
 }
 
+std::uint64_t Store::generation() const {
+  std::shared_lock lock(links_mu_);
+  return generation_;
+}
+
 std::string Store::problem(std::chrono::milliseconds within) const { return backend_->problem(within); }
 
 StoreStats Store::stats() const { return backend_->stats(); }

@@ -137,6 +137,12 @@ class Store {
   // process is gone (or that are older than a day). Returns how many it removed.
   int collect_garbage(std::chrono::seconds grace);
 
+  // How many publishes and removes this process has made: a cache of what the store holds (the
+  // IIIF collection's index) knows from it that this process changed the store. Other processes'
+  // changes are seen within recheck(), as find()'s are.
+  std::uint64_t generation() const;
+  std::chrono::steady_clock::duration recheck() const { return recheck_; }
+
   // Why the store cannot be read now, or "" (readiness): given up on after `within`.
   std::string problem(std::chrono::milliseconds within) const;
 

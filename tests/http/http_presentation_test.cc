@@ -460,6 +460,27 @@ TEST_F(IiifPresentationCollection, ListsPublicImagesInPagesOfAHundred) {
   EXPECT_EQ(http.get("/iiif/presentation/3/collection/2").status, 404);
 }
 
+// Issue 42: one damaged description.json (a store written by hand, a cut copy) no longer makes
+// the collection's page a 500: the image is listed with its id as its label, the others with
+// theirs. And the collection, made once per store state, follows this server's own changes at
+// once.
+TEST_F(IiifPresentation, ADamagedDescriptionIsLeftOutOfTheCollectionNotA500) {
+  upload("boats", "&label=Boats");
+  upload("lake", "&label=Lake");
+  for (const auto& e : std::filesystem::directory_iterator(store + "/versions"))
+    if (e.path().filename().string().starts_with("lake@")) std::ofstream(e.path() / "description.json") << "{ damaged";
+  const auto page = http.get("/iiif/presentation/3/collection/1");
+  ASSERT_EQ(page.status, 200) << page.body;
+  const json p = json::parse(page.body);
+  ASSERT_EQ(p["items"].size(), 2u);
+  EXPECT_EQ(p["items"][0]["label"], json::parse(R"({"none": ["Boats"]})"));
+  EXPECT_EQ(p["items"][1]["label"], json::parse(R"({"none": ["lake"]})")) << "listed, its description left out";
+  upload("river", "&label=River");
+  const json after = json::parse(http.get("/iiif/presentation/3/collection/1").body);
+  ASSERT_EQ(after["items"].size(), 3u) << "this server's upload is listed at once";
+  EXPECT_EQ(after["items"][2]["label"], json::parse(R"({"none": ["River"]})"));
+}
+
 // A private image's manifest: for a curator key or a signed URL only, and its image service
 // signed as a whole, so that a viewer given the manifest loads the image without a key.
 class IiifPresentationPrivate : public IiifPresentation {
