@@ -489,7 +489,8 @@ struct S3Client::Impl {
     curl_easy_setopt(h, CURLOPT_WRITEDATA, &sink);
     if (std::strcmp(r.method, "HEAD") == 0) {
       curl_easy_setopt(h, CURLOPT_NOBODY, 1L);
-    } else if (std::strcmp(r.method, "PUT") == 0) {
+    } else if (r.body != nullptr) {  // PUT, or POST with a body (multipart uploads)
+      if (std::strcmp(r.method, "PUT") != 0) curl_easy_setopt(h, CURLOPT_CUSTOMREQUEST, r.method);
       r.body->offset = 0;
       curl_easy_setopt(h, CURLOPT_UPLOAD, 1L);
       curl_easy_setopt(h, CURLOPT_INFILESIZE_LARGE, curl_off_t(r.body->size));
@@ -719,6 +720,8 @@ std::string S3Client::put_file(std::string_view bucket, std::string_view key, co
   struct stat st {};
   if (::fstat(file.fd, &st) != 0) throw std::system_error(errno, std::generic_category(), "S3 put_file: " + path);
   if (!S_ISREG(st.st_mode)) throw std::system_error(EINVAL, std::generic_category(), "S3 put_file: not a regular file: " + path);
+  if (std::uint64_t(st.st_size) > impl_->options.multipart_threshold)
+    return put_multipart(bucket, key, file.fd, std::uint64_t(st.st_size), content_type, deadline);
   Body source;
   source.fd = file.fd;
   source.size = std::uint64_t(st.st_size);
@@ -729,6 +732,74 @@ std::string S3Client::put_file(std::string_view bucket, std::string_view key, co
   Response resp = impl_->perform(r, deadline);
   if (resp.status == 200) return resp.etag;
   impl_->fail_answer(r, resp);
+}
+
+std::string S3Client::put_multipart(std::string_view bucket, std::string_view key, int fd, std::uint64_t size,
+                                    std::string_view content_type, S3Deadline deadline) {
+  const std::uint64_t part_bytes = std::max<std::uint64_t>(impl_->options.multipart_part_bytes, 5u << 20);
+  if ((size + part_bytes - 1) / part_bytes > 10000)
+    throw std::invalid_argument("S3 put_file s3://" + std::string(bucket) + "/" + std::string(key) +
+                                ": over 10 000 parts of multipart_part_bytes");
+  // A request of the upload: `query` canonical (names sorted), `body` sent as it is.
+  auto request = [&](const char* method, const std::string& query, std::string_view body, bool xml) {
+    Body source;
+    source.memory = body;
+    source.size = body.size();
+    Impl::Request r(S3Operation::kPutFile, method, bucket, key, impl_->config.url(bucket, key, query));
+    r.payload_sha256 = sha256_hex(body);
+    if (xml) r.headers.push_back("Content-Type: application/xml");
+    else if (!content_type.empty() && query == "uploads=") r.headers.push_back("Content-Type: " + std::string(content_type));
+    if (std::strcmp(method, "DELETE") != 0) r.body = &source;
+    Response resp = impl_->perform(r, deadline);
+    // CompleteMultipartUpload may answer 200 with an <Error> document: a failure all the same.
+    if (resp.status != 200 && resp.status != 204) impl_->fail_answer(r, resp);
+    if (resp.body.find("<Error>") != std::string::npos) {
+      resp.status = 500;
+      impl_->fail_answer(r, resp);
+    }
+    return resp;
+  };
+  // 1. CreateMultipartUpload.
+  std::string upload_id;
+  parse_xml(request("POST", "uploads=", "", false).body, [&](const std::string& path, std::string& text) {
+    if (path == "InitiateMultipartUploadResult/UploadId") upload_id = text;
+  });
+  if (upload_id.empty()) throw std::runtime_error("S3 put_file s3://" + std::string(bucket) + "/" + std::string(key) +
+                                                  ": the store started a multipart upload without an UploadId");
+  const std::string id_param = "uploadId=" + s3_uri_encode(upload_id, false);
+  try {
+    // 2. UploadPart, one part in memory at a time (its SHA-256 is what the request is signed with).
+    std::string complete = "<CompleteMultipartUpload>";
+    std::string part;
+    for (std::uint64_t start = 0, number = 1; start < size; start += part_bytes, ++number) {
+      part.resize(std::size_t(std::min(part_bytes, size - start)));
+      for (std::size_t done = 0; done < part.size();) {
+        const ssize_t n = ::pread(fd, part.data() + done, part.size() - done, off_t(start + done));
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) throw std::system_error(n < 0 ? errno : EIO, std::generic_category(), "S3 put_file: reading the file");
+        done += std::size_t(n);
+      }
+      const Response resp =
+          request("PUT", "partNumber=" + std::to_string(number) + "&" + id_param, part, false);
+      complete += "<Part><PartNumber>" + std::to_string(number) + "</PartNumber><ETag>\"" + resp.etag +
+                  "\"</ETag></Part>";
+    }
+    complete += "</CompleteMultipartUpload>";
+    // 3. CompleteMultipartUpload: the object appears whole, as with one PUT.
+    std::string etag;
+    parse_xml(request("POST", id_param, complete, true).body, [&](const std::string& path, std::string& text) {
+      if (path == "CompleteMultipartUploadResult/ETag") etag = unquoted(text);
+    });
+    return etag;
+  } catch (...) {
+    // AbortMultipartUpload, so that its parts are not billed; a failure here is the lifecycle
+    // rule's to mend (docs/s3-operations.md).
+    try {
+      request("DELETE", id_param, "", false);
+    } catch (...) {
+    }
+    throw;
+  }
 }
 
 void S3Client::remove(std::string_view bucket, std::string_view key, S3Deadline deadline) {

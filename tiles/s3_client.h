@@ -5,6 +5,7 @@
 //   get / get_range / head    an object, a byte range of it, its size and ETag; nullopt when the
 //                             key does not exist
 //   put / put_file            an object from memory, or streamed from a file of any size
+//                             (a multipart upload past S3ClientOptions::multipart_threshold)
 //   remove                    a key, present or not
 //   list                      one ListObjectsV2 page: keys under a prefix, grouped by a delimiter
 //   create_bucket             for tests and for copying a store into a new bucket
@@ -139,6 +140,11 @@ struct S3ClientOptions {
   long low_speed_bytes_per_second = 1024;                 // slower than this…
   std::chrono::seconds low_speed_time{10};                // …for this long: the attempt fails
   std::size_t max_idle_handles = 32;                      // pooled easy handles (their connections) kept
+  // put_file of a larger file is a multipart upload (one PUT is at most 5 GiB on AWS), in parts
+  // of this many bytes (at least 5 MiB, S3's smallest part; at most 10 000 parts), each read into
+  // memory, hashed and sent, retried on its own.
+  std::uint64_t multipart_threshold = 1ull << 30;
+  std::uint64_t multipart_part_bytes = 64ull << 20;
 };
 
 // What the client did since it was made, for metrics and cost reports (S3 bills per request and
@@ -190,8 +196,11 @@ class S3Client {
   // else checks the bytes, and a file changed between the hash and the upload, or between two
   // attempts, is refused by the store (400 XAmzContentSHA256Mismatch; BadDigest from Swift)
   // instead of stored half old.
+  // A file over S3ClientOptions::multipart_threshold goes up as a multipart upload (Create, one
+  // UploadPart per part signed with the part's SHA-256, Complete; Abort when any of it fails), so
+  // a level file may be over the 5 GiB one PUT is limited to on AWS.
   // The file must not grow or shrink during the call. Throws std::system_error when the file cannot
-  // be opened or read. Returns the new ETag.
+  // be opened or read. Returns the new ETag (a multipart upload's is not the file's MD5).
   std::string put_file(std::string_view bucket, std::string_view key, const std::string& path,
                        std::string_view content_type, S3Deadline deadline, std::string_view sha256_hex = {});
 
@@ -217,6 +226,9 @@ class S3Client {
   S3Stats stats() const;
 
  private:
+  std::string put_multipart(std::string_view bucket, std::string_view key, int fd, std::uint64_t size,
+                            std::string_view content_type, S3Deadline deadline);
+
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -166,6 +166,34 @@ TEST_F(S3ClientSwift, RoundTripsAreByteExactFromMemoryAndFromAFile) {
                std::system_error);
 }
 
+// Issue 42: a file over the multipart threshold (lowered here from 1 GiB) goes up in parts — 5
+// MiB, S3's smallest — and comes back byte for byte, with its content type; a part's failure
+// (the store refusing the upload) aborts the upload and leaves no object.
+TEST_F(S3ClientSwift, AFileOverTheThresholdGoesUpInPartsWhole) {
+  S3ClientOptions o;
+  o.multipart_threshold = 6u << 20;
+  o.multipart_part_bytes = 5u << 20;
+  S3Client client(config(), o);
+  TempDir dir;
+  const std::string big = random_bytes(12 * 1024 * 1024 + 4321, 7);  // 3 parts: 5, 5 and 2 MiB
+  const std::string path = dir.write("level_0.tif", big);
+  const auto before = client.stats();
+  const std::string etag = client.put_file(bucket_, "multipart/level_0.tif", path, "image/tiff", in(60s));
+  EXPECT_EQ(requests(client.stats(), S3Operation::kPutFile) - requests(before, S3Operation::kPutFile), 5u)
+      << "create, three parts, complete";
+  EXPECT_EQ(client.get(bucket_, "multipart/level_0.tif", in(30s)).value_or("") == big, true);
+  const auto info = client.head(bucket_, "multipart/level_0.tif", in(10s));
+  ASSERT_TRUE(info.has_value());
+  EXPECT_EQ(info->size, big.size());
+  EXPECT_EQ(info->content_type, "image/tiff");
+  EXPECT_NE(etag.find("-3"), std::string::npos) << "a multipart ETag counts its parts: " << etag;
+  // Under the threshold: one PUT, as before.
+  const std::string small = dir.write("small", random_bytes(1 << 20, 8));
+  EXPECT_EQ(client.put_file(bucket_, "multipart/small", small, "", in(30s)).size(), 32u);
+  // Refused (a bucket that does not exist): thrown, nothing left behind.
+  EXPECT_THROW(client.put_file("no-such-bucket-here", "multipart/x", path, "", in(30s)), S3Error);
+}
+
 TEST_F(S3ClientSwift, RangesAreExactlyTheBytesAskedFor) {
   constexpr std::size_t n = 100'000;
   const std::string body = random_bytes(n, 3);
