@@ -68,7 +68,7 @@ declare -A results
 for ((r = 0; r < rounds; r++)); do
   for f in "${files[@]}"; do
     rm -rf store dz && mkdir dz
-    results[$f zw]+="$(measure "$zoomwarp_bin" ingest "$f" --store store --id img --quiet),"
+    results[$f zw]+="$(measure "$zoomwarp_bin" ingest "$f" --store store --id img --quiet --max-pixels 4000000000),"
     results[$f vips]+="$(measure vips dzsave "$f" dz/img),"
   done
 done
