@@ -9,6 +9,7 @@
 #include <map>
 #include <mutex>
 #include <set>
+#include <sstream>
 #include <stdexcept>
 
 #include "tiles/store_deadline.h"
@@ -21,6 +22,11 @@ namespace zoomwarp::tiles {
 namespace fs = std::filesystem;
 
 namespace {
+
+// The list of files an edit's staging folder takes from the edited version inside the store
+// (BucketStore::copy_into_staging), and the largest object one CopyObject may copy.
+constexpr const char* kCopiedList = ".copied-in-store";
+constexpr std::uint64_t kMaxCopyBytes = 5ull << 30;
 
 // A store operation's time when the thread has no deadline of its own (StoreDeadlineScope): a
 // command's, or work in the background.
@@ -324,16 +330,27 @@ class BucketStore final : public StoreBackend {
     fs::remove_all(staging_dir, ec);
   }
 
+  // An edit's new version takes the files it does not change from the version it edits by a copy
+  // inside the store (CopyObject), not through this host: a label edit of a gigapixel image moved
+  // its whole pyramid down and up again. The staging folder holds their list (kCopiedList,
+  // "NAME\tKEY" a line), which store_version() copies from unless the edit wrote a file of that
+  // name. Files over S3's 5 GiB copy limit are brought down as before.
   void copy_into_staging(const std::string& version_dir, const std::string& staging) const override {
     const auto files = version_files(version_dir);
     const std::string prefix = version_prefix(version_dir);
+    std::string copied;
     for (const S3ListEntry& e : list_all(*bucket_, prefix)) {
       const std::string name = e.key.substr(prefix.size());
-      if (name == "manifest.json" || name.find('/') != std::string::npos) continue;
+      if (name == "manifest.json" || name.find('/') != std::string::npos || name == kCopiedList) continue;
+      if (e.size <= kMaxCopyBytes) {
+        copied += name + "\t" + e.key + "\n";
+        continue;
+      }
       const std::shared_ptr<const RandomAccessFile> file = files->open(name);
       if (!file) throw std::runtime_error(location_ + ": " + version_dir + "/" + name + " vanished while being copied");
       copy_to_local_file(*file, (fs::path(staging) / name).string());
     }
+    if (!copied.empty()) folder_files(staging)->write(kCopiedList, copied);
   }
 
   std::shared_ptr<void> lock_id(const std::string& id) override {
@@ -374,8 +391,20 @@ class BucketStore final : public StoreBackend {
       // every try), manifest.json last: a version is read by its manifest.
       std::vector<fs::path> files;
       for (const auto& e : fs::directory_iterator(staging_dir))
-        if (!e.is_directory() && e.path().filename() != "manifest.json") files.push_back(e.path());
+        if (!e.is_directory() && e.path().filename() != "manifest.json" && e.path().filename() != kCopiedList)
+          files.push_back(e.path());
       std::sort(files.begin(), files.end());
+      // The files taken from the edited version, copied inside the store (copy_into_staging).
+      if (const auto copied = folder_files(staging_dir)->read(kCopiedList)) {
+        std::istringstream lines(*copied);
+        for (std::string line; std::getline(lines, line);) {
+          const std::size_t tab = line.find('\t');
+          if (tab == std::string::npos) continue;
+          const std::string name = line.substr(0, tab), from = line.substr(tab + 1);
+          if (fs::exists(fs::path(staging_dir) / name)) continue;  // the edit wrote its own
+          guarded(*bucket_, [&] { return client_->copy(where_.bucket, from, prefix + name, deadline()); });
+        }
+      }
       files.push_back(fs::path(staging_dir) / "manifest.json");
       for (const fs::path& f : files)
         guarded(*bucket_, [&] {

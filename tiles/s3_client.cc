@@ -338,6 +338,7 @@ const char* s3_operation_name(S3Operation op) {
     case S3Operation::kRemove: return "remove";
     case S3Operation::kList: return "list";
     case S3Operation::kCreateBucket: return "create_bucket";
+    case S3Operation::kCopy: return "copy";
   }
   return "?";
 }
@@ -800,6 +801,25 @@ std::string S3Client::put_multipart(std::string_view bucket, std::string_view ke
     }
     throw;
   }
+}
+
+std::string S3Client::copy(std::string_view bucket, std::string_view from_key, std::string_view to_key,
+                           S3Deadline deadline) {
+  check_names("copy", bucket, from_key);
+  check_names("copy", bucket, to_key);
+  Body none;  // a PUT without a body, sent with Content-Length: 0
+  Impl::Request r(S3Operation::kCopy, "PUT", bucket, to_key, impl_->config.url(bucket, to_key));
+  r.headers.push_back("x-amz-copy-source: /" + std::string(bucket) + "/" + s3_uri_encode(from_key, true));
+  r.body = &none;
+  Response resp = impl_->perform(r, deadline);
+  // A copy may answer 200 and then fail: the error is in the body.
+  if (resp.status == 200 && resp.body.find("<Error>") != std::string::npos) resp.status = 500;
+  if (resp.status != 200) impl_->fail_answer(r, resp);
+  std::string etag;
+  parse_xml(resp.body, [&](const std::string& path, std::string& text) {
+    if (path == "CopyObjectResult/ETag") etag = unquoted(text);
+  });
+  return etag;
 }
 
 void S3Client::remove(std::string_view bucket, std::string_view key, S3Deadline deadline) {

@@ -6,6 +6,7 @@
 //                             key does not exist
 //   put / put_file            an object from memory, or streamed from a file of any size
 //                             (a multipart upload past S3ClientOptions::multipart_threshold)
+//   copy                      an object to another key, inside the store
 //   remove                    a key, present or not
 //   list                      one ListObjectsV2 page: keys under a prefix, grouped by a delimiter
 //   create_bucket             for tests and for copying a store into a new bucket
@@ -72,9 +73,9 @@ namespace zoomwarp::tiles {
 
 using S3Deadline = std::chrono::steady_clock::time_point;
 
-enum class S3Operation : int { kGet, kGetRange, kHead, kPut, kPutFile, kRemove, kList, kCreateBucket };
-inline constexpr std::size_t kS3OperationCount = 8;
-// "get", "get_range", "head", "put", "put_file", "remove", "list", "create_bucket".
+enum class S3Operation : int { kGet, kGetRange, kHead, kPut, kPutFile, kRemove, kList, kCreateBucket, kCopy };
+inline constexpr std::size_t kS3OperationCount = 9;
+// "get", "get_range", "head", "put", "put_file", "remove", "list", "create_bucket", "copy".
 const char* s3_operation_name(S3Operation op);
 
 class S3Error : public std::runtime_error {
@@ -203,6 +204,11 @@ class S3Client {
   // be opened or read. Returns the new ETag (a multipart upload's is not the file's MD5).
   std::string put_file(std::string_view bucket, std::string_view key, const std::string& path,
                        std::string_view content_type, S3Deadline deadline, std::string_view sha256_hex = {});
+
+  // Copies `from_key` to `to_key` in `bucket` inside the store (CopyObject: no bytes pass through
+  // this process), content type and all. The source must be at most 5 GiB (S3's limit for one
+  // copy). Returns the copy's ETag. A missing source is an S3Error (404 NoSuchKey).
+  std::string copy(std::string_view bucket, std::string_view from_key, std::string_view to_key, S3Deadline deadline);
 
   // Deletes `key`. A key already missing is success: S3 answers 204 either way, and other stores'
   // 404 NoSuchKey (as a retry whose first answer was lost would also see) means the same — it is

@@ -154,6 +154,35 @@ TEST_F(S3Store, ARemovalAndAnAddedAnalysisAreSeenByTheOtherReplica) {
   EXPECT_FALSE(b->remove("boats"));
 }
 
+// An edit's new version takes the files it does not change by a copy inside the bucket: no level
+// file's bytes come down to the replica or go up again (issue 42; before, a label edit moved the
+// whole pyramid both ways).
+TEST_F(S3Store, AnEditCopiesTheFilesItKeepsInsideTheBucket) {
+  auto a = replica(a_dir_.path());
+  tiles::ingest_image(*a, testing::samples_dir() + "/boats_lake_sunset.jpg", "boats", {});
+  const auto before_edit = a->find("boats");
+  const std::uint64_t level_bytes = before_edit->files->open(tiles::level_filename(0))->size();
+  const auto before = a->stats().requests;
+  const std::string staging = a->make_staging_copy(*before_edit);
+  tiles::folder_files(staging)->write("description.json", R"({"label": {"none": ["Boats"]}})");
+  const auto edited = a->publish(staging, before_edit->manifest, &before_edit->manifest.version);
+  const auto after = a->stats().requests;
+  using Op = tiles::S3Operation;
+  auto n = [](const tiles::S3Stats& s, Op op) { return s.requests[std::size_t(op)]; };
+  EXPECT_EQ(n(after, Op::kCopy) - n(before, Op::kCopy), std::uint64_t(before_edit->manifest.levels))
+      << "each level copied inside the bucket";
+  EXPECT_EQ(n(after, Op::kGetRange), n(before, Op::kGetRange)) << "no level read";
+  EXPECT_LT(after.bytes_received - before.bytes_received + after.bytes_sent - before.bytes_sent, level_bytes / 4);
+  auto b = replica(b_dir_.path());
+  const auto on_b = b->find("boats");
+  ASSERT_TRUE(on_b);
+  EXPECT_EQ(on_b->manifest.version, edited->manifest.version);
+  EXPECT_EQ(on_b->files->read("description.json").value_or(""), R"({"label": {"none": ["Boats"]}})");
+  for (int k = 0; k < on_b->manifest.levels; ++k)
+    EXPECT_EQ(whole(*on_b, tiles::level_filename(k)), whole(*before_edit, tiles::level_filename(k))) << "level " << k;
+  EXPECT_FALSE(on_b->files->exists(".copied-in-store")) << "the list is the staging folder's, not the version's";
+}
+
 TEST_F(S3Store, ACommitThatFailsPublishesNothingAndItsOrphansAreCollected) {
   auto a = replica(a_dir_.path()), b = replica(b_dir_.path());
   tiles::ingest_image(*a, testing::samples_dir() + "/boats_lake_sunset.jpg", "boats", {});
