@@ -139,7 +139,7 @@ class RacingEditsBucket : public RacingEdits {
   }
   std::string store() override { return "s3://" + bucket_ + "/museum"; }
   std::vector<std::string> own_flags(const TempDir& dir) override {
-    return {"--store-cache", dir.path(), "--store-lease-settle-ms", "50"};
+    return {"--store-cache", dir.path(), "--store-lease-settle-ms", "20"};
   }
   std::string bucket_;
 };

@@ -3,7 +3,7 @@
 // (tests/support/fake_credentials.py), with credentials that expire every 2 s from each source
 // the AWS SDKs renew: STS's AssumeRoleWithWebIdentity (a web identity token file), the container
 // credentials endpoint (an authorization token file), and a shared credentials file rewritten
-// with a new token every 1.5 s. Every request during 8 s of reads that each go to the store is
+// with a new token every 1.5 s. Every request during 6 s of reads that each go to the store is
 // answered 200; the sources were asked again and again; for the two that expire, no request was
 // ever refused by the proxy (renewed before expiry). Credentials were read once at start before:
 // every request failed once the first ones expired.
@@ -35,7 +35,7 @@ using testing::TempDir;
 using Clock = std::chrono::steady_clock;
 
 constexpr double kLifetimeSeconds = 2;
-constexpr double kReadingSeconds = 8;
+constexpr double kReadingSeconds = 6;
 
 void write_text(const std::string& path, const std::string& text) {
   const std::string tmp = path + ".tmp";
@@ -123,7 +123,7 @@ class S3Credentials : public ::testing::Test {
       if (meanwhile) meanwhile();
       std::this_thread::sleep_for(std::chrono::milliseconds(40));
     }
-    EXPECT_GT(statuses[200], 50);
+    EXPECT_GT(statuses[200], 20) << "reads made";
   }
 
   TempDir home_, cache_, files_;
@@ -178,7 +178,7 @@ TEST_F(S3Credentials, ARotatedSharedCredentialsFileIsReadAgain) {
   serve_and_read(fake, {{"AWS_SHARED_CREDENTIALS_FILE", file}}, [&] {
     if (Clock::now() - last > std::chrono::milliseconds(1500)) rotate(), last = Clock::now();
   });
-  EXPECT_GE(rotation, 5);
+  EXPECT_GE(rotation, 3);
   // Requests signed with the old token before the file was looked at again were refused, renewed
   // and sent again: none failed.
   std::cout << "[ figures ] " << rotation << " rotations, the proxy refused " << fake.stats()["refused"]
